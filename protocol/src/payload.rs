@@ -1,0 +1,206 @@
+//! Zero-copy payloads exchanged through iceoryx2: `#[repr(C)]`, no pointers, arrays as slices.
+//!
+//! Body-level quantities are `f64` (the DEM integrates in double precision and the
+//! per-body loads are reductions whose digits matter); coupling points are `f32`
+//! because they are uploaded to the GPU as they are, three `vec4<f32>` each.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// Bumped whenever a payload layout or the meaning of a field changes; a peer with
+/// another version is refused at the handshake.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// User header of every windowed sample: which coupling window the slice belongs to.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct WindowHeader {
+    pub protocol_version: u32,
+    /// Number of elements the sender meant to send (checked against the slice length).
+    pub count: u32,
+    /// Coupling-window index `n` (the data describe time `t_n`, or the window `n → n+1`).
+    pub step: u64,
+    /// Simulation time of the data, s.
+    pub time: f64,
+    /// Length of the coupling window, s.
+    pub window: f64,
+}
+
+impl WindowHeader {
+    pub fn new(step: u64, time: f64, window: f64, count: usize) -> Self {
+        Self { protocol_version: PROTOCOL_VERSION, count: count as u32, step, time, window }
+    }
+}
+
+/// State of one rigid body at the start of a window, world frame, SI units.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct BodyState {
+    /// Centre of mass, m.
+    pub position: [f64; 3],
+    /// Index of the body in the scene's `[[bodies]]` list.
+    pub body: u32,
+    /// 0 fixed, 1 kinematic, 2 dynamic (see [`crate::Motion`]).
+    pub motion: u32,
+    /// Unit quaternion `[x, y, z, w]` rotating body axes to world axes.
+    pub orientation: [f64; 4],
+    /// Velocity of the centre of mass, m/s.
+    pub linear_velocity: [f64; 3],
+    /// Angular velocity, rad/s, world frame.
+    pub angular_velocity: [f64; 3],
+    /// Mass, kg.
+    pub mass: f64,
+    /// Solid volume, m³ (buoyancy of Joubert eq. 28 uses it).
+    pub volume: f64,
+}
+
+/// One world-frame coupling point (a surface marker of a resolved body, Joubert §2.6).
+/// 48 bytes: three `vec4<f32>` on the GPU.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct CouplingPoint {
+    /// Position, m.
+    pub position: [f32; 3],
+    /// Surface area the marker stands for (resolved), m², or particle volume (unresolved), m³.
+    pub measure: f32,
+    /// Rigid-body velocity at the point (Joubert eq. 33), m/s.
+    pub velocity: [f32; 3],
+    /// Index of the owning body.
+    pub body: u32,
+    /// Outward unit normal.
+    pub normal: [f32; 3],
+    pub _pad: u32,
+}
+
+/// Fluid load on one body over a window: force and moment about its centre of mass
+/// (Joubert eqs. 31–32).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct BodyLoad {
+    /// N.
+    pub force: [f64; 3],
+    pub body: u32,
+    pub _pad: u32,
+    /// N·m, about the centre of mass, world frame.
+    pub moment: [f64; 3],
+}
+
+/// One fluid particle in a recording snapshot (sent at the output interval only).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct ParticleRecord {
+    pub position: [f32; 3],
+    /// Pa.
+    pub pressure: f32,
+    pub velocity: [f32; 3],
+    /// kg/m³.
+    pub density: f32,
+}
+
+/// Which process speaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum Role {
+    Orchestrator = 0,
+    Fluid = 1,
+    Dem = 2,
+}
+
+impl Role {
+    pub fn from_u32(v: u32) -> Option<Self> {
+        match v {
+            0 => Some(Self::Orchestrator),
+            1 => Some(Self::Fluid),
+            2 => Some(Self::Dem),
+            _ => None,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Orchestrator => "orchestrator",
+            Self::Fluid => "fluid-server",
+            Self::Dem => "dem-server",
+        }
+    }
+}
+
+/// First message of each server: who it is, which protocol it speaks, and the
+/// time-step limits it will need (the orchestrator picks the window from them).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct Hello {
+    pub protocol_version: u32,
+    /// [`Role`] as u32.
+    pub role: u32,
+    pub pid: u32,
+    pub _pad: u32,
+    /// Largest stable step of this side, s (fluid: Joubert eq. 24; DEM: contact step).
+    pub dt_limit: f64,
+    /// Acoustic CFL limit, s (fluid only, else 0).
+    pub dt_acoustic: f64,
+    /// Viscous limit, s (fluid only, else 0).
+    pub dt_viscous: f64,
+    /// Number of bodies (DEM) or particles (fluid).
+    pub count: u64,
+}
+
+/// What the orchestrator asks of a server.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum CommandKind {
+    /// Advance the window `step` of length `window` starting at `time`.
+    Advance = 1,
+    /// Finish: release resources and exit 0.
+    Shutdown = 2,
+}
+
+/// A command from the orchestrator to both servers.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct Command {
+    pub protocol_version: u32,
+    /// [`CommandKind`] as u32.
+    pub kind: u32,
+    pub step: u64,
+    pub time: f64,
+    pub window: f64,
+    /// 1 when the fluid server must publish a particle snapshot at the end of this window.
+    pub snapshot: u32,
+    pub _pad: u32,
+}
+
+impl Command {
+    pub fn kind(&self) -> Option<CommandKind> {
+        match self.kind {
+            1 => Some(CommandKind::Advance),
+            2 => Some(CommandKind::Shutdown),
+            _ => None,
+        }
+    }
+}
+
+/// What a server did in one window, for progress, benchmarks and the exchange share.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct SideReport {
+    pub protocol_version: u32,
+    /// [`Role`] as u32.
+    pub role: u32,
+    pub step: u64,
+    pub substeps: u32,
+    pub _pad: u32,
+    /// Wall time spent computing the window, µs.
+    pub compute_us: f64,
+    /// Wall time spent waiting for the peer's data, µs.
+    pub wait_us: f64,
+    /// Wall time spent reading, validating and publishing exchanged data, µs.
+    pub exchange_us: f64,
+    /// Largest stable step this side saw during the window, s.
+    pub dt_limit: f64,
+}
+
+const _: () = {
+    assert!(core::mem::size_of::<CouplingPoint>() == 48);
+    assert!(core::mem::size_of::<ParticleRecord>() == 32);
+    assert!(core::mem::size_of::<BodyLoad>() == 56);
+    assert!(core::mem::size_of::<WindowHeader>() == 32);
+};

@@ -1,0 +1,574 @@
+//! The scene schema: one TOML file, SI units, every field documented, unknown fields
+//! rejected with file, line and field. `docs/scene.md` is generated from nothing: the
+//! doc comments here are the reference, and `scenes/*.toml` are worked examples.
+
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// Errors loading or checking a scene. Every variant names the file; parse errors
+/// also the line and column.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{file}: cannot read: {source}")]
+    Io { file: PathBuf, source: std::io::Error },
+    #[error("{file}:{line}:{column}: {message}")]
+    Parse { file: PathBuf, line: usize, column: usize, message: String },
+    #[error("{file}: {field} = {value}: {why}")]
+    Invalid { file: PathBuf, field: String, value: String, why: String },
+}
+
+/// A whole scene.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    pub meta: Meta,
+    pub time: TimeSpec,
+    /// Absent: no fluid (a DEM-only scene).
+    pub fluid: Option<FluidSpec>,
+    pub domain: Domain,
+    #[serde(default)]
+    pub gravity: GravitySpec,
+    #[serde(default)]
+    pub effects: EffectsSpec,
+    #[serde(default)]
+    pub dem: DemSpec,
+    #[serde(default)]
+    pub bodies: Vec<BodySpec>,
+    #[serde(default)]
+    pub coupling: CouplingSpec,
+}
+
+/// `[meta]`: what the scene is and where it comes from.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Meta {
+    /// Short name, used in recordings and reports.
+    pub name: String,
+    /// Where the set-up comes from (paper and section), if anywhere.
+    #[serde(default)]
+    pub source: Option<String>,
+    #[serde(default)]
+    pub description: Option<String>,
+}
+
+/// `[time]`: how long to simulate and how often to record.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    /// Simulated end time, s.
+    pub end: f64,
+    /// Interval between recorded fluid snapshots, s. Body states and loads are
+    /// recorded every coupling window.
+    pub output_interval: f64,
+    /// Stability factor `s` of Joubert eq. (24). Default 0.2: the paper keeps it in
+    /// 0.1–0.2; 0.2 is also the usual acoustic CFL of Wendland WCSPH with a
+    /// predictor–corrector.
+    #[serde(default = "default_cfl")]
+    pub cfl: f64,
+    /// Upper bound on the coupling window, s. Default: none (the window is the
+    /// smallest stable step of either side times `window_substeps`).
+    #[serde(default)]
+    pub max_window: Option<f64>,
+}
+
+fn default_cfl() -> f64 {
+    0.2
+}
+
+/// Smoothing kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum KernelKind {
+    /// Wendland C2 (Wendland 1995), support radius 2h.
+    WendlandC2,
+    /// Quintic spline of Joubert eq. (6) (Morris 1997), support radius 3h.
+    Quintic,
+}
+
+impl KernelKind {
+    /// Support radius in units of the smoothing length h.
+    pub fn radius_in_h(self) -> f64 {
+        match self {
+            Self::WendlandC2 => 2.0,
+            Self::Quintic => 3.0,
+        }
+    }
+}
+
+/// `[fluid]`: the weakly compressible fluid.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluidSpec {
+    /// Reference density ρ0, kg/m³.
+    pub density: f64,
+    /// Kinematic viscosity ν, m²/s.
+    pub kinematic_viscosity: f64,
+    /// Numerical speed of sound c_s of the Tait equation (Joubert eq. 4), m/s. At
+    /// least ten times the fastest expected flow (Joubert §2.1).
+    pub sound_speed: f64,
+    /// Initial particle spacing δ, m.
+    pub spacing: f64,
+    /// Kernel; default Wendland C2 (positive Fourier transform, no pairing instability).
+    #[serde(default = "default_kernel")]
+    pub kernel: KernelKind,
+    /// Kernel support radius in units of `spacing`. Default 3.0: about 113 neighbours
+    /// in 3D, the usual accuracy/cost balance (see BENCHMARKS.md).
+    #[serde(default = "default_support")]
+    pub support: f64,
+    /// Exponent γ of the Tait equation (Joubert eq. 4). Default 7 (Monaghan, via Joubert §2.1).
+    #[serde(default = "default_gamma")]
+    pub gamma: f64,
+    /// Boxes filled with fluid particles on a cubic lattice of `spacing`.
+    pub blocks: Vec<FluidBlock>,
+}
+
+fn default_kernel() -> KernelKind {
+    KernelKind::WendlandC2
+}
+fn default_support() -> f64 {
+    3.0
+}
+fn default_gamma() -> f64 {
+    7.0
+}
+
+impl FluidSpec {
+    /// Smoothing length h, m.
+    pub fn smoothing_length(&self) -> f64 {
+        self.support * self.spacing / self.kernel.radius_in_h()
+    }
+    /// Kernel support radius, m.
+    pub fn support_radius(&self) -> f64 {
+        self.support * self.spacing
+    }
+}
+
+/// `[[fluid.blocks]]`: an axis-aligned box of fluid, m.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluidBlock {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+/// Wall condition on the domain boundary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WallKind {
+    /// Fixed wall particles with zero velocity.
+    NoSlip,
+    /// Fixed wall particles that carry pressure but no shear.
+    FreeSlip,
+}
+
+/// `[domain]`: the closed box that holds fluid and bodies, m.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Domain {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+    /// Wall condition on every face. Default no-slip.
+    #[serde(default = "default_walls")]
+    pub walls: WallKind,
+    /// Whether the top face (+y) is a wall. Default false: an open lid (fluid cannot
+    /// leave the domain through it in practice since gravity points down; a particle
+    /// that does is reported as an error).
+    #[serde(default)]
+    pub closed_top: bool,
+}
+
+fn default_walls() -> WallKind {
+    WallKind::NoSlip
+}
+
+/// `[gravity]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GravitySpec {
+    /// m/s². Default (0, -9.81, 0): y is up.
+    #[serde(default = "default_g")]
+    pub vector: [f64; 3],
+    /// Whether gravity acts on the fluid. When false (Joubert §2.6), it acts on the
+    /// bodies only, reduced by the buoyancy of Joubert eq. (28).
+    #[serde(default = "default_true")]
+    pub on_fluid: bool,
+}
+
+impl Default for GravitySpec {
+    fn default() -> Self {
+        Self { vector: default_g(), on_fluid: true }
+    }
+}
+
+fn default_g() -> [f64; 3] {
+    [0.0, -9.81, 0.0]
+}
+fn default_true() -> bool {
+    true
+}
+
+/// Viscosity model of the fluid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ViscosityModel {
+    /// No physical viscosity stage.
+    None,
+    /// Laminar viscosity of Morris, Fox & Zhu (1997).
+    Laminar,
+}
+
+/// `[effects]`: which physics the fluid server dispatches. An effect that is off
+/// dispatches no kernel and allocates no buffer.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EffectsSpec {
+    /// Default laminar (Morris 1997).
+    #[serde(default = "default_viscosity")]
+    pub viscosity: ViscosityModel,
+    /// Monaghan (1992) artificial viscosity coefficient α; 0 switches the stage off.
+    /// Default 0: the papers' cases are resolved with physical viscosity.
+    #[serde(default)]
+    pub artificial_viscosity: f64,
+}
+
+fn default_viscosity() -> ViscosityModel {
+    ViscosityModel::Laminar
+}
+
+impl Default for EffectsSpec {
+    fn default() -> Self {
+        Self { viscosity: default_viscosity(), artificial_viscosity: 0.0 }
+    }
+}
+
+/// `[dem]`: the DEM engine and its contact parameters.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DemSpec {
+    /// Engine name from the registry (`couplet plan` lists them). Default "rapier".
+    #[serde(default = "default_engine")]
+    pub engine: String,
+    /// Largest DEM step, s. Default 1e-3: rapier resolves contacts as velocity
+    /// constraints and is stable far above the fluid step; smaller windows are
+    /// substepped down to it anyway.
+    #[serde(default = "default_dem_dt")]
+    pub max_dt: f64,
+}
+
+fn default_engine() -> String {
+    "rapier".into()
+}
+fn default_dem_dt() -> f64 {
+    1e-3
+}
+
+impl Default for DemSpec {
+    fn default() -> Self {
+        Self { engine: default_engine(), max_dt: default_dem_dt() }
+    }
+}
+
+/// Body shape, in body coordinates (origin at the centre of mass of the shape as
+/// given; vertices are recentred on their centroid).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Shape {
+    /// `shape.sphere.radius`, m.
+    Sphere { radius: f64 },
+    /// `shape.box.half_extents`, m.
+    Box { half_extents: [f64; 3] },
+    /// Cylinder along the body y axis: `radius`, `half_height`, m.
+    Cylinder { radius: f64, half_height: f64 },
+    /// Convex polyhedron: the convex hull of `vertices`, m.
+    Convex { vertices: Vec<[f64; 3]> },
+    /// Non-convex compound of convex parts, each the hull of its vertices, m.
+    Compound { parts: Vec<Vec<[f64; 3]>> },
+}
+
+/// How a body moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Motion {
+    /// Never moves.
+    Fixed,
+    /// Moves with its initial velocities, whatever acts on it.
+    Kinematic,
+    /// Moves under gravity, contacts and fluid loads.
+    Dynamic,
+}
+
+impl Motion {
+    pub fn as_u32(self) -> u32 {
+        match self {
+            Self::Fixed => 0,
+            Self::Kinematic => 1,
+            Self::Dynamic => 2,
+        }
+    }
+}
+
+/// How a body meets the fluid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CouplingMode {
+    /// Fully resolved: surface markers at the fluid spacing (Joubert §2.6).
+    Resolved,
+    /// The fluid does not see the body.
+    None,
+}
+
+/// `[[bodies]]`: one rigid body.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    pub name: String,
+    pub shape: Shape,
+    /// Solid density, kg/m³; mass and inertia follow from it and the shape.
+    pub density: f64,
+    /// Initial centre of mass, m.
+    pub position: [f64; 3],
+    /// Initial rotation as a scaled axis (axis × angle in rad). Default none.
+    #[serde(default)]
+    pub rotation: [f64; 3],
+    /// Initial velocity, m/s.
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Initial angular velocity, rad/s.
+    #[serde(default)]
+    pub angular_velocity: [f64; 3],
+    /// Default dynamic.
+    #[serde(default = "default_motion")]
+    pub motion: Motion,
+    /// Default resolved.
+    #[serde(default = "default_coupling")]
+    pub coupling: CouplingMode,
+    /// Coulomb friction coefficient of contacts. Default 0.5 (rapier's default).
+    #[serde(default = "default_friction")]
+    pub friction: f64,
+    /// Coefficient of restitution of contacts. Default 0 (rapier's default).
+    #[serde(default)]
+    pub restitution: f64,
+}
+
+fn default_motion() -> Motion {
+    Motion::Dynamic
+}
+fn default_coupling() -> CouplingMode {
+    CouplingMode::Resolved
+}
+fn default_friction() -> f64 {
+    0.5
+}
+
+/// Coupling scheme (preCICE vocabulary).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CouplingScheme {
+    /// Fluid then DEM in each window, loads held constant over the DEM window.
+    SerialExplicit,
+}
+
+/// `[coupling]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingSpec {
+    /// Default serial-explicit.
+    #[serde(default = "default_scheme")]
+    pub scheme: CouplingScheme,
+    /// Fluid steps per coupling window. Default 1: each fluid step sees the bodies
+    /// where they are; raise it to trade accuracy of the body motion inside the
+    /// window for fewer exchanges.
+    #[serde(default = "default_window_substeps")]
+    pub window_substeps: u32,
+}
+
+fn default_scheme() -> CouplingScheme {
+    CouplingScheme::SerialExplicit
+}
+fn default_window_substeps() -> u32 {
+    1
+}
+
+impl Default for CouplingSpec {
+    fn default() -> Self {
+        Self { scheme: default_scheme(), window_substeps: default_window_substeps() }
+    }
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    (line, column)
+}
+
+impl Scene {
+    /// Reads, parses and checks a scene file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| SceneError::Io { file: path.to_owned(), source })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses and checks scene text; `file` is only used in error messages.
+    pub fn parse(text: &str, file: &Path) -> Result<Self, SceneError> {
+        let scene: Scene = toml::from_str(text).map_err(|e| {
+            let (line, column) = e.span().map_or((0, 0), |s| line_col(text, s.start));
+            SceneError::Parse { file: file.to_owned(), line, column, message: e.message().to_owned() }
+        })?;
+        scene.check(file)?;
+        Ok(scene)
+    }
+
+    /// Bodies that move (dynamic or kinematic): a scene without any starts no DEM server.
+    pub fn has_moving_bodies(&self) -> bool {
+        self.bodies.iter().any(|b| b.motion != Motion::Fixed)
+    }
+
+    fn check(&self, file: &Path) -> Result<(), SceneError> {
+        let bad = |field: String, value: String, why: &str| {
+            Err(SceneError::Invalid { file: file.to_owned(), field, value, why: why.to_owned() })
+        };
+        let pos = |field: &str, v: f64| {
+            if v.is_finite() && v > 0.0 { Ok(()) } else { bad(field.into(), v.to_string(), "must be a positive finite number") }
+        };
+        pos("time.end", self.time.end)?;
+        pos("time.output_interval", self.time.output_interval)?;
+        if !(self.time.cfl > 0.0 && self.time.cfl <= 1.0) {
+            return bad("time.cfl".into(), self.time.cfl.to_string(), "must lie in (0, 1] (Joubert eq. 24)");
+        }
+        if let Some(w) = self.time.max_window {
+            pos("time.max_window", w)?;
+        }
+        pos("dem.max_dt", self.dem.max_dt)?;
+        if self.coupling.window_substeps == 0 {
+            return bad("coupling.window_substeps".into(), "0".into(), "must be at least 1");
+        }
+        for k in 0..3 {
+            if !(self.domain.min[k] < self.domain.max[k]) {
+                return bad(format!("domain.max[{k}]"), self.domain.max[k].to_string(), "must exceed domain.min");
+            }
+        }
+        if self.gravity.vector.iter().any(|g| !g.is_finite()) {
+            return bad("gravity.vector".into(), format!("{:?}", self.gravity.vector), "must be finite");
+        }
+        if let Some(f) = &self.fluid {
+            pos("fluid.density", f.density)?;
+            pos("fluid.sound_speed", f.sound_speed)?;
+            pos("fluid.spacing", f.spacing)?;
+            pos("fluid.gamma", f.gamma)?;
+            if !(f.kinematic_viscosity >= 0.0 && f.kinematic_viscosity.is_finite()) {
+                return bad("fluid.kinematic_viscosity".into(), f.kinematic_viscosity.to_string(), "must be ≥ 0");
+            }
+            if !(f.support >= 1.5 && f.support <= 6.0) {
+                return bad("fluid.support".into(), f.support.to_string(), "must lie in [1.5, 6] spacings");
+            }
+            if f.blocks.is_empty() {
+                return bad("fluid.blocks".into(), "[]".into(), "needs at least one block");
+            }
+            for (i, b) in f.blocks.iter().enumerate() {
+                for k in 0..3 {
+                    if !(b.min[k] < b.max[k]) || b.min[k] < self.domain.min[k] || b.max[k] > self.domain.max[k] {
+                        return bad(
+                            format!("fluid.blocks[{i}]"),
+                            format!("min {:?} max {:?}", b.min, b.max),
+                            "must be a non-empty box inside the domain",
+                        );
+                    }
+                }
+            }
+        }
+        if self.effects.artificial_viscosity < 0.0 {
+            return bad("effects.artificial_viscosity".into(), self.effects.artificial_viscosity.to_string(), "must be ≥ 0");
+        }
+        for (i, b) in self.bodies.iter().enumerate() {
+            pos(&format!("bodies[{i}].density"), b.density)?;
+            let ok = match &b.shape {
+                Shape::Sphere { radius } => *radius > 0.0,
+                Shape::Box { half_extents } => half_extents.iter().all(|h| *h > 0.0),
+                Shape::Cylinder { radius, half_height } => *radius > 0.0 && *half_height > 0.0,
+                Shape::Convex { vertices } => vertices.len() >= 4,
+                Shape::Compound { parts } => !parts.is_empty() && parts.iter().all(|p| p.len() >= 4),
+            };
+            if !ok {
+                return bad(format!("bodies[{i}].shape"), format!("{:?}", b.shape), "dimensions must be positive; a hull needs at least 4 vertices");
+            }
+            for k in 0..3 {
+                if b.position[k] <= self.domain.min[k] || b.position[k] >= self.domain.max[k] {
+                    return bad(format!("bodies[{i}].position"), format!("{:?}", b.position), "must lie inside the domain");
+                }
+            }
+            if !(0.0..=1.0).contains(&b.restitution) {
+                return bad(format!("bodies[{i}].restitution"), b.restitution.to_string(), "must lie in [0, 1]");
+            }
+            if b.friction < 0.0 {
+                return bad(format!("bodies[{i}].friction"), b.friction.to_string(), "must be ≥ 0");
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+[meta]
+name = "t"
+[time]
+end = 0.1
+output_interval = 0.01
+[domain]
+min = [0, 0, 0]
+max = [1, 1, 1]
+[fluid]
+density = 1000.0
+kinematic_viscosity = 1e-6
+sound_speed = 20.0
+spacing = 0.05
+blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
+"#;
+
+    #[test]
+    fn minimal_scene_parses_with_documented_defaults() {
+        let s = Scene::parse(MINIMAL, Path::new("t.toml")).unwrap();
+        let f = s.fluid.unwrap();
+        assert_eq!(f.kernel, KernelKind::WendlandC2);
+        // support 3 spacings with Wendland (radius 2h): h = 1.5 δ.
+        assert!((f.smoothing_length() - 0.075).abs() < 1e-12);
+        assert_eq!(s.gravity.vector, [0.0, -9.81, 0.0]);
+    }
+
+    #[test]
+    fn unknown_field_is_rejected_with_line() {
+        let text = MINIMAL.replace("sound_speed = 20.0", "sound_speed = 20.0\nsoundspeed = 3");
+        let e = Scene::parse(&text, Path::new("x.toml")).unwrap_err();
+        match e {
+            SceneError::Parse { line, message, .. } => {
+                assert_eq!(line, 16, "{message}");
+                assert!(message.contains("soundspeed"), "{message}");
+            }
+            other => panic!("{other}"),
+        }
+    }
+
+    #[test]
+    fn invalid_value_names_field() {
+        let text = MINIMAL.replace("spacing = 0.05", "spacing = -0.05");
+        let e = Scene::parse(&text, Path::new("x.toml")).unwrap_err().to_string();
+        assert!(e.contains("fluid.spacing") && e.contains("-0.05"), "{e}");
+    }
+
+    #[test]
+    fn body_shapes_parse() {
+        let text = format!(
+            "{MINIMAL}\n[[bodies]]\nname = \"s\"\nshape.sphere.radius = 0.1\ndensity = 1200.0\nposition = [0.5, 0.7, 0.5]\n\
+             [[bodies]]\nname = \"b\"\nshape.box.half_extents = [0.1, 0.1, 0.1]\ndensity = 500.0\nposition = [0.2, 0.7, 0.2]\nmotion = \"fixed\"\n"
+        );
+        let s = Scene::parse(&text, Path::new("x.toml")).unwrap();
+        assert!(matches!(s.bodies[0].shape, Shape::Sphere { radius } if radius == 0.1));
+        assert_eq!(s.bodies[1].motion, Motion::Fixed);
+        assert!(s.has_moving_bodies());
+    }
+}
