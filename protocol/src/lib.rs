@@ -3,7 +3,7 @@
 
 pub use payload::{
     BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, ParticleRecord, Role,
-    SideReport, WindowHeader, PROTOCOL_VERSION,
+    SideReport, WindowHeader, monotonic_ns, PROTOCOL_VERSION,
 };
 pub use scene::{
     BodySpec, CouplingMode, CouplingScheme, DemSpec, Domain, EffectsSpec, FluidBlock, FluidSpec,

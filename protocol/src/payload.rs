@@ -23,12 +23,23 @@ pub struct WindowHeader {
     pub time: f64,
     /// Length of the coupling window, s.
     pub window: f64,
+    /// CLOCK_MONOTONIC of the sender when it sent the sample, ns: the receiver measures
+    /// the hop (both run on one host, and that clock is system-wide).
+    pub sent_ns: u64,
 }
 
 impl WindowHeader {
     pub fn new(step: u64, time: f64, window: f64, count: usize) -> Self {
-        Self { protocol_version: PROTOCOL_VERSION, count: count as u32, step, time, window }
+        Self { protocol_version: PROTOCOL_VERSION, count: count as u32, step, time, window, sent_ns: 0 }
     }
+}
+
+/// CLOCK_MONOTONIC, ns: comparable between processes on one host (unlike `Instant`).
+pub fn monotonic_ns() -> u64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes into the timespec we own; CLOCK_MONOTONIC always exists on Linux.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
 }
 
 /// State of one rigid body at the start of a window, world frame, SI units.
@@ -202,5 +213,5 @@ const _: () = {
     assert!(core::mem::size_of::<CouplingPoint>() == 48);
     assert!(core::mem::size_of::<ParticleRecord>() == 32);
     assert!(core::mem::size_of::<BodyLoad>() == 56);
-    assert!(core::mem::size_of::<WindowHeader>() == 32);
+    assert!(core::mem::size_of::<WindowHeader>() == 40);
 };

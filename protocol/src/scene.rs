@@ -395,6 +395,28 @@ impl Default for CouplingSpec {
     }
 }
 
+/// Returns `text` with `[section] key = value` replaced (or added): command-line
+/// overrides such as `--spacing`. Comments are not kept; the result is the scene the
+/// servers load, written next to the recording.
+pub fn override_value(text: &str, file: &Path, section: &str, key: &str, value: f64) -> Result<String, SceneError> {
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| {
+        let (line, column) = e.span().map_or((0, 0), |s| line_col(text, s.start));
+        SceneError::Parse { file: file.to_owned(), line, column, message: e.message().to_owned() }
+    })?;
+    let invalid = |why: &str| SceneError::Invalid {
+        file: file.to_owned(),
+        field: format!("{section}.{key}"),
+        value: value.to_string(),
+        why: why.to_owned(),
+    };
+    let sec = table
+        .get_mut(section)
+        .and_then(|v| v.as_table_mut())
+        .ok_or_else(|| invalid("the scene has no such section to override"))?;
+    sec.insert(key.to_owned(), toml::Value::Float(value));
+    toml::to_string(&table).map_err(|e| invalid(&e.to_string()))
+}
+
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
@@ -420,9 +442,32 @@ impl Scene {
         Ok(scene)
     }
 
-    /// Bodies that move (dynamic or kinematic): a scene without any starts no DEM server.
+    /// Bodies that move (dynamic or kinematic).
     pub fn has_moving_bodies(&self) -> bool {
         self.bodies.iter().any(|b| b.motion != Motion::Fixed)
+    }
+
+    /// A fixed box in a scene with fluid is a solid obstacle that the fluid server fills
+    /// with wall particles, like the domain walls (the SPHERIC dam-break box): it needs
+    /// no markers and no DEM server of its own. Loads on it are not reported.
+    pub fn is_fluid_obstacle(&self, body: &BodySpec) -> bool {
+        self.fluid.is_some() && body.motion == Motion::Fixed && matches!(body.shape, Shape::Box { .. })
+    }
+
+    /// Whether a DEM server runs: some body is more than a fluid obstacle. A scene
+    /// without moving bodies (a tank, the SPHERIC dam break) starts none.
+    pub fn needs_dem(&self) -> bool {
+        self.bodies.iter().any(|b| !self.is_fluid_obstacle(b))
+    }
+
+    /// Whether the fluid and the DEM exchange markers and loads every window.
+    pub fn is_marker_coupled(&self, body: &BodySpec) -> bool {
+        self.fluid.is_some() && body.coupling == CouplingMode::Resolved && !self.is_fluid_obstacle(body)
+    }
+
+    /// Whether any body exchanges markers and loads with the fluid.
+    pub fn has_resolved_bodies(&self) -> bool {
+        self.bodies.iter().any(|b| self.is_marker_coupled(b))
     }
 
     fn check(&self, file: &Path) -> Result<(), SceneError> {

@@ -177,6 +177,7 @@ impl<T: ZeroCopySend + Debug + Copy + 'static> SliceSender<T> {
     /// (its `count` is set from `data`).
     pub fn send(&self, mut header: WindowHeader, data: &[T]) -> Result<(), TransportError> {
         header.count = data.len() as u32;
+        header.sent_ns = crate::payload::monotonic_ns();
         let mut sample =
             self.publisher.loan_slice_uninit(data.len()).map_err(ipc("loan", &self.service))?;
         *sample.user_header_mut() = header;

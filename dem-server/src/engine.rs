@@ -1,0 +1,102 @@
+//! The swappable DEM engine: one small trait, one file per implementation
+//! (`rapier_engine.rs`, …), one registry (`registry.rs`), one conformance suite
+//! (`tests/conformance.rs`) that every engine passes.
+
+use couplet_protocol::{BodyLoad, BodyState};
+
+/// How an engine resolves contacts. The orchestrator needs it to pick the window:
+/// a spring–dashpot engine has a contact time step that bounds the window, a
+/// constraint-based one has not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactModel {
+    /// Contacts are velocity constraints solved each step (rapier): no contact
+    /// stiffness, no stability limit from contacts.
+    VelocityConstraints,
+    /// Contacts are spring–dashpot forces (soft-sphere DEM): stable only below a
+    /// fraction of the contact period `π √(m/k)`.
+    SpringDashpot,
+}
+
+/// Everything the DEM side can refuse or detect. Messages name the body (index and
+/// name), the value, and what would be valid.
+#[derive(Debug, thiserror::Error)]
+pub enum DemError {
+    /// `dem.engine` names no registered engine.
+    #[error("dem.engine = \"{name}\": no such DEM engine; valid engines are: {valid}")]
+    UnknownEngine { name: String, valid: String },
+    /// An error about one scene body, with the body named.
+    #[error("bodies[{index}] \"{name}\": {source}")]
+    Body { index: usize, name: String, source: Box<DemError> },
+    /// A shape that cannot be built (degenerate hull, …).
+    #[error("shape {what} = {value}: {why}")]
+    Shape { what: String, value: String, why: String },
+    /// Two parts of a compound overlap: their volumes and surfaces would be counted twice.
+    #[error(
+        "shape.compound parts {first} and {second} overlap by {depth:e} m (separating-axis depth); \
+         parts must only touch, so that the volume (Joubert eq. 28) and the outer surface are not counted twice"
+    )]
+    OverlappingParts { first: usize, second: usize, depth: f64 },
+    /// The marker spacing is not a positive finite length.
+    #[error("marker spacing {value} m: must be a positive finite length (the fluid spacing δ)")]
+    Spacing { value: f64 },
+    /// The shape is far larger than the spacing: the marker count would not fit.
+    #[error(
+        "surface area {area:e} m² at spacing {spacing:e} m needs about {estimated:e} markers; \
+         at most {limit} per body are allowed (coarsen fluid.spacing or shrink the body)"
+    )]
+    TooManyMarkers { area: f64, spacing: f64, estimated: f64, limit: usize },
+    /// A fluid load names a body the scene does not have.
+    #[error("fluid load #{entry} names body {body}; the scene has {count} bodies (valid 0..{count})")]
+    LoadBody { entry: usize, body: u32, count: usize },
+    /// Two fluid loads name the same body.
+    #[error("fluid loads #{first} and #{second} both name body {body} \"{name}\"; send one load per body")]
+    DuplicateLoad { first: usize, second: usize, body: u32, name: String },
+    /// A fluid load with NaN or infinity.
+    #[error("fluid load on body {body} \"{name}\" is not finite: force {force:?} N, moment {moment:?} N·m")]
+    NonFiniteLoad { body: u32, name: String, force: [f64; 3], moment: [f64; 3] },
+    /// A step length that is not positive and finite.
+    #[error("DEM step dt = {dt} s: must be a positive finite time (at most stable_dt = {max_dt} s)")]
+    InvalidStep { dt: f64, max_dt: f64 },
+    /// A body whose state became NaN/infinite during a step.
+    #[error(
+        "body {body} \"{name}\" became non-finite in DEM step {step} (t = {time} s): \
+         position {position:?} m, velocity {velocity:?} m/s"
+    )]
+    NonFiniteState { body: usize, name: String, step: u64, time: f64, position: [f64; 3], velocity: [f64; 3] },
+}
+
+impl DemError {
+    /// Wraps an error about the shape or state of scene body `index` so that the message names it.
+    pub fn in_body(self, index: usize, name: &str) -> Self {
+        Self::Body { index, name: name.to_owned(), source: Box::new(self) }
+    }
+}
+
+/// A rigid-body/granular engine as the DEM server drives it, one coupling window at
+/// a time (DESIGN.md "One coupling step"): read [`states`](Self::states), receive the
+/// fluid loads with [`set_fluid_loads`](Self::set_fluid_loads), then call
+/// [`step`](Self::step) as many times as the window needs at no more than
+/// [`stable_dt`](Self::stable_dt) each.
+///
+/// Every engine applies the same body forces (Joubert eq. 34–35): gravity, reduced
+/// by the buoyancy of Joubert eq. (28) when gravity does not act on the fluid,
+/// contact forces, and the fluid loads held constant over the window.
+pub trait DemEngine: Send {
+    /// Registry name (`dem.engine` in a scene).
+    fn name(&self) -> &'static str;
+    /// How this engine resolves contacts.
+    fn contact_model(&self) -> ContactModel;
+    /// Number of scene bodies (`scene.bodies.len()`).
+    fn body_count(&self) -> usize;
+    /// States of all scene bodies (index = position in scene.bodies), world frame, at the current time.
+    /// Clears `out` first.
+    fn states(&self, out: &mut Vec<BodyState>);
+    /// Fluid loads held constant over the next window (force and moment about the COM, world frame).
+    /// Replaces previous loads: a body absent from `loads` carries none. Loads on fixed and
+    /// kinematic bodies are accepted and have no effect (those bodies ignore forces).
+    fn set_fluid_loads(&mut self, loads: &[BodyLoad]) -> Result<(), DemError>;
+    /// Advance by dt (one DEM substep); gravity, buoyancy, contacts, held fluid loads.
+    fn step(&mut self, dt: f64) -> Result<(), DemError>;
+    /// Largest stable substep of this engine, s.
+    fn stable_dt(&self) -> f64;
+}

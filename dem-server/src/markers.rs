@@ -1,0 +1,324 @@
+//! Coupling points ("markers") of resolved bodies: the body surface meshed at the
+//! fluid spacing δ (Joubert 2020 §2.6), one marker per surface patch with the patch's
+//! exact area, so that the discrete sums of Joubert eqs. (31)–(32) integrate over
+//! the true surface. Analytic shapes are meshed through a parameterisation, rectangular
+//! faces bilinearly, other faces as subdivided triangles, compounds by their outer
+//! surface only.
+
+use crate::engine::DemError;
+use crate::geometry::{BodyGeometry, Face, GEOMETRY_REL_TOL, Polyhedron};
+use couplet_protocol::{BodyState, CouplingPoint, Scene, Shape};
+use std::f64::consts::PI;
+use std::ops::Range;
+
+/// Most markers one body may have: 2²⁵ points are 1.6 GB of `CouplingPoint`s, beyond
+/// any fluid the GPU holds around them.
+pub const MAX_MARKERS_PER_BODY: usize = 1 << 25;
+
+/// Edge of an equilateral triangle of area δ², in units of δ (`√(4/√3)`): sub-triangles
+/// get this edge so that every marker stands for about δ² of surface, like a bilinear
+/// cell or a face of the fluid's cubic lattice. With edge δ instead, neighbouring
+/// centroids would sit δ/√3 apart.
+const TRIANGLE_EDGE_PER_SPACING: f64 = 1.519_671_371_303_185_6;
+
+/// One marker in the body frame (origin at the centre of mass).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalMarker {
+    /// Position on the surface, m.
+    pub position: [f64; 3],
+    /// Outward unit normal.
+    pub normal: [f64; 3],
+    /// Area of the surface patch the marker stands for (ΔS_i of Joubert eq. 31), m².
+    pub area: f64,
+}
+
+/// Markers of `shape` (body frame) at spacing δ = `spacing`. The areas sum to the
+/// surface area to round-off: the sphere's to 4πr², the cylinder's to 2πr·2h + 2πr²,
+/// a hull's to its face areas, a compound's to the area of its outer surface (markers
+/// on a face shared with another part are dropped, so their patches are exactly the
+/// shared faces when those faces coincide; a partly shared face loses the markers
+/// whose centres are covered).
+pub fn generate_markers(shape: &Shape, spacing: f64) -> Result<Vec<LocalMarker>, DemError> {
+    markers_of(&BodyGeometry::from_shape(shape)?, spacing)
+}
+
+/// Markers of an already built body geometry; see [`generate_markers`].
+pub fn markers_of(geometry: &BodyGeometry, spacing: f64) -> Result<Vec<LocalMarker>, DemError> {
+    if !(spacing.is_finite() && spacing > 0.0) {
+        return Err(DemError::Spacing { value: spacing });
+    }
+    let area = surface_area_bound(geometry);
+    let estimated = area / (spacing * spacing);
+    // Rounding up the counts per direction at most doubles them in each direction.
+    if !(estimated * 4.0 < MAX_MARKERS_PER_BODY as f64) {
+        return Err(DemError::TooManyMarkers { area, spacing, estimated, limit: MAX_MARKERS_PER_BODY });
+    }
+    let mut out = Vec::with_capacity(estimated as usize + 16);
+    match geometry {
+        BodyGeometry::Sphere { radius } => sphere(*radius, spacing, &mut out),
+        BodyGeometry::Box { half_extents } => polyhedron(&Polyhedron::cuboid(*half_extents), spacing, &mut out),
+        BodyGeometry::Cylinder { radius, half_height } => cylinder(*radius, *half_height, spacing, &mut out),
+        BodyGeometry::Polyhedra(parts) if parts.len() == 1 => polyhedron(&parts[0], spacing, &mut out),
+        BodyGeometry::Polyhedra(parts) => {
+            // Joubert §2.6: only the outer surface of a non-convex particle is meshed.
+            let tol = GEOMETRY_REL_TOL * geometry.size();
+            for (i, part) in parts.iter().enumerate() {
+                let mut own = Vec::new();
+                polyhedron(part, spacing, &mut own);
+                out.extend(own.into_iter().filter(|m| {
+                    parts.iter().enumerate().all(|(j, other)| j == i || other.outside_distance(m.position) > tol)
+                }));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Surface area, m² (a compound's counts shared faces twice: an upper bound for the budget).
+fn surface_area_bound(g: &BodyGeometry) -> f64 {
+    match g {
+        BodyGeometry::Sphere { radius } => 4.0 * PI * radius * radius,
+        BodyGeometry::Box { half_extents: [a, b, c] } => 8.0 * (a * b + b * c + c * a),
+        BodyGeometry::Cylinder { radius, half_height } => 2.0 * PI * radius * (2.0 * half_height + radius),
+        BodyGeometry::Polyhedra(parts) => parts.iter().map(Polyhedron::area).sum(),
+    }
+}
+
+/// Number of divisions of a length `l` into pieces of about `step`.
+fn divisions(l: f64, step: f64) -> usize {
+    ((l / step).round() as usize).max(1)
+}
+
+/// Sphere, polar axis y: bands of equal polar angle (height ≈ δ), each split into
+/// ≈ circumference/δ equal patches; a patch's area is exactly r²·Δφ·(cos θ₀ − cos θ₁),
+/// and its marker sits at the area-mid polar angle and the mid azimuth.
+fn sphere(r: f64, spacing: f64, out: &mut Vec<LocalMarker>) {
+    let n_theta = divisions(PI * r, spacing);
+    let d_theta = PI / n_theta as f64;
+    for b in 0..n_theta {
+        let (c0, c1) = ((b as f64 * d_theta).cos(), ((b + 1) as f64 * d_theta).cos());
+        let c_mid = 0.5 * (c0 + c1);
+        let s_mid = (1.0 - c_mid * c_mid).max(0.0).sqrt();
+        let n_phi = divisions(2.0 * PI * r * s_mid, spacing);
+        let d_phi = 2.0 * PI / n_phi as f64;
+        let area = r * r * d_phi * (c0 - c1);
+        // Alternate bands start half a patch apart so neighbouring bands interleave.
+        let phi0 = if b % 2 == 0 { 0.5 } else { 0.0 };
+        for k in 0..n_phi {
+            let phi = (k as f64 + phi0) * d_phi;
+            let n = [s_mid * phi.cos(), c_mid, s_mid * phi.sin()];
+            out.push(LocalMarker { position: n.map(|x| r * x), normal: n, area });
+        }
+    }
+}
+
+/// Cylinder along y: the side as rings × segments of the (φ, y) parameterisation, each
+/// cap as annuli of width ≈ δ split into ≈ circumference/δ sectors of exact area.
+fn cylinder(r: f64, h: f64, spacing: f64, out: &mut Vec<LocalMarker>) {
+    let n_y = divisions(2.0 * h, spacing);
+    let n_phi = divisions(2.0 * PI * r, spacing).max(3);
+    let (dy, d_phi) = (2.0 * h / n_y as f64, 2.0 * PI / n_phi as f64);
+    let side_area = dy * r * d_phi;
+    for j in 0..n_y {
+        let y = -h + (j as f64 + 0.5) * dy;
+        let phi0 = if j % 2 == 0 { 0.5 } else { 0.0 };
+        for k in 0..n_phi {
+            let phi = (k as f64 + phi0) * d_phi;
+            let n = [phi.cos(), 0.0, phi.sin()];
+            out.push(LocalMarker { position: [r * n[0], y, r * n[2]], normal: n, area: side_area });
+        }
+    }
+    let n_r = divisions(r, spacing);
+    let dr = r / n_r as f64;
+    for side in [1.0, -1.0] {
+        for k in 0..n_r {
+            let (r0, r1) = (k as f64 * dr, (k + 1) as f64 * dr);
+            let r_mid = (0.5 * (r0 * r0 + r1 * r1)).sqrt(); // splits the annulus into equal areas
+            let n_seg = divisions(2.0 * PI * r_mid, spacing);
+            let area = PI * (r1 * r1 - r0 * r0) / n_seg as f64;
+            // A single patch is the whole central disc: its marker belongs at the centre.
+            let rho = if n_seg == 1 { 0.0 } else { r_mid };
+            let d_phi = 2.0 * PI / n_seg as f64;
+            for s in 0..n_seg {
+                let phi = (s as f64 + 0.5) * d_phi;
+                out.push(LocalMarker {
+                    position: [rho * phi.cos(), side * h, rho * phi.sin()],
+                    normal: [0.0, side, 0.0],
+                    area,
+                });
+            }
+        }
+    }
+}
+
+/// Every face of a convex polyhedron (Joubert §2.6): rectangles bilinearly, other
+/// faces as triangles subdivided into similar sub-triangles.
+fn polyhedron(p: &Polyhedron, spacing: f64, out: &mut Vec<LocalMarker>) {
+    let tol = GEOMETRY_REL_TOL * p.size();
+    for f in &p.faces {
+        let pts = p.face_points(f);
+        if let Some((o, e1, e2)) = rectangle(&pts, tol) {
+            rectangle_cells(o, e1, e2, f, spacing, out);
+        } else if pts.len() == 3 {
+            triangle_cells([pts[0], pts[1], pts[2]], f, spacing, out);
+        } else {
+            // A fan from the face centroid: a regular polygon gives equal, fat triangles.
+            let c = centroid_of(&pts);
+            for k in 0..pts.len() {
+                triangle_cells([c, pts[k], pts[(k + 1) % pts.len()]], f, spacing, out);
+            }
+        }
+    }
+}
+
+/// `Some((corner, edge 1, edge 2))` when the four-cornered face is a rectangle.
+fn rectangle(p: &[[f64; 3]], tol: f64) -> Option<([f64; 3], [f64; 3], [f64; 3])> {
+    if p.len() != 4 {
+        return None;
+    }
+    let e = |a: usize, b: usize| sub(p[b], p[a]);
+    let (e1, e2) = (e(0, 1), e(0, 3));
+    // Opposite corner where the parallelogram puts it, and a right angle at corner 0.
+    let far = add(p[0], add(e1, e2));
+    let right = dot(e1, e2).abs() <= tol * (norm(e1) + norm(e2));
+    (norm(sub(far, p[2])) <= tol && right).then_some((p[0], e1, e2))
+}
+
+fn rectangle_cells(o: [f64; 3], e1: [f64; 3], e2: [f64; 3], f: &Face, spacing: f64, out: &mut Vec<LocalMarker>) {
+    let (nx, ny) = (divisions(norm(e1), spacing), divisions(norm(e2), spacing));
+    let area = norm(e1) * norm(e2) / (nx * ny) as f64;
+    for i in 0..nx {
+        for j in 0..ny {
+            let (s, t) = ((i as f64 + 0.5) / nx as f64, (j as f64 + 0.5) / ny as f64);
+            let position = add(o, add(scale(e1, s), scale(e2, t)));
+            out.push(LocalMarker { position, normal: f.normal, area });
+        }
+    }
+}
+
+/// A triangle cut into n² similar sub-triangles (n(n+1)/2 pointing like the parent,
+/// n(n−1)/2 inverted), each of area A/n², marker at each centroid.
+fn triangle_cells(t: [[f64; 3]; 3], f: &Face, spacing: f64, out: &mut Vec<LocalMarker>) {
+    let (eb, ec) = (sub(t[1], t[0]), sub(t[2], t[0]));
+    let longest = norm(eb).max(norm(ec)).max(norm(sub(t[2], t[1])));
+    let n = divisions(longest, TRIANGLE_EDGE_PER_SPACING * spacing);
+    let area = 0.5 * norm(cross(eb, ec)) / (n * n) as f64;
+    let at = |i: f64, j: f64| add(t[0], add(scale(eb, i / n as f64), scale(ec, j / n as f64)));
+    for i in 0..n {
+        for j in 0..n - i {
+            out.push(LocalMarker { position: at(i as f64 + 1.0 / 3.0, j as f64 + 1.0 / 3.0), normal: f.normal, area });
+            if i + j + 2 <= n {
+                out.push(LocalMarker { position: at(i as f64 + 2.0 / 3.0, j as f64 + 2.0 / 3.0), normal: f.normal, area });
+            }
+        }
+    }
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    a.map(|x| x * s)
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+fn centroid_of(p: &[[f64; 3]]) -> [f64; 3] {
+    scale(p.iter().fold([0.0; 3], |s, q| add(s, *q)), 1.0 / p.len() as f64)
+}
+
+/// Rotates `v` by the unit quaternion `q = [x, y, z, w]`.
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    let u = [q[0], q[1], q[2]];
+    let t = scale(cross(u, v), 2.0);
+    add(v, add(scale(t, q[3]), cross(u, t)))
+}
+
+/// The markers of every marker-coupled body of a scene (resolved, with a fluid, not a
+/// fluid obstacle: [`Scene::is_marker_coupled`]), contiguous per body in body order.
+#[derive(Debug, Clone, Default)]
+pub struct MarkerSet {
+    markers: Vec<LocalMarker>,
+    ranges: Vec<(u32, Range<usize>)>,
+}
+
+impl MarkerSet {
+    /// Markers of every marker-coupled body at the fluid spacing δ; a scene with no
+    /// fluid has none.
+    pub fn from_scene(scene: &Scene) -> Result<Self, DemError> {
+        let mut set = Self::default();
+        let Some(fluid) = &scene.fluid else { return Ok(set) };
+        for (index, body) in scene.bodies.iter().enumerate() {
+            if !scene.is_marker_coupled(body) {
+                continue;
+            }
+            let own = generate_markers(&body.shape, fluid.spacing).map_err(|e| e.in_body(index, &body.name))?;
+            let start = set.markers.len();
+            set.markers.extend(own);
+            set.ranges.push((index as u32, start..set.markers.len()));
+        }
+        Ok(set)
+    }
+
+    /// Total number of markers.
+    pub fn len(&self) -> usize {
+        self.markers.len()
+    }
+
+    /// Whether there are no markers.
+    pub fn is_empty(&self) -> bool {
+        self.markers.is_empty()
+    }
+
+    /// Number of bodies with markers (the fluid sends one load for each).
+    pub fn body_count(&self) -> usize {
+        self.ranges.len()
+    }
+
+    /// `(scene body index, range of its markers)` for every marker-coupled body, in body order.
+    pub fn body_ranges(&self) -> Vec<(u32, Range<usize>)> {
+        self.ranges.clone()
+    }
+
+    /// The body-frame markers, contiguous per body.
+    pub fn local(&self) -> &[LocalMarker] {
+        &self.markers
+    }
+
+    /// World-frame coupling points at the given states (indexed by scene body, as
+    /// [`crate::DemEngine::states`] gives them): position R·p + x, normal R·n, velocity
+    /// v + ω × (R·p) (Joubert eq. 33), measure = area. Appends to `out`.
+    ///
+    /// Panics if `states` does not cover every marker-coupled body: states come from the
+    /// engine built from the same scene, so that is a programming error.
+    pub fn world_points(&self, states: &[BodyState], out: &mut Vec<CouplingPoint>) {
+        out.reserve(self.markers.len());
+        for (body, range) in &self.ranges {
+            let s = &states[*body as usize];
+            for m in &self.markers[range.clone()] {
+                let arm = rotate(s.orientation, m.position);
+                let position = add(s.position, arm);
+                let normal = rotate(s.orientation, m.normal);
+                // Joubert eq. (33): u_i = u_s + ω_s × (r_i − r_cg).
+                let velocity = add(s.linear_velocity, cross(s.angular_velocity, arm));
+                out.push(CouplingPoint {
+                    position: position.map(|x| x as f32),
+                    measure: m.area as f32,
+                    velocity: velocity.map(|x| x as f32),
+                    body: *body,
+                    normal: normal.map(|x| x as f32),
+                    _pad: 0,
+                });
+            }
+        }
+    }
+}

@@ -1,0 +1,150 @@
+//! The DEM server's process loop (iceoryx2 exchange).
+//!
+//! Serial-explicit window n → n+1 (DESIGN.md): publish body states and coupling points
+//! for t_n, wait for the fluid loads of window n, hold them over as many DEM substeps
+//! as `stable_dt` needs, report. States for t_{n+1} are published right after the
+//! substeps so that the fluid finds them waiting when the next command arrives.
+
+use crate::engine::{DemEngine, DemError};
+use crate::markers::MarkerSet;
+use crate::registry::create_engine;
+use couplet_protocol::transport::{parent_alive, Control, Endpoint, TransportError};
+use couplet_protocol::{
+    monotonic_ns, validate_loads, BodyLoad, BodyState, CommandKind, CouplingPoint, Hello, Role,
+    Scene, ServiceLeaf, SideReport, WindowHeader, PROTOCOL_VERSION,
+};
+use std::time::Instant;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    #[error(transparent)]
+    Dem(#[from] DemError),
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    #[error("command for window {step} speaks protocol {got}, this dem-server speaks {PROTOCOL_VERSION}")]
+    Version { step: u64, got: u32 },
+    #[error("unknown command kind {0}")]
+    UnknownCommand(u32),
+    #[error("window {step}: fluid sent {got} loads for {expected} coupled bodies")]
+    LoadCount { step: u64, got: usize, expected: usize },
+}
+
+/// Runs the DEM side of run `run_id` until the orchestrator says shutdown or goes away.
+pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
+    let parent = std::os::unix::process::parent_id();
+    let mut engine = create_engine(scene)?;
+    let markers = MarkerSet::from_scene(scene)?;
+    let coupled = scene.has_resolved_bodies();
+    let n_bodies = engine.body_count();
+
+    let ep = Endpoint::new(run_id)?;
+    let commands = Control::command_receiver(&ep)?;
+    let report = Control::report_sender(&ep)?;
+    let bodies_tx = ep.slice_sender::<BodyState>(ServiceLeaf::Bodies, n_bodies)?;
+    let points_tx = ep.slice_sender::<CouplingPoint>(ServiceLeaf::Points, markers.len())?;
+    let loads_rx = ep.slice_receiver::<BodyLoad>(ServiceLeaf::Loads)?;
+    let wake = ep.wake_listener(ServiceLeaf::DemWake)?;
+    let wake_fluid = ep.waker(ServiceLeaf::FluidWake)?;
+    let wake_orchestrator = ep.waker(ServiceLeaf::OrchestratorWake)?;
+
+    // Hello last: once the orchestrator has it, every port of this process exists.
+    Control::hello_sender(&ep)?.send(Hello {
+        protocol_version: PROTOCOL_VERSION,
+        role: Role::Dem as u32,
+        pid: std::process::id(),
+        dt_limit: engine.stable_dt(),
+        count: n_bodies as u64,
+        ..Default::default()
+    })?;
+    wake_orchestrator.wake()?;
+
+    let mut states = Vec::with_capacity(n_bodies);
+    let mut points = Vec::with_capacity(markers.len());
+    let mut loads: Vec<BodyLoad> = Vec::with_capacity(n_bodies);
+    let mut published: Option<u64> = None;
+    let alive = || parent_alive(parent);
+
+    loop {
+        let cmd = wake.wait_for(|| commands.try_next(), alive)?;
+        if cmd.protocol_version != PROTOCOL_VERSION {
+            return Err(ServerError::Version { step: cmd.step, got: cmd.protocol_version });
+        }
+        match cmd.kind() {
+            Some(CommandKind::Shutdown) => return Ok(()),
+            Some(CommandKind::Advance) => {}
+            None => return Err(ServerError::UnknownCommand(cmd.kind)),
+        }
+        let (step, window) = (cmd.step, cmd.window);
+        let mut exchange_us = 0.0;
+        if published != Some(step) {
+            exchange_us += publish(&*engine, &markers, step, cmd.time, window, &mut states, &mut points, &bodies_tx, &points_tx)?;
+            wake_fluid.wake()?;
+        }
+
+        let wait_start = Instant::now();
+        let mut wait_us = 0.0;
+        loads.clear();
+        if coupled {
+            let sample = wake.wait_for(|| loads_rx.try_step(step), alive)?;
+            wait_us = wait_start.elapsed().as_secs_f64() * 1e6;
+            let t = Instant::now();
+            let hop_us = monotonic_ns().saturating_sub(sample.user_header().sent_ns) as f64 * 1e-3;
+            validate_loads(sample.payload(), n_bodies)
+                .map_err(|source| TransportError::Invalid { service: loads_rx.service.clone(), source })?;
+            loads.extend_from_slice(sample.payload());
+            if loads.len() != markers.body_ranges().len() {
+                return Err(ServerError::LoadCount { step, got: loads.len(), expected: markers.body_ranges().len() });
+            }
+            exchange_us += hop_us + t.elapsed().as_secs_f64() * 1e6;
+        }
+
+        let compute = Instant::now();
+        engine.set_fluid_loads(&loads)?;
+        let dt_limit = engine.stable_dt();
+        let substeps = (window / dt_limit).ceil().max(1.0) as u32;
+        let dt = window / substeps as f64;
+        for _ in 0..substeps {
+            engine.step(dt)?;
+        }
+        let compute_us = compute.elapsed().as_secs_f64() * 1e6;
+
+        exchange_us += publish(&*engine, &markers, step + 1, cmd.time + window, window, &mut states, &mut points, &bodies_tx, &points_tx)?;
+        published = Some(step + 1);
+        report.send(SideReport {
+            protocol_version: PROTOCOL_VERSION,
+            role: Role::Dem as u32,
+            step,
+            substeps,
+            compute_us,
+            wait_us,
+            exchange_us,
+            dt_limit,
+            ..Default::default()
+        })?;
+        wake_orchestrator.wake()?;
+    }
+}
+
+/// Publishes states and world-frame coupling points for window `step`; returns the µs spent.
+#[allow(clippy::too_many_arguments)]
+fn publish(
+    engine: &dyn DemEngine,
+    markers: &MarkerSet,
+    step: u64,
+    time: f64,
+    window: f64,
+    states: &mut Vec<BodyState>,
+    points: &mut Vec<CouplingPoint>,
+    bodies_tx: &couplet_protocol::transport::SliceSender<BodyState>,
+    points_tx: &couplet_protocol::transport::SliceSender<CouplingPoint>,
+) -> Result<f64, ServerError> {
+    let t = Instant::now();
+    states.clear();
+    engine.states(states);
+    points.clear();
+    markers.world_points(states, points);
+    // Points first: the fluid waits for both and reads bodies last.
+    points_tx.send(WindowHeader::new(step, time, window, points.len()), points)?;
+    bodies_tx.send(WindowHeader::new(step, time, window, states.len()), states)?;
+    Ok(t.elapsed().as_secs_f64() * 1e6)
+}

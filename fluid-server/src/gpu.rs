@@ -1,0 +1,188 @@
+//! Device setup: one Vulkan adapter, the limits it offers, optional timestamp queries.
+//!
+//! couplet runs on the Vulkan backend only: NVIDIA's driver on GPU machines, Mesa's
+//! lavapipe (Vulkan on the CPU) in CI and on developer machines (DESIGN.md, "Numbers
+//! on the GPU"). Only what both offer is required; timestamps are optional.
+
+use std::sync::{Mutex, MutexGuard, OnceLock};
+
+/// Storage buffers a single kernel may bind. The corrected SPH scheme's pair kernels
+/// bind about this many particle arrays; lavapipe and NVIDIA both offer far more.
+pub const MIN_STORAGE_BUFFERS_PER_STAGE: u32 = 10;
+
+/// Why no device could be created or a GPU transfer failed.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum GpuError {
+    /// No Vulkan adapter is visible to wgpu.
+    #[error(
+        "no Vulkan adapter found (backends tried: {tried}). On a machine without a GPU install \
+         Mesa's lavapipe: `apt-get install mesa-vulkan-drivers`; with an NVIDIA GPU install its driver."
+    )]
+    NoAdapter { tried: String },
+    /// The adapter exists but does not offer what couplet needs.
+    #[error("the Vulkan adapter `{adapter}` is unsuitable: {reason}")]
+    Unsuitable { adapter: String, reason: String },
+    /// `request_device` failed.
+    #[error("creating the Vulkan device failed: {0}")]
+    Device(String),
+    /// Waiting for the GPU failed (device lost, timeout).
+    #[error("waiting for the GPU failed: {0}")]
+    Poll(String),
+    /// Mapping a staging buffer for readback failed.
+    #[error("reading back GPU buffer `{buffer}` failed: {reason}")]
+    Readback { buffer: String, reason: String },
+}
+
+/// The device and queue every fluid kernel runs on.
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter_info: wgpu::AdapterInfo,
+    /// `TIMESTAMP_QUERY` is enabled: compute passes can carry timestamp writes
+    /// (see `timing::StageTimer`). `TIMESTAMP_QUERY_INSIDE_ENCODERS`/`_PASSES` are
+    /// enabled as well whenever the adapter offers them.
+    pub timestamps: bool,
+}
+
+/// Adapters ordered by how much we want them: a real GPU before a software one.
+fn preference(device_type: wgpu::DeviceType) -> u32 {
+    match device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    }
+}
+
+impl Gpu {
+    /// Opens the preferred Vulkan adapter (discrete > integrated > virtual > other > CPU)
+    /// with the adapter's own limits and the optional timestamp features it offers.
+    pub fn new() -> Result<Gpu, GpuError> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<Gpu, GpuError> {
+        let backends = wgpu::Backends::VULKAN;
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let mut adapters = instance.enumerate_adapters(backends).await;
+        adapters.sort_by_key(|a| preference(a.get_info().device_type));
+        let Some(adapter) = adapters.into_iter().next() else {
+            return Err(GpuError::NoAdapter { tried: format!("{backends:?}") });
+        };
+        let adapter_info = adapter.get_info();
+        let limits = adapter.limits();
+        if limits.max_storage_buffers_per_shader_stage < MIN_STORAGE_BUFFERS_PER_STAGE {
+            return Err(GpuError::Unsuitable {
+                adapter: adapter_info.name.clone(),
+                reason: format!(
+                    "it offers {} storage buffers per shader stage, couplet needs at least {}",
+                    limits.max_storage_buffers_per_shader_stage, MIN_STORAGE_BUFFERS_PER_STAGE
+                ),
+            });
+        }
+        let offered = adapter.features();
+        let optional = wgpu::Features::TIMESTAMP_QUERY
+            | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
+            | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES;
+        let required_features = offered & optional;
+        let timestamps = required_features.contains(wgpu::Features::TIMESTAMP_QUERY);
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("couplet-fluid"),
+                required_features,
+                required_limits: limits,
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| GpuError::Device(e.to_string()))?;
+        Ok(Gpu { device, queue, adapter_info, timestamps })
+    }
+
+    /// One line for logs and `couplet plan`: name, driver, backend, timestamps.
+    pub fn describe(&self) -> String {
+        let i = &self.adapter_info;
+        format!(
+            "{} ({:?}, driver {} {}, backend {:?}, timestamps {})",
+            i.name,
+            i.device_type,
+            i.driver,
+            i.driver_info,
+            i.backend,
+            if self.timestamps { "yes" } else { "no" }
+        )
+    }
+
+    /// Blocks until all submitted work has finished.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| GpuError::Poll(e.to_string()))
+    }
+
+    /// Copies `len` elements of `T` starting at element `first` of `buffer` (which needs
+    /// `COPY_SRC`) to the CPU. Submits and waits: for tests, checks and output, never
+    /// inside a step.
+    pub fn read_buffer<T: bytemuck::Pod>(
+        &self,
+        buffer: &wgpu::Buffer,
+        first: u64,
+        len: u64,
+    ) -> Result<Vec<T>, GpuError> {
+        let elem = std::mem::size_of::<T>() as u64;
+        let bytes = len * elem;
+        if bytes == 0 {
+            return Ok(Vec::new());
+        }
+        // Copies must be multiples of 4 bytes (wgpu::COPY_BUFFER_ALIGNMENT).
+        let padded = bytes.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT) * wgpu::COPY_BUFFER_ALIGNMENT;
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback staging"),
+            size: padded,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        encoder.copy_buffer_to_buffer(buffer, first * elem, &staging, 0, padded);
+        self.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        let name = format!("{:?}", buffer);
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(GpuError::Readback { buffer: name, reason: e.to_string() }),
+            Err(e) => return Err(GpuError::Readback { buffer: name, reason: e.to_string() }),
+        }
+        let out = {
+            let view = staging
+                .get_mapped_range(..)
+                .map_err(|e| GpuError::Readback { buffer: name, reason: e.to_string() })?;
+            bytemuck::pod_collect_to_vec::<u8, T>(&view[..bytes as usize])
+        };
+        staging.unmap();
+        Ok(out)
+    }
+}
+
+static TEST_GPU: OnceLock<Result<Mutex<Gpu>, GpuError>> = OnceLock::new();
+
+/// The one `Gpu` of a test process. Tests run on several threads but there is one
+/// GPU (or one lavapipe): every GPU test holds this lock for its whole body, which
+/// serialises them and spares each the cost of opening a device. A test that
+/// panicked while holding the lock does not poison the others.
+pub fn shared_test_gpu() -> Result<MutexGuard<'static, Gpu>, GpuError> {
+    match TEST_GPU.get_or_init(|| Gpu::new().map(Mutex::new)) {
+        Ok(m) => Ok(m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())),
+        Err(e) => Err(e.clone()),
+    }
+}

@@ -1,0 +1,23 @@
+//! Standalone fluid server: `couplet-fluid-server RUN_ID SCENE.toml` (the orchestrator
+//! normally starts `couplet fluid-server`, the same code in its own binary).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().collect();
+    let [_, run_id, scene] = args.as_slice() else {
+        eprintln!("usage: couplet-fluid-server RUN_ID SCENE.toml");
+        return ExitCode::from(2);
+    };
+    let result = couplet_protocol::Scene::load(&PathBuf::from(scene))
+        .map_err(|e| e.to_string())
+        .and_then(|s| couplet_fluid::server::serve(run_id, &s).map_err(|e| e.to_string()));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("fluid-server: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

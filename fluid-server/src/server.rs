@@ -1,0 +1,158 @@
+//! The fluid server's process loop (iceoryx2 exchange).
+//!
+//! Serial-explicit window n → n+1 (DESIGN.md): take the DEM's coupling points and body
+//! states for t_n, advance the fluid over the window in as many substeps as its own
+//! limit needs, publish the per-body loads (reduced on the GPU), and at output times a
+//! particle snapshot for the recording.
+
+use crate::gpu::{Gpu, GpuError};
+use crate::solver::{FluidError, FluidSolver};
+use couplet_protocol::transport::{parent_alive, Control, Endpoint, TransportError};
+use couplet_protocol::{
+    monotonic_ns, validate_points, validate_states, BodyLoad, BodyState, CommandKind,
+    CouplingPoint, Hello, ParticleRecord, Role, Scene, ServiceLeaf, SideReport, WindowHeader,
+    PROTOCOL_VERSION,
+};
+use std::time::Instant;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Fluid(#[from] FluidError),
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    #[error("the scene has no [fluid] section: there is nothing for a fluid server to do")]
+    NoFluid,
+    #[error("command for window {step} speaks protocol {got}, this fluid-server speaks {PROTOCOL_VERSION}")]
+    Version { step: u64, got: u32 },
+    #[error("unknown command kind {0}")]
+    UnknownCommand(u32),
+}
+
+/// Runs the fluid side of run `run_id` until the orchestrator says shutdown or goes away.
+pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
+    let parent = std::os::unix::process::parent_id();
+    if scene.fluid.is_none() {
+        return Err(ServerError::NoFluid);
+    }
+    let gpu = Gpu::new()?;
+    let mut solver = FluidSolver::new(&gpu, scene)?;
+    let coupled = scene.has_resolved_bodies();
+    let n_bodies = scene.bodies.len();
+    let counts = solver.counts();
+    let limits = solver.limits();
+
+    let ep = Endpoint::new(run_id)?;
+    let commands = Control::command_receiver(&ep)?;
+    let report = Control::report_sender(&ep)?;
+    let points_rx = ep.slice_receiver::<CouplingPoint>(ServiceLeaf::Points)?;
+    let bodies_rx = ep.slice_receiver::<BodyState>(ServiceLeaf::Bodies)?;
+    let loads_tx = ep.slice_sender::<BodyLoad>(ServiceLeaf::Loads, n_bodies)?;
+    let particles_tx = ep.slice_sender::<ParticleRecord>(ServiceLeaf::Particles, counts.fluid as usize)?;
+    let wake = ep.wake_listener(ServiceLeaf::FluidWake)?;
+    let wake_dem = ep.waker(ServiceLeaf::DemWake)?;
+    let wake_orchestrator = ep.waker(ServiceLeaf::OrchestratorWake)?;
+
+    Control::hello_sender(&ep)?.send(Hello {
+        protocol_version: PROTOCOL_VERSION,
+        role: Role::Fluid as u32,
+        pid: std::process::id(),
+        dt_limit: limits.dt,
+        dt_acoustic: limits.dt_acoustic,
+        dt_viscous: limits.dt_viscous,
+        count: counts.fluid as u64,
+        ..Default::default()
+    })?;
+    wake_orchestrator.wake()?;
+
+    let alive = || parent_alive(parent);
+    let mut points: Vec<CouplingPoint> = Vec::new();
+    let mut states: Vec<BodyState> = Vec::new();
+    loop {
+        let cmd = wake.wait_for(|| commands.try_next(), alive)?;
+        if cmd.protocol_version != PROTOCOL_VERSION {
+            return Err(ServerError::Version { step: cmd.step, got: cmd.protocol_version });
+        }
+        match cmd.kind() {
+            Some(CommandKind::Shutdown) => return Ok(()),
+            Some(CommandKind::Advance) => {}
+            None => return Err(ServerError::UnknownCommand(cmd.kind)),
+        }
+        let step = cmd.step;
+        let mut exchange_us = 0.0;
+        let mut wait_us = 0.0;
+        if coupled {
+            let wait_start = Instant::now();
+            let (mut got_points, mut got_states) = (false, false);
+            wake.wait_for(
+                || {
+                    if !got_points {
+                        if let Some(s) = points_rx.try_step(step)? {
+                            exchange_us += hop_us(s.user_header());
+                            validate_points(s.payload(), n_bodies).map_err(|source| {
+                                TransportError::Invalid { service: points_rx.service.clone(), source }
+                            })?;
+                            points.clear();
+                            points.extend_from_slice(s.payload());
+                            got_points = true;
+                        }
+                    }
+                    if !got_states {
+                        if let Some(s) = bodies_rx.try_step(step)? {
+                            exchange_us += hop_us(s.user_header());
+                            validate_states(s.payload(), n_bodies).map_err(|source| {
+                                TransportError::Invalid { service: bodies_rx.service.clone(), source }
+                            })?;
+                            states.clear();
+                            states.extend_from_slice(s.payload());
+                            got_states = true;
+                        }
+                    }
+                    Ok((got_points && got_states).then_some(()))
+                },
+                alive,
+            )?;
+            wait_us = wait_start.elapsed().as_secs_f64() * 1e6;
+            let t = Instant::now();
+            solver.set_bodies(&gpu, &states, &points)?;
+            exchange_us += t.elapsed().as_secs_f64() * 1e6;
+        }
+
+        let compute = Instant::now();
+        let substeps = solver.advance(&gpu, cmd.window, None)?;
+        let mut compute_us = compute.elapsed().as_secs_f64() * 1e6;
+
+        if coupled {
+            let t = Instant::now();
+            let loads = solver.loads(&gpu)?;
+            compute_us += t.elapsed().as_secs_f64() * 1e6;
+            let t = Instant::now();
+            loads_tx.send(WindowHeader::new(step, cmd.time, cmd.window, loads.len()), &loads)?;
+            wake_dem.wake()?;
+            exchange_us += t.elapsed().as_secs_f64() * 1e6;
+        }
+        if cmd.snapshot != 0 {
+            let snapshot = solver.snapshot(&gpu)?;
+            particles_tx.send(WindowHeader::new(step, cmd.time + cmd.window, cmd.window, snapshot.len()), &snapshot)?;
+        }
+        report.send(SideReport {
+            protocol_version: PROTOCOL_VERSION,
+            role: Role::Fluid as u32,
+            step,
+            substeps,
+            compute_us,
+            wait_us,
+            exchange_us,
+            dt_limit: limits.dt,
+            ..Default::default()
+        })?;
+        wake_orchestrator.wake()?;
+    }
+}
+
+/// Time the sample spent between its sender's `send` and now, µs.
+fn hop_us(h: &WindowHeader) -> f64 {
+    monotonic_ns().saturating_sub(h.sent_ns) as f64 * 1e-3
+}

@@ -1,0 +1,110 @@
+//! `couplet bench`: a scene headless, timed. Reports the figures BENCHMARKS.md asks for:
+//! particles, neighbours per particle, fluid steps/s, particle-steps/s, pair
+//! interactions/s, time per GPU stage, and the exchange's share of a coupling window.
+
+use crate::run::{resolve_scene, run, RunError, RunOptions};
+use couplet_fluid::gpu::Gpu;
+use couplet_fluid::solver::FluidSolver;
+use couplet_fluid::timing::StageTimer;
+use std::fmt::Write;
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error(transparent)]
+    Run(#[from] RunError),
+    #[error(transparent)]
+    Gpu(#[from] couplet_fluid::gpu::GpuError),
+    #[error(transparent)]
+    Fluid(#[from] couplet_fluid::solver::FluidError),
+    #[error("the scene has no fluid: `couplet bench` times the fluid server")]
+    NoFluid,
+}
+
+/// Warm-up steps before timing: the first dispatches compile pipelines lazily on some drivers.
+const WARMUP_STEPS: u32 = 3;
+
+pub fn bench(scene_path: &Path, steps: u32, spacing: Option<f64>) -> Result<String, BenchError> {
+    let (scene, _) = resolve_scene(scene_path, spacing)?;
+    if scene.fluid.is_none() {
+        return Err(BenchError::NoFluid);
+    }
+    let gpu = Gpu::new()?;
+    let mut solver = FluidSolver::new(&gpu, &scene)?;
+    let dt = solver.limits().dt;
+    let counts = solver.counts();
+    let total = (counts.fluid + counts.wall + counts.markers) as f64;
+
+    // Bodies, if any, are frozen where the scene puts them: the fluid's cost does not
+    // depend on where they are. Their markers come from the DEM crate's generator.
+    if scene.has_resolved_bodies() {
+        let engine = couplet_dem::registry::create_engine(&scene).map_err(|e| RunError::Io {
+            what: "creating the DEM engine for the bench".into(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+        let markers = couplet_dem::markers::MarkerSet::from_scene(&scene).map_err(|e| RunError::Io {
+            what: "generating markers for the bench".into(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+        let mut states = Vec::new();
+        engine.states(&mut states);
+        let mut points = Vec::new();
+        markers.world_points(&states, &mut points);
+        solver.set_bodies(&gpu, &states, &points)?;
+    }
+
+    solver.advance(&gpu, dt * WARMUP_STEPS as f64, None)?;
+    let neighbours = solver.neighbour_stats(&gpu)?;
+    let passes = solver.pair_passes_per_step() as f64;
+
+    // Wall clock without per-stage instrumentation …
+    let t = Instant::now();
+    solver.advance(&gpu, dt * steps as f64, None)?;
+    let wall = t.elapsed().as_secs_f64();
+    // … then the same number of steps again with every stage timed.
+    let mut timer = StageTimer::new(&gpu, 64);
+    solver.advance(&gpu, dt * steps as f64, Some(&mut timer))?;
+    let stages = timer.collect(&gpu);
+
+    let steps_f = steps as f64;
+    let mut o = String::new();
+    let w = &mut o;
+    let _ = writeln!(w, "scene: {} (δ = {} m)", scene.meta.name, scene.fluid.as_ref().map_or(0.0, |f| f.spacing));
+    let _ = writeln!(w, "adapter: {}", gpu.describe());
+    let _ = writeln!(w, "precision: f32; neighbour build (counting sort) included in every step");
+    let _ = writeln!(w, "particles: {} ({} fluid, {} wall, {} markers)", total, counts.fluid, counts.wall, counts.markers);
+    let _ = writeln!(w, "neighbours per fluid particle (inside the support): {neighbours:.1}");
+    let _ = writeln!(w, "neighbour passes per step: {passes}");
+    let _ = writeln!(w, "steps timed: {steps}, wall {wall:.3} s");
+    let _ = writeln!(w, "fluid steps/s: {:.2}", steps_f / wall);
+    let _ = writeln!(w, "particle-steps/s: {:.3e}", total * steps_f / wall);
+    let _ = writeln!(w, "pair-interactions/s: {:.3e}", total * neighbours * passes * steps_f / wall);
+    let _ = writeln!(w, "\ntime per stage ({}), per step:", if gpu.timestamps { "GPU timestamp queries" } else { "wall time per submitted pass" });
+    let stage_total: f64 = stages.iter().map(|s| s.1).sum();
+    for (name, secs) in &stages {
+        let _ = writeln!(w, "  {name:<24} {:>10.3} ms  {:>5.1} %", secs / steps_f * 1e3, 100.0 * secs / stage_total.max(1e-30));
+    }
+
+    if scene.needs_dem() {
+        let windows = 50u64.max(steps as u64 / scene.coupling.window_substeps as u64);
+        let out = std::env::temp_dir().join(format!("couplet-bench-{}", std::process::id()));
+        let s = run(&RunOptions {
+            scene: scene_path.to_owned(),
+            out: Some(out.clone()),
+            spacing,
+            max_windows: Some(windows),
+            record: false,
+            progress: false,
+        })?;
+        let _ = std::fs::remove_dir_all(&out);
+        let _ = writeln!(w, "\ncoupled exchange over {} windows (separate processes, iceoryx2):", s.windows);
+        let _ = writeln!(w, "  window wall time       {:>10.1} µs", s.window_wall_us);
+        let _ = writeln!(w, "  fluid compute          {:>10.1} µs", s.fluid_compute_us);
+        let _ = writeln!(w, "  DEM compute            {:>10.1} µs", s.dem_compute_us);
+        let _ = writeln!(w, "  exchange (both ways)   {:>10.1} µs  = {:.2} % of the window", s.exchange_us, 100.0 * s.exchange_us / s.window_wall_us.max(1e-30));
+    } else {
+        let _ = writeln!(w, "\nexchange: none (no DEM server for this scene: nothing crosses between processes)");
+    }
+    Ok(o)
+}
