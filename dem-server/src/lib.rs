@@ -1,1 +1,14 @@
-//! placeholder
+//! couplet's DEM server: the swappable `DemEngine` trait, its engines and registry, body geometry and coupling markers.
+
+pub use engine::{ContactModel, DemEngine, DemError};
+pub use geometry::BodyGeometry;
+pub use markers::{generate_markers, LocalMarker, MarkerSet};
+pub use rapier_engine::RapierEngine;
+pub use registry::{create_engine, engine_names};
+
+pub mod engine;
+pub mod geometry;
+pub mod markers;
+pub mod rapier_engine;
+pub mod registry;
+pub mod server;

@@ -5,6 +5,7 @@ pub use run::{run, RunError, RunOptions, RunSummary};
 pub use window::{choose_window, WindowPlan};
 
 pub mod bench;
+pub mod cli;
 pub mod launch;
 pub mod plan;
 pub mod record;

@@ -1,0 +1,342 @@
+//! The rapier3d engine (`dem.engine = "rapier"`): contacts as velocity constraints
+//! (rapier's soft TGS solver), bodies and domain walls as rapier colliders.
+
+use crate::engine::{ContactModel, DemEngine, DemError};
+use crate::geometry::BodyGeometry;
+use couplet_protocol::{BodyLoad, BodyState, CouplingMode, Motion, Scene};
+use rapier3d::prelude::{
+    CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Real, RigidBodyBuilder, RigidBodyHandle, Vector,
+};
+use std::collections::HashMap;
+
+/// rapier's allowed linear error (its contact slop) in units of `length_unit`
+/// (rapier's default, 0.005): penetrations are corrected towards zero, and contacts
+/// rest within about this much of touching.
+pub const NORMALIZED_ALLOWED_LINEAR_ERROR: f64 = 0.005;
+
+/// One scene body as the engine holds it.
+#[derive(Debug, Clone)]
+struct Body {
+    handle: RigidBodyHandle,
+    name: String,
+    motion: Motion,
+    /// ρ·V, kg (f64: rapier keeps an f32 copy).
+    mass: f64,
+    /// Solid volume, m³ (Joubert eq. 28).
+    volume: f64,
+}
+
+/// Mass properties of one body as rapier integrates it (body frame, about the COM).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassProperties {
+    /// Mass, kg (0 for fixed and kinematic bodies: rapier gives them infinite mass).
+    pub mass: f64,
+    /// Centre of mass in the body frame, m (zero up to `f32` round-off: the body frame is
+    /// centred on the COM).
+    pub local_com: [f64; 3],
+    /// Inertia tensor about the COM in body axes, kg·m².
+    pub inertia: [[f64; 3]; 3],
+}
+
+/// rapier3d behind the [`DemEngine`] trait.
+///
+/// * Gravity is rapier's world gravity; a dynamic, resolved body in a scene whose
+///   gravity does not act on the fluid gets the gravity scale `1 − ρ_f/ρ_s`, so that
+///   the net body force is `(m − ρ_f V) g` (Joubert eq. 28). Otherwise the scale is 1
+///   and buoyancy, if any, comes from the fluid pressure in the loads.
+/// * Fluid loads are rapier *user forces*, which rapier keeps applying at every step
+///   until reset: [`set_fluid_loads`](DemEngine::set_fluid_loads) resets them all and
+///   adds the new ones, so a window's load acts in each substep exactly once.
+/// * Positions are held relative to the domain centre: rapier is `f32`, and a small
+///   displacement per substep on top of a large coordinate would lose its digits.
+/// * rapier's tolerances scale with `length_unit`, set to the smallest body's size
+///   `∛V` (the defaults assume metre-sized bodies, and a 5 mm slop would swallow a
+///   millimetre sphere).
+pub struct RapierEngine {
+    world: PhysicsWorld,
+    bodies: Vec<Body>,
+    index_of: HashMap<RigidBodyHandle, usize>,
+    /// Scene coordinates of rapier's origin (the domain centre), m.
+    origin: [f64; 3],
+    max_dt: f64,
+    time: f64,
+    steps: u64,
+}
+
+impl RapierEngine {
+    /// Registry name.
+    pub const NAME: &'static str = "rapier";
+
+    /// Builds the bodies, their colliders and the domain walls of `scene`.
+    pub fn new(scene: &Scene) -> Result<Self, DemError> {
+        let d = &scene.domain;
+        let origin = [0, 1, 2].map(|k| 0.5 * (d.min[k] + d.max[k]));
+        let geometries = scene
+            .bodies
+            .iter()
+            .enumerate()
+            .map(|(i, b)| BodyGeometry::from_shape(&b.shape).map_err(|e| e.in_body(i, &b.name)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let extent = [0, 1, 2].map(|k| d.max[k] - d.min[k]);
+        let length_unit = geometries
+            .iter()
+            .map(|g| g.volume().cbrt())
+            .fold(extent.iter().copied().fold(f64::INFINITY, f64::min), f64::min);
+
+        let mut world = PhysicsWorld::new();
+        world.gravity = vec3(scene.gravity.vector);
+        let p = &mut world.integration_parameters;
+        p.dt = scene.dem.max_dt as Real;
+        p.length_unit = length_unit as Real;
+        p.normalized_allowed_linear_error = NORMALIZED_ALLOWED_LINEAR_ERROR as Real;
+        // rapier caps speeds (400 length units/s) to keep game scenes sane; a physics
+        // run must not be silently clamped (DESIGN.md failure model).
+        p.normalized_max_linear_velocity = Real::MAX;
+
+        let mut bodies = Vec::with_capacity(scene.bodies.len());
+        let mut index_of = HashMap::with_capacity(scene.bodies.len());
+        for (i, (spec, geometry)) in scene.bodies.iter().zip(&geometries).enumerate() {
+            let volume = geometry.volume();
+            let mass = spec.density * volume;
+            let builder = match spec.motion {
+                Motion::Fixed => RigidBodyBuilder::fixed(),
+                // Velocity-based: moves with its velocities, ignores forces and contacts.
+                Motion::Kinematic => RigidBodyBuilder::kinematic_velocity_based(),
+                // Fluid loads change every window: a sleeping body would miss them.
+                Motion::Dynamic => RigidBodyBuilder::dynamic().can_sleep(false),
+            };
+            let mut builder = builder
+                .translation(vec3(sub(spec.position, origin)))
+                .rotation(vec3(spec.rotation));
+            if spec.motion != Motion::Fixed {
+                builder = builder.linvel(vec3(spec.velocity)).angvel(vec3(spec.angular_velocity));
+            }
+            if spec.motion == Motion::Dynamic {
+                builder = builder.gravity_scale(gravity_scale(scene, i) as Real);
+            }
+            let handle = world.insert_body(builder);
+            let colliders = match geometry {
+                BodyGeometry::Sphere { radius } => vec![ColliderBuilder::ball(*radius as Real)],
+                BodyGeometry::Box { half_extents: [a, b, c] } => {
+                    vec![ColliderBuilder::cuboid(*a as Real, *b as Real, *c as Real)]
+                }
+                BodyGeometry::Cylinder { radius, half_height } => {
+                    vec![ColliderBuilder::cylinder(*half_height as Real, *radius as Real)]
+                }
+                BodyGeometry::Polyhedra(parts) => parts
+                    .iter()
+                    .enumerate()
+                    .map(|(k, part)| {
+                        let pts: Vec<Vector> = part.vertices.iter().map(|v| vec3(*v)).collect();
+                        ColliderBuilder::convex_hull(&pts).ok_or_else(|| {
+                            DemError::Shape {
+                                what: format!("part {k} vertices"),
+                                value: format!("{:?}", part.vertices),
+                                why: "rapier cannot build a convex hull of them (degenerate in f32)".into(),
+                            }
+                            .in_body(i, &spec.name)
+                        })
+                    })
+                    .collect::<Result<Vec<_>, _>>()?,
+            };
+            for c in colliders {
+                world.insert_collider(
+                    c.density(spec.density as Real)
+                        .friction(spec.friction as Real)
+                        .restitution(spec.restitution as Real),
+                    Some(handle),
+                );
+            }
+            index_of.insert(handle, i);
+            bodies.push(Body { handle, name: spec.name.clone(), motion: spec.motion, mass, volume });
+        }
+        add_walls(&mut world, scene, origin);
+        Ok(Self { world, bodies, index_of, origin, max_dt: scene.dem.max_dt, time: 0.0, steps: 0 })
+    }
+
+    /// Mass properties rapier integrates body `index` with.
+    pub fn mass_properties(&self, index: usize) -> Option<MassProperties> {
+        let b = self.world.bodies.get(self.bodies.get(index)?.handle)?;
+        let m = &b.mass_properties().local_mprops;
+        let i = m.reconstruct_inertia_matrix();
+        let col = [i.x_axis, i.y_axis, i.z_axis];
+        Some(MassProperties {
+            mass: m.mass() as f64,
+            local_com: [m.local_com.x as f64, m.local_com.y as f64, m.local_com.z as f64],
+            inertia: [0, 1, 2].map(|r| [0, 1, 2].map(|c| col[c][r] as f64)),
+        })
+    }
+
+    /// Contact slop in metres: rapier lets resting contacts overlap by up to about this.
+    pub fn allowed_penetration(&self) -> f64 {
+        self.world.integration_parameters.allowed_linear_error() as f64
+    }
+
+    /// Simulated time since construction, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    fn state_of(&self, i: usize, b: &Body) -> BodyState {
+        let mut s = BodyState {
+            body: i as u32,
+            motion: b.motion.as_u32(),
+            mass: b.mass,
+            volume: b.volume,
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            ..Default::default()
+        };
+        if let Some(rb) = self.world.bodies.get(b.handle) {
+            let t = rb.translation();
+            s.position = [t.x as f64 + self.origin[0], t.y as f64 + self.origin[1], t.z as f64 + self.origin[2]];
+            let q = rb.rotation();
+            let q = [q.x as f64, q.y as f64, q.z as f64, q.w as f64];
+            // Renormalised in f64 so that R·p keeps marker distances to the COM.
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            s.orientation = if n > 0.0 { q.map(|x| x / n) } else { q };
+            let (v, w) = (rb.linvel(), rb.angvel());
+            s.linear_velocity = [v.x as f64, v.y as f64, v.z as f64];
+            s.angular_velocity = [w.x as f64, w.y as f64, w.z as f64];
+        }
+        s
+    }
+}
+
+/// `1 − ρ_f/ρ_s` for a dynamic resolved body when gravity does not act on the fluid
+/// (Joubert eq. 28: `F_s = (m_s − ρ_f V_s) g = m_s g (1 − ρ_f/ρ_s)`), else 1.
+fn gravity_scale(scene: &Scene, i: usize) -> f64 {
+    let b = &scene.bodies[i];
+    match &scene.fluid {
+        Some(f) if !scene.gravity.on_fluid && b.coupling == CouplingMode::Resolved => 1.0 - f.density / b.density,
+        _ => 1.0,
+    }
+}
+
+/// The domain faces as fixed slabs one domain-width thick (thick enough that nothing
+/// tunnels through), the top only when `closed_top`. Friction and restitution 0 with the
+/// `Max` rule, which outranks rapier's default `Average`: a body–wall contact takes the
+/// body's own coefficients.
+fn add_walls(world: &mut PhysicsWorld, scene: &Scene, origin: [f64; 3]) {
+    let d = &scene.domain;
+    let half = [0, 1, 2].map(|k| 0.5 * (d.max[k] - d.min[k]));
+    let t = 2.0 * half.iter().copied().fold(0.0, f64::max);
+    let walls = world.insert_body(RigidBodyBuilder::fixed());
+    for axis in 0..3 {
+        for side in [-1.0, 1.0] {
+            if axis == 1 && side > 0.0 && !d.closed_top {
+                continue;
+            }
+            let mut centre = sub([0, 1, 2].map(|k| 0.5 * (d.min[k] + d.max[k])), origin);
+            centre[axis] += side * (half[axis] + 0.5 * t);
+            let mut he = half.map(|h| h + t);
+            he[axis] = 0.5 * t;
+            world.insert_collider(
+                ColliderBuilder::cuboid(he[0] as Real, he[1] as Real, he[2] as Real)
+                    .translation(vec3(centre))
+                    .friction(0.0)
+                    .restitution(0.0)
+                    .friction_combine_rule(CoefficientCombineRule::Max)
+                    .restitution_combine_rule(CoefficientCombineRule::Max),
+                Some(walls),
+            );
+        }
+    }
+}
+
+fn vec3(v: [f64; 3]) -> Vector {
+    Vector::new(v[0] as Real, v[1] as Real, v[2] as Real)
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+impl DemEngine for RapierEngine {
+    fn name(&self) -> &'static str {
+        Self::NAME
+    }
+
+    fn contact_model(&self) -> ContactModel {
+        ContactModel::VelocityConstraints
+    }
+
+    fn body_count(&self) -> usize {
+        self.bodies.len()
+    }
+
+    fn states(&self, out: &mut Vec<BodyState>) {
+        out.clear();
+        out.extend(self.bodies.iter().enumerate().map(|(i, b)| self.state_of(i, b)));
+    }
+
+    fn set_fluid_loads(&mut self, loads: &[BodyLoad]) -> Result<(), DemError> {
+        // Check everything before touching the bodies: a refused set leaves the old loads.
+        let mut seen = vec![usize::MAX; self.bodies.len()];
+        for (entry, l) in loads.iter().enumerate() {
+            let b = l.body as usize;
+            let Some(body) = self.bodies.get(b) else {
+                return Err(DemError::LoadBody { entry, body: l.body, count: self.bodies.len() });
+            };
+            if seen[b] != usize::MAX {
+                return Err(DemError::DuplicateLoad { first: seen[b], second: entry, body: l.body, name: body.name.clone() });
+            }
+            seen[b] = entry;
+            if l.force.iter().chain(&l.moment).any(|x| !x.is_finite()) {
+                return Err(DemError::NonFiniteLoad { body: l.body, name: body.name.clone(), force: l.force, moment: l.moment });
+            }
+        }
+        for b in &self.bodies {
+            if let Some(rb) = self.world.bodies.get_mut(b.handle) {
+                rb.reset_forces(false);
+                rb.reset_torques(false);
+            }
+        }
+        for l in loads {
+            if let Some(rb) = self.bodies.get(l.body as usize).and_then(|b| self.world.bodies.get_mut(b.handle)) {
+                // User forces persist across steps until reset (rapier `add_force`): the
+                // load is held over the whole window. Ignored by fixed/kinematic bodies.
+                rb.add_force(vec3(l.force), true);
+                rb.add_torque(vec3(l.moment), true);
+            }
+        }
+        Ok(())
+    }
+
+    fn step(&mut self, dt: f64) -> Result<(), DemError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(DemError::InvalidStep { dt, max_dt: self.max_dt });
+        }
+        self.world.integration_parameters.dt = dt as Real;
+        self.world.step();
+        self.steps += 1;
+        self.time += dt;
+        // rapier quarantines (disables, restores) bodies that went non-finite; report the first.
+        let bad = self.world.quarantine().bodies().iter().find_map(|h| self.index_of.get(h).copied()).or_else(|| {
+            self.bodies.iter().enumerate().find_map(|(i, b)| {
+                let s = self.state_of(i, b);
+                let finite = s.position.iter().chain(&s.linear_velocity).chain(&s.angular_velocity).all(|x| x.is_finite());
+                (!finite).then_some(i)
+            })
+        });
+        if let Some(i) = bad {
+            let s = self.state_of(i, &self.bodies[i]);
+            return Err(DemError::NonFiniteState {
+                body: i,
+                name: self.bodies[i].name.clone(),
+                step: self.steps,
+                time: self.time,
+                position: s.position,
+                velocity: s.linear_velocity,
+            });
+        }
+        Ok(())
+    }
+
+    /// `scene.dem.max_dt`: rapier solves contacts as velocity constraints, which are
+    /// stable at any step (no contact stiffness to resolve), so only accuracy bounds it.
+    /// Integration is symplectic Euler over rapier's 4 internal substeps, so a constant
+    /// acceleration `a` is off by `a·t·dt/8` in position after time t.
+    fn stable_dt(&self) -> f64 {
+        self.max_dt
+    }
+}

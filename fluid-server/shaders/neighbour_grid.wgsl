@@ -1,0 +1,93 @@
+// Counting sort of particles by grid cell, part 1 and 3 (part 2 is prefix_sum.wgsl,
+// part 4 reorder.wgsl):
+//   count_cells: one thread per particle finds its cell, takes a rank inside it with
+//                one atomicAdd on the cell's counter (the only atomics of the sort);
+//   (prefix sum of the counters → cell_start)
+//   scatter:     dst = cell_start[cell] + rank; src_of[dst] = i (no atomics).
+//
+// Composed after the prelude and grid_common.wgsl (group 1 = grid). count_cells binds
+// only grid params at group 1: its counters are the cell_start buffer itself, bound
+// read-write at group 0 before the scan turns them into cell_start.
+
+// Mirror of neighbour_grid::GridErrorRecord (32 bytes). The first particle found
+// outside the grid since the last reset is recorded; later ones only count.
+struct GridErrorRecord {
+    outside_count: atomic<u32>,
+    index: u32,
+    id: u32,
+    _pad: u32,
+    position: vec4<f32>,
+}
+
+@group(0) @binding(0) var<storage, read> count_pos: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
+@group(0) @binding(2) var<storage, read_write> count_cell_of: array<u32>;
+@group(0) @binding(3) var<storage, read_write> count_rank: array<u32>;
+@group(0) @binding(4) var<storage, read_write> grid_error: GridErrorRecord;
+// The registered id buffer, or a one-element stand-in when none is registered.
+@group(0) @binding(5) var<storage, read> count_ids: array<u32>;
+
+// Exponent bits all set: ±inf or NaN. Bit test, because comparisons with NaN may be
+// folded away by the driver's compiler.
+const F32_EXPONENT_MASK: u32 = 0x7f800000u;
+
+fn is_finite3(p: vec3<f32>) -> bool {
+    let e = bitcast<vec3<u32>>(p) & vec3<u32>(F32_EXPONENT_MASK);
+    return all(e != vec3<u32>(F32_EXPONENT_MASK));
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn count_cells(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= grid.n_particles {
+        return;
+    }
+    let p = count_pos[i];
+    // Same arithmetic as cell_coord(), so the sort and the pair loops agree.
+    let q = floor((p.xyz - grid.origin.xyz) * grid.inv_cell_size);
+    let dims_f = vec3<f32>(grid.dims.xyz);
+    let finite = is_finite3(p.xyz);
+    let inside = finite && all(q >= vec3<f32>(0.0)) && all(q < dims_f);
+    var ci = 0u;
+    if inside {
+        ci = cell_index(vec3<i32>(q));
+    } else {
+        // Still sorted (into the nearest cell; cell 0 when non-finite) so that the
+        // permutation stays complete; NeighbourGrid::check reports it.
+        let first = atomicAdd(&grid_error.outside_count, 1u);
+        if first == 0u {
+            grid_error.index = i;
+            grid_error.id = count_ids[min(i, arrayLength(&count_ids) - 1u)];
+            grid_error.position = p;
+        }
+        if finite {
+            let c = clamp(q, vec3<f32>(0.0), dims_f - vec3<f32>(1.0));
+            ci = cell_index(vec3<i32>(c));
+        }
+    }
+    count_cell_of[i] = ci;
+    count_rank[i] = atomicAdd(&counts[ci], 1u);
+}
+
+@group(0) @binding(10) var<storage, read> scatter_cell_of: array<u32>;
+@group(0) @binding(11) var<storage, read> scatter_rank: array<u32>;
+// Gather map: sorted slot → index before the sort.
+@group(0) @binding(12) var<storage, read_write> src_of: array<u32>;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn scatter(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= grid.n_particles {
+        return;
+    }
+    let dst = cell_start[scatter_cell_of[i]] + scatter_rank[i];
+    src_of[dst] = i;
+}

@@ -1,0 +1,43 @@
+//! Errors of the fluid solver: one enum, every variant names the thing, the value and
+//! what would be valid (STYLE.md, "Errors").
+
+use crate::gpu::GpuError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum FluidError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error("the scene has no [fluid] section: there is nothing for the fluid solver to do")]
+    NoFluid,
+    #[error("fluid.blocks fill no particle: spacing {spacing} m is larger than every block")]
+    NoParticles { spacing: f64 },
+    #[error("{what} needs {needed} bytes in one GPU buffer, the adapter allows {limit}")]
+    TooLarge { what: String, needed: u64, limit: u64 },
+    #[error("set_bodies: {got} coupling points, but the marker capacity fixed at the first call is {capacity}")]
+    MarkerCount { got: usize, capacity: usize },
+    #[error("set_bodies: coupling point {index} names body {body}, but only {n_bodies} body states were given")]
+    MarkerBody { index: usize, body: u32, n_bodies: usize },
+    #[error("set_bodies: coupling points are not contiguous per body: point {index} returns to body {body}")]
+    MarkerOrder { index: usize, body: u32 },
+    #[error("set_bodies: {what} of {item} is not finite: {value}")]
+    NonFiniteInput { what: &'static str, item: String, value: String },
+    #[error("advance: window {window} s must be a positive finite number")]
+    BadWindow { window: f64 },
+    #[error(
+        "blow-up at step {step} (t = {time:.6e} s): particle {id} ({kind}) has {what} = {value}; \
+         valid: finite, density within [{rho_min}, {rho_max}] kg/m³, speed below {u_max} m/s"
+    )]
+    BlowUp {
+        step: u64,
+        time: f64,
+        id: u32,
+        kind: &'static str,
+        what: &'static str,
+        value: String,
+        rho_min: f64,
+        rho_max: f64,
+        u_max: f64,
+    },
+    #[error("neighbour grid at step {step}: {message}")]
+    Grid { step: u64, message: String },
+}

@@ -1,0 +1,188 @@
+//! Initial particles from the scene: fluid blocks on a cubic lattice, wall particles
+//! around the domain and inside fixed box obstacles, and the initial density.
+//!
+//! Ids (= indices here) are grouped by kind: `[0, n_fluid)` fluid,
+//! `[n_fluid, n_fluid + n_wall)` wall; body markers are appended after them by the
+//! solver when the DEM sends coupling points.
+
+use crate::constants::SphConstants;
+use crate::error::FluidError;
+use couplet_protocol::{Scene, Shape};
+
+/// Initial particle set in world coordinates, m, kg/m³.
+#[derive(Debug, Clone, Default)]
+pub struct InitialParticles {
+    pub pos: Vec<[f64; 3]>,
+    /// Initial density of every particle.
+    pub rho: Vec<f64>,
+    pub n_fluid: usize,
+    pub n_wall: usize,
+}
+
+/// Number of wall layers: `ceil(support)` spacings, so that a fluid particle touching
+/// the wall sees a full support of wall particles.
+pub fn wall_layers(scene: &Scene) -> usize {
+    scene.fluid.as_ref().map_or(0, |f| f.support.ceil() as usize)
+}
+
+/// Lattice coordinates along one axis of `[min, max]`, cell-centred: min + δ/2 + iδ.
+fn lattice(min: f64, max: f64, delta: f64) -> Vec<f64> {
+    let n = ((max - min) / delta).round().max(0.0) as usize;
+    (0..n).map(|i| min + (i as f64 + 0.5) * delta).collect()
+}
+
+/// Rotation matrix of a scaled axis (Rodrigues).
+fn rotation(scaled_axis: [f64; 3]) -> [[f64; 3]; 3] {
+    let theta = (scaled_axis[0].powi(2) + scaled_axis[1].powi(2) + scaled_axis[2].powi(2)).sqrt();
+    if theta == 0.0 {
+        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    }
+    let [x, y, z] = scaled_axis.map(|a| a / theta);
+    let (s, c) = theta.sin_cos();
+    let t = 1.0 - c;
+    [
+        [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+        [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+        [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
+    ]
+}
+
+/// A fixed box obstacle: centre, rotation (body → world) and half extents.
+struct Obstacle {
+    centre: [f64; 3],
+    rot: [[f64; 3]; 3],
+    half: [f64; 3],
+}
+
+impl Obstacle {
+    /// Depth of `p` inside the box (distance to the nearest face; negative outside).
+    fn depth(&self, p: [f64; 3]) -> f64 {
+        let d = [p[0] - self.centre[0], p[1] - self.centre[1], p[2] - self.centre[2]];
+        let mut depth = f64::INFINITY;
+        for k in 0..3 {
+            // Body coordinate k = (Rᵀ d)_k.
+            let local = self.rot[0][k] * d[0] + self.rot[1][k] * d[1] + self.rot[2][k] * d[2];
+            depth = depth.min(self.half[k] - local.abs());
+        }
+        depth
+    }
+}
+
+/// Builds the initial particles of `scene`.
+///
+/// * Fluid: each `[[fluid.blocks]]` on a cubic lattice of `spacing`, first particle at
+///   `min + δ/2`; particles inside a fixed box obstacle are removed.
+/// * Walls: `ceil(support)` layers outside each face of the domain (the +y face only
+///   when `closed_top`), edges and corners included, on the lattice continued outward
+///   from each face (`min − δ/2 − kδ`, `max + δ/2 + kδ`).
+/// * Fixed box obstacles (`motion = "fixed"`, `shape.box`): wall particles on the
+///   domain lattice inside the box, down to the support radius below its surface
+///   (deeper ones would never see the fluid).
+/// * Density: hydrostatic when gravity acts on the fluid: p = ρ0 |g_y| (h_s − y), with
+///   h_s the top of the highest block over the particle's (x, z) column, ρ from the
+///   inverted Tait equation (Joubert eq. 4); assumes y is up (the scene default). Else ρ0.
+///   Walls start at ρ0; the boundary-pressure stage sets them before they are used.
+pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<InitialParticles, FluidError> {
+    let f = scene.fluid.as_ref().ok_or(FluidError::NoFluid)?;
+    let delta = f.spacing;
+    let dom = &scene.domain;
+    let obstacles: Vec<Obstacle> = scene
+        .bodies
+        .iter()
+        .filter(|b| scene.is_fluid_obstacle(b))
+        .filter_map(|b| match &b.shape {
+            Shape::Box { half_extents } => {
+                Some(Obstacle { centre: b.position, rot: rotation(b.rotation), half: *half_extents })
+            }
+            _ => None,
+        })
+        .collect();
+
+    let mut pos = Vec::new();
+    for b in &f.blocks {
+        let (xs, ys, zs) = (lattice(b.min[0], b.max[0], delta), lattice(b.min[1], b.max[1], delta), lattice(b.min[2], b.max[2], delta));
+        for &x in &xs {
+            for &y in &ys {
+                for &z in &zs {
+                    let p = [x, y, z];
+                    if obstacles.iter().all(|o| o.depth(p) <= 0.0) {
+                        pos.push(p);
+                    }
+                }
+            }
+        }
+    }
+    let n_fluid = pos.len();
+    if n_fluid == 0 {
+        return Err(FluidError::NoParticles { spacing: delta });
+    }
+
+    let layers = wall_layers(scene);
+    // Per axis: outer layers below, the interior lattice, outer layers above.
+    let axis = |k: usize, upper: bool| -> (Vec<f64>, usize) {
+        let mut v: Vec<f64> = (0..layers).rev().map(|l| dom.min[k] - (l as f64 + 0.5) * delta).collect();
+        let n_below = v.len();
+        v.extend(lattice(dom.min[k], dom.max[k], delta));
+        if upper {
+            v.extend((0..layers).map(|l| dom.max[k] + (l as f64 + 0.5) * delta));
+        }
+        (v, n_below)
+    };
+    let (ax, bx) = axis(0, true);
+    let (ay, by) = axis(1, dom.closed_top);
+    let (az, bz) = axis(2, true);
+    let inside = |i: usize, below: usize, n: usize| i >= below && i < below + n;
+    let (nx, ny, nz) = (
+        lattice(dom.min[0], dom.max[0], delta).len(),
+        lattice(dom.min[1], dom.max[1], delta).len(),
+        lattice(dom.min[2], dom.max[2], delta).len(),
+    );
+    for (i, &x) in ax.iter().enumerate() {
+        for (j, &y) in ay.iter().enumerate() {
+            for (k, &z) in az.iter().enumerate() {
+                if !(inside(i, bx, nx) && inside(j, by, ny) && inside(k, bz, nz)) {
+                    pos.push([x, y, z]);
+                }
+            }
+        }
+    }
+    let support = c.support_radius();
+    if !obstacles.is_empty() {
+        let (xs, ys, zs) = (
+            lattice(dom.min[0], dom.max[0], delta),
+            lattice(dom.min[1], dom.max[1], delta),
+            lattice(dom.min[2], dom.max[2], delta),
+        );
+        for &x in &xs {
+            for &y in &ys {
+                for &z in &zs {
+                    let p = [x, y, z];
+                    if obstacles.iter().any(|o| {
+                        let d = o.depth(p);
+                        d > 0.0 && d <= support
+                    }) {
+                        pos.push(p);
+                    }
+                }
+            }
+        }
+    }
+    let n_wall = pos.len() - n_fluid;
+
+    let g_y = if scene.gravity.on_fluid { scene.gravity.vector[1] } else { 0.0 };
+    let mut rho = vec![c.rho0; pos.len()];
+    if g_y < 0.0 {
+        for (p, r) in pos.iter().zip(rho.iter_mut()).take(n_fluid) {
+            let surface = f
+                .blocks
+                .iter()
+                .filter(|b| (b.min[0]..=b.max[0]).contains(&p[0]) && (b.min[2]..=b.max[2]).contains(&p[2]))
+                .map(|b| b.max[1])
+                .fold(f64::NEG_INFINITY, f64::max);
+            // Hydrostatic pressure, then Joubert eq. (4) inverted.
+            let p_h = c.rho0 * (-g_y) * (surface - p[1]).max(0.0);
+            *r = c.density(p_h);
+        }
+    }
+    Ok(InitialParticles { pos, rho, n_fluid, n_wall })
+}

@@ -1,0 +1,78 @@
+//! The list of GPU stages a scene runs, and why: a pure function of the scene, used by
+//! the solver to build its passes and by `couplet plan` (which needs no GPU).
+
+use couplet_protocol::{Scene, ViscosityModel, WallKind};
+
+/// One GPU stage of a fluid step.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Stage {
+    /// Stable stage name, also the label prefix of its compute passes.
+    pub name: &'static str,
+    /// Why the scene runs it.
+    pub reason: String,
+}
+
+pub const NEIGHBOUR_GRID: &str = "neighbour_grid";
+pub const MARKER_UPDATE: &str = "marker_update";
+pub const BOUNDARY_PRESSURE: &str = "adami2012_boundary_pressure";
+pub const CONTINUITY: &str = "continuity";
+pub const MOMENTUM_PRESSURE: &str = "momentum_pressure";
+pub const MORRIS1997_VISCOSITY: &str = "morris1997_viscosity";
+pub const MONAGHAN1992_ARTIFICIAL_VISCOSITY: &str = "monaghan1992_artificial_viscosity";
+pub const GRAVITY: &str = "gravity";
+pub const INTEGRATE: &str = "joubert2020_predictor_corrector";
+pub const BODY_LOADS: &str = "joubert2020_body_loads";
+pub const BLOWUP_CHECK: &str = "blowup_check";
+
+/// The stages of one fluid step for `scene`, in execution order. Effects that are off
+/// are absent. Continuity, the pressure gradient, the viscous terms and gravity are one
+/// fused pair loop on the GPU (`fluid_rates`); they are listed separately because they
+/// are switched separately.
+pub fn stages(scene: &Scene) -> Vec<Stage> {
+    let mut out = Vec::new();
+    let Some(f) = &scene.fluid else {
+        return out;
+    };
+    let mut push = |name: &'static str, reason: String| out.push(Stage { name, reason });
+    push(
+        NEIGHBOUR_GRID,
+        format!("cell size = support {:.3e} m; counting sort by cell once per step", f.support_radius()),
+    );
+    let resolved = scene.has_resolved_bodies();
+    if resolved {
+        push(MARKER_UPDATE, "resolved bodies: markers placed from the DEM's coupling points, extrapolated x += v·τ inside the window".into());
+    }
+    let walls = match scene.domain.walls {
+        WallKind::NoSlip => "no-slip",
+        WallKind::FreeSlip => "free-slip",
+    };
+    let obstacles = scene.bodies.iter().filter(|b| scene.is_fluid_obstacle(b)).count();
+    push(
+        BOUNDARY_PRESSURE,
+        format!(
+            "{walls} domain walls{}{}: wall pressure extrapolated from the fluid (Adami, Hu & Adams 2012), twice per step",
+            if obstacles > 0 { format!(", {obstacles} fixed box obstacle(s)") } else { String::new() },
+            if resolved { ", body markers" } else { "" }
+        ),
+    );
+    push(CONTINUITY, "weakly compressible density (standard form of Joubert eq. 12, no gradient correction)".into());
+    push(MOMENTUM_PRESSURE, "symmetric pressure gradient −Σ m (p_i/ρ_i² + p_j/ρ_j²) ∇W".into());
+    if scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0 {
+        push(MORRIS1997_VISCOSITY, format!("effects.viscosity = laminar, ν = {:e} m²/s", f.kinematic_viscosity));
+    }
+    if scene.effects.artificial_viscosity > 0.0 {
+        push(
+            MONAGHAN1992_ARTIFICIAL_VISCOSITY,
+            format!("effects.artificial_viscosity α = {}", scene.effects.artificial_viscosity),
+        );
+    }
+    if scene.gravity.on_fluid && scene.gravity.vector.iter().any(|g| *g != 0.0) {
+        push(GRAVITY, format!("gravity.on_fluid = true, g = {:?} m/s²", scene.gravity.vector));
+    }
+    push(INTEGRATE, "Joubert eqs. (20)–(23): predictor, corrector, average; positions once per step".into());
+    if resolved {
+        push(BODY_LOADS, "resolved bodies: Joubert eqs. (31)–(32) over the markers, averaged over the window, tree-reduced per body".into());
+    }
+    push(BLOWUP_CHECK, "once per window: non-finite or runaway density/velocity, grid overflow".into());
+    out
+}

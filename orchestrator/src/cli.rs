@@ -1,0 +1,118 @@
+//! The `couplet` command line: run, plan and benchmark coupled SPH–DEM scenes; also the
+//! fluid and DEM server roles, so that one binary is all a machine needs. It lives in
+//! the library so that the cross-process tests can build the same CLI as their own
+//! binary (`tests/src/bin/couplet-cli.rs`).
+
+use crate::{bench, plan, run, RunOptions, RunSummary};
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "couplet", version, about = "SPH fluid (GPU) + DEM co-simulation")]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Run a scene end to end and record it to OUT/run.mcap.
+    Run {
+        scene: PathBuf,
+        /// Output folder. Default: out/<scene name>.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Override fluid.spacing, m.
+        #[arg(long)]
+        spacing: Option<f64>,
+        /// Stop after this many coupling windows.
+        #[arg(long)]
+        windows: Option<u64>,
+    },
+    /// Print the processes, GPU stages and time-step limits a scene will use, and why.
+    Plan {
+        scene: PathBuf,
+        #[arg(long)]
+        spacing: Option<f64>,
+    },
+    /// Time the fluid of a scene headless and the exchange of a short coupled run.
+    Bench {
+        scene: PathBuf,
+        /// Fluid steps to time.
+        #[arg(long, default_value_t = 50)]
+        steps: u32,
+        #[arg(long)]
+        spacing: Option<f64>,
+    },
+    /// (internal) Serve the fluid side of a run.
+    #[command(name = "fluid-server", hide = true)]
+    FluidServer { run_id: String, scene: PathBuf },
+    /// (internal) Serve the DEM side of a run.
+    #[command(name = "dem-server", hide = true)]
+    DemServer { run_id: String, scene: PathBuf },
+}
+
+/// Parses the process arguments and runs; the exit code is what `main` returns.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match real_main(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("couplet: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn real_main(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Cmd::Run { scene, out, spacing, windows } => {
+            let s = run(&RunOptions {
+                scene: scene.clone(),
+                out,
+                spacing,
+                max_windows: windows,
+                record: true,
+                progress: true,
+            })
+            .with_context(|| format!("running {}", scene.display()))?;
+            println!("{}", summary_text(&s));
+        }
+        Cmd::Plan { scene, spacing } => print!("{}", plan::plan(&scene, spacing)?),
+        Cmd::Bench { scene, steps, spacing } => print!("{}", bench::bench(&scene, steps, spacing)?),
+        Cmd::FluidServer { run_id, scene } => {
+            let s = couplet_protocol::Scene::load(&scene)?;
+            couplet_fluid::server::serve(&run_id, &s).context("fluid-server")?;
+        }
+        Cmd::DemServer { run_id, scene } => {
+            let s = couplet_protocol::Scene::load(&scene)?;
+            couplet_dem::server::serve(&run_id, &s).context("dem-server")?;
+        }
+    }
+    Ok(())
+}
+
+fn summary_text(s: &RunSummary) -> String {
+    let mut t = format!(
+        "done: {} windows, t = {:.4} s simulated in {:.1} s wall ({:.3} sim-s/s)\n",
+        s.windows,
+        s.sim_time,
+        s.wall_s,
+        s.sim_time / s.wall_s.max(1e-9)
+    );
+    t += &format!(
+        "per window: {:.1} µs wall; fluid {:.1} µs ({} substeps total); DEM {:.1} µs; exchange {:.1} µs ({:.2} %)\n",
+        s.window_wall_us,
+        s.fluid_compute_us,
+        s.fluid_substeps,
+        s.dem_compute_us,
+        s.exchange_us,
+        100.0 * s.exchange_us / s.window_wall_us.max(1e-9)
+    );
+    if let Some(r) = &s.recording {
+        t += &format!("recording: {}\n", r.display());
+    }
+    t
+}
