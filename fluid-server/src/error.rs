@@ -7,6 +7,8 @@ use crate::gpu::GpuError;
 pub enum FluidError {
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    #[error("neighbour grid: {0}")]
+    GridSetup(#[from] crate::neighbour_grid::GridError),
     #[error("the scene has no [fluid] section: there is nothing for the fluid solver to do")]
     NoFluid,
     #[error("fluid.blocks fill no particle: spacing {spacing} m is larger than every block")]
@@ -21,6 +23,10 @@ pub enum FluidError {
     MarkerOrder { index: usize, body: u32 },
     #[error("set_bodies: {what} of {item} is not finite: {value}")]
     NonFiniteInput { what: &'static str, item: String, value: String },
+    #[error("set_bodies: body state {index} names body {body}, beyond the {capacity} bodies the solver was set up for")]
+    BodyIndex { index: usize, body: u32, capacity: usize },
+    #[error("particle set: {what} has {got} entries, expected {expected}")]
+    BadParticleSet { what: &'static str, got: usize, expected: usize },
     #[error("advance: window {window} s must be a positive finite number")]
     BadWindow { window: f64 },
     #[error(

@@ -115,3 +115,27 @@ impl SmoothingKernel {
 pub(crate) fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
+
+/// `shaders/kernel.wgsl`: the library part (`kernel_w`, `kernel_grad_factor`) that pair
+/// kernels include.
+pub const KERNEL_WGSL: &str = include_str!("../shaders/kernel.wgsl");
+
+/// The library part of [`KERNEL_WGSL`].
+pub fn kernel_library() -> &'static str {
+    crate::sph_kernel::library(KERNEL_WGSL)
+}
+
+/// Compiles `kernel_eval` (W and F for a list of distances; the kernel's twin test).
+/// Group 0: binding 0 = distances (`f32`), binding 1 = output (`vec2<f32>`: W, F).
+pub fn eval_kernel(gpu: &crate::gpu::Gpu, c: &crate::constants::SphConstants) -> crate::sph_kernel::SphKernel {
+    use crate::sph_kernel::{Access, SphKernel, PARTICLES};
+    let consts = c.wgsl();
+    SphKernel::new(
+        gpu,
+        "sph: kernel_eval",
+        &[&consts, KERNEL_WGSL],
+        "kernel_eval",
+        &[(PARTICLES, &[(0, Access::Read), (1, Access::ReadWrite)])],
+        None,
+    )
+}

@@ -9,14 +9,89 @@ use crate::constants::SphConstants;
 use crate::error::FluidError;
 use couplet_protocol::{Scene, Shape};
 
-/// Initial particle set in world coordinates, m, kg/m³.
+/// A particle set in world coordinates (SI units), indexed by id: the initial state of
+/// a solver, and the CPU side of the kernel twins (`f64`).
 #[derive(Debug, Clone, Default)]
-pub struct InitialParticles {
+pub struct ParticleSet {
     pub pos: Vec<[f64; 3]>,
-    /// Initial density of every particle.
+    pub vel: Vec<[f64; 3]>,
     pub rho: Vec<f64>,
+    pub press: Vec<f64>,
+    /// Original id of each entry (equal to the index for a fresh set; GPU readbacks are
+    /// in sorted order).
+    pub id: Vec<u32>,
+    pub kinds: ParticleKinds,
+}
+
+/// How many particles of each kind; kinds are id ranges.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ParticleKinds {
     pub n_fluid: usize,
     pub n_wall: usize,
+    pub n_markers: usize,
+}
+
+/// What a particle is, from its id.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    Fluid,
+    Wall,
+    Marker,
+}
+
+impl ParticleKinds {
+    pub fn total(&self) -> usize {
+        self.n_fluid + self.n_wall + self.n_markers
+    }
+    pub fn marker_base(&self) -> usize {
+        self.n_fluid + self.n_wall
+    }
+    pub fn kind(&self, id: u32) -> Kind {
+        let id = id as usize;
+        if id < self.n_fluid {
+            Kind::Fluid
+        } else if id < self.marker_base() {
+            Kind::Wall
+        } else {
+            Kind::Marker
+        }
+    }
+}
+
+impl ParticleSet {
+    pub fn len(&self) -> usize {
+        self.pos.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.pos.is_empty()
+    }
+    /// Indices of the particles within `radius` of particle `i` (itself excluded):
+    /// brute force, for the CPU twins.
+    pub fn neighbours(&self, i: usize, radius: f64) -> impl Iterator<Item = usize> + '_ {
+        let p = self.pos[i];
+        let r2 = radius * radius;
+        (0..self.len()).filter(move |&j| {
+            let d = sub(p, self.pos[j]);
+            j != i && dot(d, d) < r2
+        })
+    }
+    /// Entry index of each id (inverse of `id`).
+    pub fn index_of_id(&self) -> Vec<usize> {
+        let mut inv = vec![usize::MAX; self.len()];
+        for (k, &id) in self.id.iter().enumerate() {
+            if let Some(slot) = inv.get_mut(id as usize) {
+                *slot = k;
+            }
+        }
+        inv
+    }
+}
+
+pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Number of wall layers: `ceil(support)` spacings, so that a fluid particle touching
@@ -82,7 +157,7 @@ impl Obstacle {
 ///   h_s the top of the highest block over the particle's (x, z) column, ρ from the
 ///   inverted Tait equation (Joubert eq. 4); assumes y is up (the scene default). Else ρ0.
 ///   Walls start at ρ0; the boundary-pressure stage sets them before they are used.
-pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<InitialParticles, FluidError> {
+pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet, FluidError> {
     let f = scene.fluid.as_ref().ok_or(FluidError::NoFluid)?;
     let delta = f.spacing;
     let dom = &scene.domain;
@@ -184,5 +259,14 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<InitialParti
             *r = c.density(p_h);
         }
     }
-    Ok(InitialParticles { pos, rho, n_fluid, n_wall })
+    let n = pos.len();
+    let press = rho.iter().take(n_fluid).map(|r| c.pressure(*r)).chain(std::iter::repeat_n(0.0, n_wall)).collect();
+    Ok(ParticleSet {
+        vel: vec![[0.0; 3]; n],
+        id: (0..n as u32).collect(),
+        pos,
+        rho,
+        press,
+        kinds: ParticleKinds { n_fluid, n_wall, n_markers: 0 },
+    })
 }

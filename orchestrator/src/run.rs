@@ -12,7 +12,7 @@ use crate::record::{RecordError, Recorder};
 use crate::window::{choose_window, WindowPlan};
 use couplet_protocol::transport::{Endpoint, TransportError, ValueReceiver};
 use couplet_protocol::{
-    BodyLoad, BodyState, Command, CommandKind, Hello, ParticleRecord, Role, Scene, SceneError,
+    check_hello, HandshakeError, BodyLoad, BodyState, Command, CommandKind, Hello, ParticleRecord, Role, Scene, SceneError,
     ServiceLeaf, SideReport, PROTOCOL_VERSION,
 };
 use indicatif::{ProgressBar, ProgressStyle};
@@ -33,12 +33,8 @@ pub enum RunError {
     Transport(#[from] TransportError),
     #[error(transparent)]
     Record(#[from] RecordError),
-    #[error("{role} speaks protocol version {got}, this orchestrator speaks {PROTOCOL_VERSION}: refusing it")]
-    Version { role: &'static str, got: u32 },
-    #[error("a hello from an unknown role {0}")]
-    UnknownRole(u32),
-    #[error("the servers did not say hello within {0:?}")]
-    HelloTimeout(Duration),
+    #[error(transparent)]
+    Handshake(#[from] HandshakeError),
     #[error("{what}: {source}")]
     Io { what: String, source: std::io::Error },
     #[error("the scene has neither fluid nor bodies: nothing to simulate")]
@@ -197,14 +193,9 @@ fn drive(
             }
             Ok(())
         })?;
-        let role = Role::from_u32(h.role).ok_or(RunError::UnknownRole(h.role))?;
-        if h.protocol_version != PROTOCOL_VERSION {
-            return Err(RunError::Version { role: role.name(), got: h.protocol_version });
-        }
-        match role {
-            Role::Fluid => fluid_hello = Some(h),
+        match check_hello(&h)? {
             Role::Dem => dem_hello = Some(h),
-            Role::Orchestrator => return Err(RunError::UnknownRole(h.role)),
+            _ => fluid_hello = Some(h),
         }
     }
 

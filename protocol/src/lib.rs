@@ -5,6 +5,7 @@ pub use payload::{
     BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, ParticleRecord, Role,
     SideReport, WindowHeader, monotonic_ns, PROTOCOL_VERSION,
 };
+pub use handshake::{check_hello, HandshakeError};
 pub use scene::{
     BodySpec, CouplingMode, CouplingScheme, DemSpec, Domain, EffectsSpec, FluidBlock, FluidSpec,
     GravitySpec, KernelKind, Meta, Motion, Scene, SceneError, Shape, TimeSpec, ViscosityModel,
@@ -13,6 +14,7 @@ pub use scene::{
 pub use service::{service_name, ServiceLeaf};
 pub use validate::{validate_loads, validate_points, validate_states, ValidationError};
 
+pub mod handshake;
 pub mod payload;
 pub mod scene;
 pub mod service;

@@ -591,7 +591,7 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         let e = Scene::parse(&text, Path::new("x.toml")).unwrap_err();
         match e {
             SceneError::Parse { line, message, .. } => {
-                assert_eq!(line, 16, "{message}");
+                assert_eq!(line, 14, "{message}"); // line 14 of MINIMAL after the insertion
                 assert!(message.contains("soundspeed"), "{message}");
             }
             other => panic!("{other}"),

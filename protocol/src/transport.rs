@@ -59,6 +59,9 @@ pub struct Endpoint {
 
 impl Endpoint {
     pub fn new(run_id: &str) -> Result<Self, TransportError> {
+        // iceoryx2 warns that it runs on its default config; couplet means it to.
+        // `IOX2_LOG_LEVEL` still overrides this for debugging.
+        set_log_level_from_env_or(LogLevel::Error);
         let node = NodeBuilder::new()
             // The orchestrator supervises the children and handles their signals.
             .signal_handling_mode(SignalHandlingMode::Disabled)

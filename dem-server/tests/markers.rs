@@ -1,0 +1,235 @@
+//! Coupling markers (Joubert 2020 §2.6): areas sum to the analytic surface, spacing ≈ δ,
+//! outward unit normals, count ∝ area/δ², outer surface only for compounds, and the
+//! world-frame transform of Joubert eq. (33).
+
+mod common;
+
+use common::{scene, sphere, WATER};
+use couplet_dem::{generate_markers, DemError, LocalMarker, MarkerSet};
+use couplet_protocol::{BodyState, Shape};
+use std::f64::consts::PI;
+
+fn total_area(m: &[LocalMarker]) -> f64 {
+    m.iter().map(|m| m.area).sum()
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+/// Mean distance from each marker to its nearest neighbour (brute force).
+fn mean_nearest(m: &[LocalMarker]) -> f64 {
+    let d2 = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>();
+    let sum: f64 = m
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            m.iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, b)| d2(a.position, b.position))
+                .fold(f64::INFINITY, f64::min)
+                .sqrt()
+        })
+        .sum();
+    sum / m.len() as f64
+}
+
+/// Normals are unit and point away from the body's centre (valid for convex shapes).
+fn assert_outward_unit(m: &[LocalMarker]) {
+    for k in m {
+        let n = k.normal;
+        assert!(((n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() - 1.0).abs() < 1e-12, "{k:?}");
+        let outward = (0..3).map(|i| n[i] * k.position[i]).sum::<f64>();
+        assert!(outward > 0.0, "inward normal {k:?}");
+    }
+}
+
+fn tetrahedron(a: f64) -> Shape {
+    // Edge 2√2 a, area √3 (2√2 a)² = 8√3 a², centroid at the origin.
+    Shape::Convex { vertices: vec![[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]] }
+}
+
+fn octahedron(a: f64) -> Shape {
+    // Edge √2 a, area 2√3 (√2 a)² = 4√3 a²; offset by (1, 2, 3) to exercise recentring.
+    let v = [[a, 0.0, 0.0], [-a, 0.0, 0.0], [0.0, a, 0.0], [0.0, -a, 0.0], [0.0, 0.0, a], [0.0, 0.0, -a]];
+    Shape::Convex { vertices: v.iter().map(|p| [p[0] + 1.0, p[1] + 2.0, p[2] + 3.0]).collect() }
+}
+
+fn cube_at(x0: f64, a: f64) -> Vec<[f64; 3]> {
+    let mut v = Vec::new();
+    for i in 0..8 {
+        let b = |k: usize| if i >> k & 1 == 1 { a } else { 0.0 };
+        v.push([x0 + b(0), b(1), b(2)]);
+    }
+    v
+}
+
+/// Sphere: the areas sum to 4πr² (rel 1e-9: each patch's area is exact).
+#[test]
+fn sphere_area_is_exact() {
+    let (r, d) = (0.1, 0.0073);
+    let m = generate_markers(&Shape::Sphere { radius: r }, d).unwrap();
+    assert!(rel(total_area(&m), 4.0 * PI * r * r) < 1e-9, "{}", total_area(&m));
+    assert_outward_unit(&m);
+    assert!(m.iter().all(|k| ((0..3).map(|i| k.position[i].powi(2)).sum::<f64>().sqrt() - r).abs() < 1e-12));
+}
+
+/// Box: the areas sum to 8(ab + bc + ca) (rel 1e-12: bilinear cells tile each face).
+#[test]
+fn box_area_is_exact() {
+    let h = [0.1, 0.2, 0.3];
+    let m = generate_markers(&Shape::Box { half_extents: h }, 0.013).unwrap();
+    let exact = 8.0 * (h[0] * h[1] + h[1] * h[2] + h[2] * h[0]);
+    assert!(rel(total_area(&m), exact) < 1e-12, "{} vs {exact}", total_area(&m));
+    assert_outward_unit(&m);
+}
+
+/// Cylinder: the areas sum to 2πr·2h + 2πr² (rel 1e-12: the side and cap patches of the
+/// (φ, y) and (ρ, φ) parameterisations have exact areas).
+#[test]
+fn cylinder_area_is_exact() {
+    let (r, h) = (0.1, 0.15);
+    let m = generate_markers(&Shape::Cylinder { radius: r, half_height: h }, 0.0091).unwrap();
+    let exact = 2.0 * PI * r * 2.0 * h + 2.0 * PI * r * r;
+    assert!(rel(total_area(&m), exact) < 1e-12, "{} vs {exact}", total_area(&m));
+    assert_outward_unit(&m);
+}
+
+/// Convex hulls: a regular tetrahedron (area 8√3 a²) and an offset regular octahedron
+/// (area 4√3 a²), triangular faces subdivided; rel 1e-9.
+#[test]
+fn hull_areas_are_exact() {
+    let a = 0.1;
+    let m = generate_markers(&tetrahedron(a), 0.01).unwrap();
+    assert!(rel(total_area(&m), 8.0 * 3f64.sqrt() * a * a) < 1e-9, "{}", total_area(&m));
+    assert_outward_unit(&m);
+    let m = generate_markers(&octahedron(a), 0.01).unwrap();
+    assert!(rel(total_area(&m), 4.0 * 3f64.sqrt() * a * a) < 1e-9, "{}", total_area(&m));
+    // Recentred on the centroid: outward normals are tested about the origin.
+    assert_outward_unit(&m);
+}
+
+/// A hull with rectangular faces (a box given as 8 corner vertices plus an interior point)
+/// gets the same bilinear cells as the box shape.
+#[test]
+fn hull_rectangles_are_meshed_bilinearly() {
+    let mut v = cube_at(-0.1, 0.2).iter().map(|p| [p[0], p[1] - 0.1, p[2] - 0.1]).collect::<Vec<_>>();
+    v.push([0.01, 0.02, -0.03]);
+    let hull = generate_markers(&Shape::Convex { vertices: v }, 0.02).unwrap();
+    let cube = generate_markers(&Shape::Box { half_extents: [0.1; 3] }, 0.02).unwrap();
+    assert_eq!(hull.len(), cube.len());
+    assert_eq!(hull.len(), 6 * 10 * 10);
+    assert!(rel(total_area(&hull), 6.0 * 0.04) < 1e-12);
+}
+
+/// Compound of two cubes of side a sharing a face (Joubert §2.6: only the outer surface
+/// is meshed): the shared face's markers of both cubes are dropped, outer area 10a² (rel 1e-12).
+#[test]
+fn compound_keeps_outer_surface_only() {
+    let (a, d) = (0.1, 0.01);
+    let m = generate_markers(&Shape::Compound { parts: vec![cube_at(0.0, a), cube_at(a, a)] }, d).unwrap();
+    assert!(rel(total_area(&m), 10.0 * a * a) < 1e-12, "{}", total_area(&m));
+    // 10 faces of 10 × 10 cells; recentred, the shared face is the plane x = 0.
+    assert_eq!(m.len(), 1000);
+    assert!(m.iter().all(|k| k.position[0].abs() > 1e-3 || k.normal[0] == 0.0));
+    assert!(m.iter().all(|k| k.position.iter().all(|x| x.abs() <= a + 1e-12)));
+}
+
+/// Overlapping compound parts are refused: their volume would count twice in eq. (28).
+#[test]
+fn overlapping_compound_is_refused() {
+    let e = generate_markers(&Shape::Compound { parts: vec![cube_at(0.0, 0.1), cube_at(0.05, 0.1)] }, 0.01).unwrap_err();
+    assert!(matches!(e, DemError::OverlappingParts { first: 0, second: 1, .. }), "{e}");
+    assert!(matches!(e, DemError::OverlappingParts { depth, .. } if (depth - 0.05).abs() < 1e-12), "{e}");
+}
+
+/// Marker spacing ≈ δ: mean nearest-neighbour distance within 30 % of δ on every shape.
+#[test]
+fn spacing_is_close_to_delta() {
+    let d = 0.01;
+    let shapes = [
+        Shape::Sphere { radius: 0.1 },
+        Shape::Box { half_extents: [0.1, 0.05, 0.08] },
+        Shape::Cylinder { radius: 0.07, half_height: 0.1 },
+        tetrahedron(0.08),
+        octahedron(0.1),
+    ];
+    for s in &shapes {
+        let m = generate_markers(s, d).unwrap();
+        let nn = mean_nearest(&m);
+        assert!((nn / d - 1.0).abs() < 0.3, "{s:?}: mean nearest neighbour {nn} for δ = {d}");
+        // Each marker stands for about δ² of surface.
+        let per = total_area(&m) / m.len() as f64 / (d * d);
+        assert!((per - 1.0).abs() < 0.3, "{s:?}: {per} δ² per marker");
+    }
+}
+
+/// Marker count scales like area/δ²: halving δ multiplies it by 4 (within 10 %).
+#[test]
+fn count_scales_with_inverse_square_spacing() {
+    for s in [Shape::Sphere { radius: 0.1 }, Shape::Cylinder { radius: 0.1, half_height: 0.1 }, octahedron(0.1)] {
+        let n1 = generate_markers(&s, 0.01).unwrap().len() as f64;
+        let n2 = generate_markers(&s, 0.005).unwrap().len() as f64;
+        assert!((n2 / n1 / 4.0 - 1.0).abs() < 0.1, "{s:?}: {n1} → {n2}");
+    }
+}
+
+/// Invalid spacings and absurd marker counts are refused with the value named.
+#[test]
+fn bad_spacing_is_refused() {
+    let e = generate_markers(&Shape::Sphere { radius: 1.0 }, 0.0).unwrap_err().to_string();
+    assert!(e.contains("spacing 0"), "{e}");
+    let e = generate_markers(&Shape::Sphere { radius: 1.0 }, 1e-5).unwrap_err();
+    assert!(matches!(e, DemError::TooManyMarkers { .. }), "{e}");
+}
+
+/// MarkerSet: only marker-coupled bodies, contiguous in body order; world points follow
+/// x + R·p, R·n and v + ω × (R·p) (Joubert eq. 33), checked for a 90° turn about z
+/// (R maps x → y) to 1e-6.
+#[test]
+fn marker_set_world_points() {
+    let bodies = sphere("a", 0.05, 1200.0, [0.2, 0.2, 0.2], "")
+        + &sphere("dry", 0.05, 1200.0, [0.5, 0.2, 0.5], "coupling = \"none\"")
+        + &sphere("c", 0.04, 1200.0, [0.8, 0.2, 0.8], "");
+    let s = scene(&format!("{WATER}\n{bodies}"));
+    let set = MarkerSet::from_scene(&s).unwrap();
+    let ranges = set.body_ranges();
+    assert_eq!(ranges.iter().map(|r| r.0).collect::<Vec<_>>(), vec![0, 2]);
+    assert_eq!(ranges[0].1.start, 0);
+    assert_eq!(ranges[0].1.end, ranges[1].1.start);
+    assert_eq!(ranges[1].1.end, set.len());
+    assert_eq!(set.body_count(), 2);
+
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let mut states = vec![BodyState::default(); 3];
+    states[0] = BodyState {
+        position: [0.2, 0.2, 0.2],
+        orientation: [0.0, 0.0, h, h],
+        linear_velocity: [1.0, 0.0, 0.0],
+        angular_velocity: [0.0, 0.0, 2.0],
+        ..Default::default()
+    };
+    states[2].orientation = [0.0, 0.0, 0.0, 1.0];
+    let mut pts = Vec::new();
+    set.world_points(&states, &mut pts);
+    assert_eq!(pts.len(), set.len());
+    for (p, m) in pts.iter().zip(set.local()).take(ranges[0].1.end) {
+        let rp = [-m.position[1], m.position[0], m.position[2]];
+        let rn = [-m.normal[1], m.normal[0], m.normal[2]];
+        // ω × (R p) with ω = 2 ẑ: 2 (−(Rp)_y, (Rp)_x, 0).
+        let v = [1.0 - 2.0 * rp[1], 2.0 * rp[0], 0.0];
+        for k in 0..3 {
+            assert!((p.position[k] as f64 - (0.2 + rp[k])).abs() < 1e-6);
+            assert!((p.normal[k] as f64 - rn[k]).abs() < 1e-6);
+            assert!((p.velocity[k] as f64 - v[k]).abs() < 1e-6);
+        }
+        assert_eq!(p.body, 0);
+        assert!((p.measure as f64 - m.area).abs() < 1e-6 * m.area);
+    }
+    assert!(pts[ranges[1].1.clone()].iter().all(|p| p.body == 2));
+
+    // Without fluid there is nothing to couple to.
+    let dry = scene(&bodies);
+    assert_eq!(MarkerSet::from_scene(&dry).unwrap().len(), 0);
+}

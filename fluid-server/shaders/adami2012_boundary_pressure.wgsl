@@ -1,0 +1,55 @@
+// ---- adami2012_boundary_pressure.wgsl (CPU twin: adami2012_boundary_pressure.rs) ----
+// Adami, Hu & Adams (2012) eq. (27), the uncorrected analogue of Joubert eq. (25):
+//   p_w = [Σ_f p_f W_wf + (g − a_w)·Σ_f ρ_f r_wf W_wf] / Σ_f W_wf
+// over fluid neighbours f, with g the gravity on the fluid and a_w = 0 (walls are
+// fixed; markers' accelerations are not sent by the DEM in this version). ρ_w from the
+// inverted Tait equation. No fluid neighbour: p = 0, ρ = ρ0.
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel, tait_eos (library).
+
+// ---- kernels ----
+@group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> rho: array<f32>;
+@group(0) @binding(3) var<storage, read_write> press: array<f32>;
+@group(0) @binding(4) var<storage, read> id: array<u32>;
+
+// Threads of fluid particles return at once; wall and marker threads write only their
+// own entries and read only fluid entries, so there is no race.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
+                               @builtin(local_invocation_index) lid: u32,
+                               @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= params.n_total || is_fluid(id[i]) {
+        return;
+    }
+    let p_i = pos[i].xyz;
+    let c_i = cell_coord(p_i);
+    var sum_pw = 0.0;
+    var sum_rho_r_w = vec3<f32>(0.0);
+    var sum_w = 0.0;
+    for (var dz = -1; dz <= 1; dz++) {
+        for (var dy = -1; dy <= 1; dy++) {
+            let js = row_range(c_i, dy, dz);
+            for (var j = js.x; j < js.y; j++) {
+                let r_wf = p_i - pos[j].xyz;
+                let r2 = dot(r_wf, r_wf);
+                if r2 >= SUPPORT_RADIUS2 || !is_fluid(id[j]) {
+                    continue;
+                }
+                let w = kernel_w(sqrt(r2));
+                sum_pw += press[j] * w;
+                sum_rho_r_w += rho[j] * w * r_wf;
+                sum_w += w;
+            }
+        }
+    }
+    if sum_w > 0.0 {
+        // a_w = 0 (see the header).
+        let p_w = (sum_pw + dot(GRAVITY, sum_rho_r_w)) / sum_w;
+        press[i] = p_w;
+        rho[i] = tait_density(p_w);
+    } else {
+        press[i] = 0.0;
+        rho[i] = RHO0;
+    }
+}

@@ -1,0 +1,57 @@
+// ---- fluid_rates.wgsl: continuity + momentum in one pair loop (CPU twins:
+// continuity.rs, momentum.rs) ----
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel, continuity, momentum.
+// One thread per fluid particle gathers from the 27 neighbour cells; no atomics.
+
+// ---- kernels ----
+@group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> vel: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> rho: array<f32>;
+@group(0) @binding(3) var<storage, read> press: array<f32>;
+@group(0) @binding(4) var<storage, read> id: array<u32>;
+@group(0) @binding(5) var<storage, read_write> drho: array<f32>;
+@group(0) @binding(6) var<storage, read_write> dvel: array<vec4<f32>>;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
+               @builtin(local_invocation_index) lid: u32,
+               @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= params.n_total || !is_fluid(id[i]) {
+        return;
+    }
+    let p_i = pos[i].xyz;
+    let u_i = vel[i].xyz;
+    let rho_i = rho[i];
+    let pr_i = press[i];
+    let c_i = cell_coord(p_i);
+    var drho_i = 0.0;
+    var acc = vec3<f32>(0.0);
+    for (var dz = -1; dz <= 1; dz++) {
+        for (var dy = -1; dy <= 1; dy++) {
+            let js = row_range(c_i, dy, dz);
+            for (var j = js.x; j < js.y; j++) {
+                let r_ij = p_i - pos[j].xyz;
+                let r2 = dot(r_ij, r_ij);
+                if r2 >= SUPPORT_RADIUS2 || j == i {
+                    continue;
+                }
+                let grad_w = kernel_grad_factor(sqrt(r2)) * r_ij;
+                let u_ij = u_i - vel[j].xyz;
+                let rho_j = rho[j];
+                drho_i += continuity_term(u_ij, grad_w);
+                acc += pressure_term(pr_i, rho_i, press[j], rho_j, grad_w);
+                // Free-slip walls carry pressure but no shear.
+                let viscous = NO_SLIP_WALLS || !is_wall(id[j]);
+                if LAMINAR_VISCOSITY && viscous {
+                    acc += morris1997_viscous_term(rho_i, rho_j, r_ij, r2, u_ij, grad_w);
+                }
+                if ARTIFICIAL_VISCOSITY && viscous {
+                    acc += monaghan1992_artificial_viscous_term(rho_i, rho_j, r_ij, r2, u_ij, grad_w);
+                }
+            }
+        }
+    }
+    drho[i] = drho_i;
+    dvel[i] = vec4<f32>(acc + GRAVITY, 0.0);
+}

@@ -1,0 +1,76 @@
+// ---- joubert2020_body_loads.wgsl (CPU twin: joubert2020_body_loads.rs) ----
+// Joubert eqs. (31)–(32) with uncorrected gradients: per marker i
+//   t_i = (−p_i n_i + μ (∇u + ∇uᵀ)_i · n_i) ΔS_i,   ∇u_i = Σ_f V_f (u_f − u_i) ⊗ ∇W_if
+// over fluid neighbours f (V_f = m/ρ_f, μ = ρ0 ν), moment (r_i − r_cg) × t_i about the
+// body's centre of mass extrapolated like the markers (r_cg + v_cg τ).
+// Each evaluation adds weight·(t_i, M_i) to the marker's slot (indexed by marker id, so
+// in DEM order) with Kahan compensation; the window average is the sum.
+// reduce_body_loads then sums each body's contiguous marker range in one workgroup
+// with a tree reduction.
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel, marker_update (library).
+
+// ---- kernels ----
+@group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> vel: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> rho: array<f32>;
+@group(0) @binding(3) var<storage, read> press: array<f32>;
+@group(0) @binding(4) var<storage, read> id: array<u32>;
+@group(2) @binding(0) var<storage, read> markers_in: array<Marker>;
+@group(2) @binding(1) var<storage, read> bodies: array<Body>;
+@group(2) @binding(2) var<storage, read> clock: Clock;
+// Two vec4 per marker: force (xyz), moment (xyz); window sums.
+@group(2) @binding(3) var<storage, read_write> marker_load: array<vec4<f32>>;
+// Kahan compensation of marker_load.
+@group(2) @binding(4) var<storage, read_write> marker_load_c: array<vec4<f32>>;
+
+fn kahan_add(k: u32, x: vec4<f32>) {
+    let y = x - marker_load_c[k];
+    let s = marker_load[k];
+    let t = s + y;
+    marker_load_c[k] = (t - s) - y;
+    marker_load[k] = t;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn marker_loads(@builtin(workgroup_id) wid: vec3<u32>,
+                @builtin(local_invocation_index) lid: u32,
+                @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= params.n_total || !is_marker(id[i]) {
+        return;
+    }
+    let k = marker_index(id[i]);
+    let m = markers_in[k];
+    let n = m.normal.xyz;
+    let p_i = pos[i].xyz;
+    let u_i = vel[i].xyz;
+    var traction = -press[i] * n;
+    if NU > 0.0 {
+        let c_i = cell_coord(p_i);
+        var grad_u = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+        for (var dz = -1; dz <= 1; dz++) {
+            for (var dy = -1; dy <= 1; dy++) {
+                let js = row_range(c_i, dy, dz);
+                for (var j = js.x; j < js.y; j++) {
+                    let r_ij = p_i - pos[j].xyz;
+                    let r2 = dot(r_ij, r_ij);
+                    if r2 >= SUPPORT_RADIUS2 || !is_fluid(id[j]) {
+                        continue;
+                    }
+                    let grad_w = kernel_grad_factor(sqrt(r2)) * r_ij;
+                    let du = (MASS / rho[j]) * (vel[j].xyz - u_i);
+                    // Column b holds ∂u/∂x_b: grad_u[b][a] = ∂u_a/∂x_b.
+                    grad_u += mat3x3<f32>(du * grad_w.x, du * grad_w.y, du * grad_w.z);
+                }
+            }
+        }
+        // (∇u + ∇uᵀ)·n = G n + Gᵀ n.
+        traction += (RHO0 * NU) * (grad_u * n + n * grad_u);
+    }
+    traction *= m.pos_area.w;
+    let b = bodies[bitcast<u32>(m.vel_body.w)];
+    let arm = p_i - (b.cg.xyz + clock.tau * b.vel.xyz);
+    let w = params.load_weight;
+    kahan_add(2u * k, vec4<f32>(w * traction, 0.0));
+    kahan_add(2u * k + 1u, vec4<f32>(w * cross(arm, traction), 0.0));
+}

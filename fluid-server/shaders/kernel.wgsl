@@ -1,0 +1,77 @@
+// ---- kernel.wgsl: smoothing kernels (CPU twin: kernel.rs) ----
+// Needs the SPH constants (constants.rs): KERNEL_QUINTIC, H, INV_H, SIGMA.
+// W(r) = σ f(q), q = r/h; ∇_i W(r_i − r_j) = F(r) r_ij with F = W'(r)/r.
+
+// Wendland (1995) C2, support 2h: f(q) = (1 − q/2)⁴ (2q + 1).
+fn wendland_c2_w(q: f32) -> f32 {
+    let t = max(1.0 - 0.5 * q, 0.0);
+    let t2 = t * t;
+    return SIGMA * t2 * t2 * (2.0 * q + 1.0);
+}
+
+// W'(r)/r = −5 σ/h² (1 − q/2)³.
+fn wendland_c2_grad_factor(q: f32) -> f32 {
+    let t = max(1.0 - 0.5 * q, 0.0);
+    return -5.0 * SIGMA * INV_H * INV_H * t * t * t;
+}
+
+// Joubert eq. (6) (Morris 1997), support 3h: (3−q)⁵ − 6(2−q)⁵ + 15(1−q)⁵.
+fn quintic_w(q: f32) -> f32 {
+    let a = max(3.0 - q, 0.0);
+    let b = max(2.0 - q, 0.0);
+    let c = max(1.0 - q, 0.0);
+    let a2 = a * a;
+    let b2 = b * b;
+    let c2 = c * c;
+    return SIGMA * (a2 * a2 * a - 6.0 * b2 * b2 * b + 15.0 * c2 * c2 * c);
+}
+
+// W'(r)/r = σ/(h r) (−5(3−q)⁴ + 30(2−q)⁴ − 75(1−q)⁴); the bracket vanishes like −120 q
+// at q → 0, so the quotient is taken from its limit below QUINTIC_Q_SMALL.
+const QUINTIC_Q_SMALL: f32 = 1e-3;
+fn quintic_grad_factor(q: f32) -> f32 {
+    if q < QUINTIC_Q_SMALL {
+        return -120.0 * SIGMA * INV_H * INV_H;
+    }
+    let a = max(3.0 - q, 0.0);
+    let b = max(2.0 - q, 0.0);
+    let c = max(1.0 - q, 0.0);
+    let a2 = a * a;
+    let b2 = b * b;
+    let c2 = c * c;
+    return SIGMA * INV_H * INV_H * (-5.0 * a2 * a2 + 30.0 * b2 * b2 - 75.0 * c2 * c2) / q;
+}
+
+fn kernel_w(r: f32) -> f32 {
+    let q = r * INV_H;
+    if KERNEL_QUINTIC {
+        return quintic_w(q);
+    }
+    return wendland_c2_w(q);
+}
+
+fn kernel_grad_factor(r: f32) -> f32 {
+    let q = r * INV_H;
+    if KERNEL_QUINTIC {
+        return quintic_grad_factor(q);
+    }
+    return wendland_c2_grad_factor(q);
+}
+// ---- end of kernel.wgsl ----
+
+// ---- kernels ----
+// Kernel twin test only: W(r) and F(r) for a list of distances.
+@group(0) @binding(0) var<storage, read> kernel_r: array<f32>;
+@group(0) @binding(1) var<storage, read_write> kernel_out: array<vec2<f32>>;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn kernel_eval(@builtin(workgroup_id) wid: vec3<u32>,
+               @builtin(local_invocation_index) lid: u32,
+               @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= arrayLength(&kernel_r) {
+        return;
+    }
+    let r = kernel_r[i];
+    kernel_out[i] = vec2<f32>(kernel_w(r), kernel_grad_factor(r));
+}

@@ -1,0 +1,30 @@
+// ---- tait_eos.wgsl: Joubert eq. (4) (CPU twin: tait_eos.rs) ----
+
+// p = ρ0 c²/γ ((ρ/ρ0)^γ − 1): Joubert eq. (4).
+fn tait_pressure(rho: f32) -> f32 {
+    return TAIT_B * (pow(rho / RHO0, GAMMA) - 1.0);
+}
+
+// Joubert eq. (4) inverted: ρ = ρ0 (1 + p/B)^(1/γ); the base is bounded below by
+// MIN_TAIT_BASE (constants.rs) so a wall with a nearly empty support stays finite.
+fn tait_density(p: f32) -> f32 {
+    return RHO0 * pow(max(1.0 + p / TAIT_B, MIN_TAIT_BASE), 1.0 / GAMMA);
+}
+
+// ---- kernels ----
+@group(0) @binding(2) var<storage, read> rho: array<f32>;
+@group(0) @binding(3) var<storage, read_write> press: array<f32>;
+@group(0) @binding(4) var<storage, read> id: array<u32>;
+
+// Pressure of every fluid particle from its density (start of a run; inside a step the
+// EOS is fused into the integrator's passes).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn tait_eos(@builtin(workgroup_id) wid: vec3<u32>,
+            @builtin(local_invocation_index) lid: u32,
+            @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= params.n_total || !is_fluid(id[i]) {
+        return;
+    }
+    press[i] = tait_pressure(rho[i]);
+}

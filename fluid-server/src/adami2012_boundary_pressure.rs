@@ -1,0 +1,68 @@
+//! Wall and marker pressure of Adami, Hu & Adams (2012), eq. (27): the uncorrected
+//! analogue of Joubert eq. (25),
+//!
+//! `p_w = [Σ_f p_f W_wf + (g − a_w)·Σ_f ρ_f r_wf W_wf] / Σ_f W_wf`
+//!
+//! over fluid neighbours f, g the gravity on the fluid (zero when
+//! `gravity.on_fluid = false`). a_w = 0: walls are fixed, and in this version markers
+//! are treated as moving walls without acceleration (the DEM does not send body
+//! accelerations yet). ρ_w from the inverted Tait equation; no fluid neighbour: p = 0,
+//! ρ = ρ0. WGSL: `shaders/adami2012_boundary_pressure.wgsl`.
+
+use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::gpu::Gpu;
+use crate::kernel::kernel_library;
+use crate::neighbour_grid::GRID_COMMON_WGSL;
+use crate::particles::{dot, sub, Kind, ParticleSet};
+use crate::sph_kernel::{library, particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+use crate::tait_eos::TAIT_EOS_WGSL;
+
+pub const BOUNDARY_PRESSURE_WGSL: &str = include_str!("../shaders/adami2012_boundary_pressure.wgsl");
+
+pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
+    let consts = c.wgsl();
+    SphKernel::new(
+        gpu,
+        "sph: adami2012_boundary_pressure",
+        &[&consts, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), library(TAIT_EOS_WGSL), BOUNDARY_PRESSURE_WGSL],
+        "adami2012_boundary_pressure",
+        &[
+            (
+                PARTICLES,
+                &[(pb::POS, Access::Read), (pb::RHO, Access::ReadWrite), (pb::PRESS, Access::ReadWrite), (pb::ID, Access::Read)],
+            ),
+            (PARAMS, &[(0, Access::Uniform)]),
+        ],
+        Some(grid_layout),
+    )
+}
+
+/// CPU twin: (p, ρ) of every wall or marker entry; `None` for fluid entries.
+pub fn boundary_pressure_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<(f64, f64)>> {
+    (0..set.len())
+        .map(|i| {
+            if set.kinds.kind(set.id[i]) == Kind::Fluid {
+                return None;
+            }
+            let (mut sum_pw, mut sum_rrw, mut sum_w) = (0.0, [0.0; 3], 0.0);
+            for j in set.neighbours(i, c.support_radius()) {
+                if set.kinds.kind(set.id[j]) != Kind::Fluid {
+                    continue;
+                }
+                let r_wf = sub(set.pos[i], set.pos[j]);
+                let w = c.kernel.w(dot(r_wf, r_wf).sqrt());
+                sum_pw += set.press[j] * w;
+                for k in 0..3 {
+                    sum_rrw[k] += set.rho[j] * r_wf[k] * w;
+                }
+                sum_w += w;
+            }
+            Some(if sum_w > 0.0 {
+                let p = (sum_pw + dot(c.gravity_fluid, sum_rrw)) / sum_w;
+                (p, c.density(p))
+            } else {
+                (0.0, c.rho0)
+            })
+        })
+        .collect()
+}

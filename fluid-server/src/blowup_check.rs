@@ -1,0 +1,45 @@
+//! End-of-window blow-up check (DESIGN.md, "Failure model"): the smallest fluid id whose
+//! position, velocity or density is non-finite, whose density deviates from ρ0 by more
+//! than [`BLOWUP_DENSITY_DEVIATION`], or whose speed exceeds c_s, and that particle's
+//! values. Two small passes and a 48-byte readback per window.
+//! WGSL: `shaders/blowup_check.wgsl` (`find_bad`, `capture_bad`).
+
+use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::gpu::Gpu;
+use crate::sph_kernel::{param_binding as qb, particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+
+pub const BLOWUP_CHECK_WGSL: &str = include_str!("../shaders/blowup_check.wgsl");
+
+/// Largest |ρ/ρ0 − 1| of a healthy fluid particle. WCSPH keeps density variations near
+/// 1 % (c_s ≥ 10 u_max, Joubert §2.1); 50 % is a run that has already failed.
+pub const BLOWUP_DENSITY_DEVIATION: f64 = 0.5;
+
+/// Status word meaning "no bad particle".
+pub const NO_BAD_ID: u32 = u32::MAX;
+
+const BINDINGS: &[(u32, Access)] =
+    &[(pb::POS, Access::Read), (pb::VEL, Access::Read), (pb::RHO, Access::Read), (pb::PRESS, Access::Read), (pb::ID, Access::Read)];
+
+fn build(gpu: &Gpu, c: &SphConstants, label: &'static str, entry: &str) -> SphKernel {
+    let consts = c.wgsl();
+    let limit = format!("const BLOWUP_DENSITY_DEVIATION: f32 = {BLOWUP_DENSITY_DEVIATION:e};\n");
+    SphKernel::new(
+        gpu,
+        label,
+        &[&consts, &limit, STEP_PARAMS_WGSL, BLOWUP_CHECK_WGSL],
+        entry,
+        &[
+            (PARTICLES, BINDINGS),
+            (PARAMS, &[(0, Access::Uniform), (qb::STATUS, Access::ReadWrite), (qb::BAD_VALUES, Access::ReadWrite)]),
+        ],
+        None,
+    )
+}
+
+pub fn find_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
+    build(gpu, c, "sph: blowup find", "find_bad")
+}
+
+pub fn capture_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
+    build(gpu, c, "sph: blowup capture", "capture_bad")
+}

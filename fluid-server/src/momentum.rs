@@ -1,0 +1,55 @@
+//! Momentum equation of standard WCSPH (the uncorrected analogue of Joubert eq. 13):
+//!
+//! `du_i/dt = −Σ_j m_j (p_i/ρ_i² + p_j/ρ_j²) ∇W_ij`
+//! `        + Σ_j m_j (μ_i + μ_j) r_ij·∇W_ij / (ρ_i ρ_j (r_ij² + 0.01 h²)) (u_i − u_j)` (Morris, Fox & Zhu 1997, eq. 8; μ = ρν; only with `effects.viscosity = "laminar"`)
+//! `        − Σ_j m_j Π_ij ∇W_ij` (Monaghan 1992, α = `effects.artificial_viscosity`, only if > 0)
+//! `        + g` (only with `gravity.on_fluid`).
+//!
+//! Free-slip walls do not enter the viscous sums; no-slip walls enter them with zero
+//! velocity; markers (body surfaces) always enter them with the body's velocity.
+//! WGSL: `shaders/momentum.wgsl` (pair terms); the pair loop is [`crate::fluid_rates`].
+
+use crate::constants::SphConstants;
+use crate::particles::{dot, sub, Kind, ParticleSet};
+
+pub const MOMENTUM_WGSL: &str = include_str!("../shaders/momentum.wgsl");
+
+/// CPU twin: du/dt of particle (entry) `i`.
+pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
+    let mut acc = [0.0; 3];
+    let (rho_i, p_i) = (set.rho[i], set.press[i]);
+    let eta2 = crate::constants::VISCOUS_ETA2_H2 * c.kernel.h * c.kernel.h;
+    for j in set.neighbours(i, c.support_radius()) {
+        let r_ij = sub(set.pos[i], set.pos[j]);
+        let r2 = dot(r_ij, r_ij);
+        let g = c.kernel.grad(r_ij);
+        let (rho_j, p_j) = (set.rho[j], set.press[j]);
+        let u_ij = sub(set.vel[i], set.vel[j]);
+        let fp = -c.mass * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j));
+        let mut add = [fp * g[0], fp * g[1], fp * g[2]];
+        let viscous = c.no_slip_walls || set.kinds.kind(set.id[j]) != Kind::Wall;
+        if c.laminar && viscous {
+            // Morris, Fox & Zhu (1997) eq. (8).
+            let f = c.mass * c.nu * (rho_i + rho_j) * dot(r_ij, g) / (rho_i * rho_j * (r2 + eta2));
+            for k in 0..3 {
+                add[k] += f * u_ij[k];
+            }
+        }
+        if c.alpha > 0.0 && viscous {
+            let vr = dot(u_ij, r_ij);
+            if vr < 0.0 {
+                // Monaghan (1992) eqs. (4.1)–(4.2), β = 0.
+                let mu_ij = c.kernel.h * vr / (r2 + eta2);
+                let pi_ij = -c.alpha * c.sound_speed * mu_ij / (0.5 * (rho_i + rho_j));
+                for k in 0..3 {
+                    add[k] += -c.mass * pi_ij * g[k];
+                }
+            }
+        }
+        for k in 0..3 {
+            acc[k] += add[k];
+        }
+    }
+    let g = c.gravity_fluid;
+    [acc[0] + g[0], acc[1] + g[1], acc[2] + g[2]]
+}

@@ -1,0 +1,521 @@
+//! Uniform neighbour grid: counting sort of the particles by cell, every step, on the GPU.
+//!
+//! [`NeighbourGrid::queue_sort`] records four labelled compute passes and no CPU
+//! round trip:
+//! 1. `grid: count`   — one thread per particle: cell index, rank in the cell by one
+//!    `atomicAdd` on the cell's counter (the sort's only atomics);
+//! 2. `grid: scan`    — exclusive prefix sum of the n_cells + 1 counters → `cell_start`;
+//! 3. `grid: scatter` — `src_of[cell_start[cell] + rank] = i` (order inside a cell is
+//!    whatever the atomics gave, not stable);
+//! 4. `grid: reorder` — every registered buffer gathered into one shared scratch
+//!    buffer and copied back, so callers' buffers and bind groups stay valid.
+//!
+//! Pair kernels read the result through `shaders/grid_common.wgsl`
+//! ([`GRID_COMMON_WGSL`]), bound at group 1 ([`NeighbourGrid::bind_group`]).
+//!
+//! GPU memory: 12 B per particle (cell, rank, gather map) + one 16 B scratch per
+//! particle shared by all registered buffers + 4 B per cell.
+
+use std::num::NonZeroU64;
+
+use wgpu::util::DeviceExt;
+
+use crate::gpu::{Gpu, GpuError};
+use crate::prefix_sum::{PrefixSum, PrefixSumError};
+use crate::shaders;
+use crate::timing::{self, StageTimer};
+
+/// WGSL for pair kernels: `GridParams`, the group-1 bindings, `cell_coord`,
+/// `cell_index`, `cell_in_grid`, `cell_range`, `row_range` and the loop pattern (see
+/// the file's header).
+pub const GRID_COMMON_WGSL: &str = include_str!("../shaders/grid_common.wgsl");
+const NEIGHBOUR_GRID_WGSL: &str = include_str!("../shaders/neighbour_grid.wgsl");
+const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
+
+/// Padding around the particle box, in cells. One cell lets particles drift slightly
+/// past the domain (wall layers, a step's overshoot before the boundary pushes
+/// back) without an error.
+pub const GRID_PAD_CELLS: f64 = 1.0;
+
+/// Uniform of the grid (WGSL mirror: `GridParams` in grid_common.wgsl).
+#[repr(C)]
+#[derive(bytemuck::Pod, bytemuck::Zeroable, Clone, Copy, Debug, PartialEq)]
+pub struct GridParams {
+    /// Lower corner of the grid; `[3]` unused (0).
+    pub origin: [f32; 4],
+    pub cell_size: f32,
+    pub inv_cell_size: f32,
+    pub n_particles: u32,
+    pub n_cells: u32,
+    /// Cells per axis; `[3]` unused (0).
+    pub dims: [u32; 4],
+}
+
+// WGSL uniform layout: vec4 at 0, four scalars at 16..32, vec4 at 32, size 48.
+const _: () = {
+    assert!(std::mem::size_of::<GridParams>() == 48);
+    assert!(std::mem::offset_of!(GridParams, origin) == 0);
+    assert!(std::mem::offset_of!(GridParams, cell_size) == 16);
+    assert!(std::mem::offset_of!(GridParams, inv_cell_size) == 20);
+    assert!(std::mem::offset_of!(GridParams, n_particles) == 24);
+    assert!(std::mem::offset_of!(GridParams, n_cells) == 28);
+    assert!(std::mem::offset_of!(GridParams, dims) == 32);
+};
+
+/// The first particle found outside the grid (WGSL mirror in neighbour_grid.wgsl).
+#[repr(C)]
+#[derive(bytemuck::Pod, bytemuck::Zeroable, Clone, Copy, Debug, Default)]
+struct GridErrorRecord {
+    outside_count: u32,
+    index: u32,
+    id: u32,
+    _pad: u32,
+    position: [f32; 4],
+}
+
+const _: () = {
+    assert!(std::mem::size_of::<GridErrorRecord>() == 32);
+    assert!(std::mem::offset_of!(GridErrorRecord, position) == 16);
+};
+
+/// Why a grid cannot be built, a buffer registered, or a sort is invalid.
+#[derive(Debug, thiserror::Error)]
+pub enum GridError {
+    #[error("grid box min {min:?} / max {max:?} is invalid: need finite values with min < max on every axis")]
+    InvalidBox { min: [f64; 3], max: [f64; 3] },
+    #[error("grid cell size {cell_size} is invalid: need a finite value > 0 (the kernel support radius)")]
+    InvalidCellSize { cell_size: f64 },
+    #[error("a neighbour grid needs at least one particle (n = 0)")]
+    NoParticles,
+    #[error(
+        "grid of {dims:?} cells ({n_cells} in all) is too large: the adapter binds at most \
+         {max} cells (max storage buffer binding size); use a larger cell size or a smaller box"
+    )]
+    TooManyCells { dims: [u64; 3], n_cells: u64, max: u64 },
+    #[error(
+        "{n} particles need {bytes} bytes of scratch, more than the adapter's max storage \
+         buffer binding size of {max} bytes"
+    )]
+    TooManyParticles { n: u32, bytes: u64, max: u64 },
+    #[error("cannot register buffer `{buffer}` with the grid: {reason}")]
+    BadBuffer { buffer: String, reason: String },
+    #[error(
+        "{} at ({}, {}, {}) is outside the neighbour grid [{:?}, {:?}] (non-finite, or beyond \
+         the box padded by {GRID_PAD_CELLS} cell); {outside} particle sort(s) found outside \
+         since the last reset",
+        match id { Some(id) => format!("particle id {id} (slot {index} before the sort)"),
+                   None => format!("particle in slot {index} before the sort (no id buffer registered)") },
+        position[0], position[1], position[2], grid_min, grid_max
+    )]
+    ParticleOutside {
+        /// Original particle id, when an id buffer was registered with `register_ids`.
+        id: Option<u32>,
+        /// Index in the particle arrays at the sort that found it.
+        index: u32,
+        position: [f32; 3],
+        /// Outside particles counted over all sorts since the last reset.
+        outside: u32,
+        grid_min: [f32; 3],
+        grid_max: [f32; 3],
+    },
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    PrefixSum(#[from] PrefixSumError),
+}
+
+struct Registered {
+    gather: wgpu::BindGroup,
+    copy_back: wgpu::BindGroup,
+    wide: bool,
+}
+
+/// The grid's buffers, pipelines and registered particle arrays.
+pub struct NeighbourGrid {
+    pub params: GridParams,
+    /// `GridParams` uniform.
+    pub params_buffer: wgpu::Buffer,
+    /// n_cells + 1 u32: particles of cell c are `cell_start[c]..cell_start[c+1]` after
+    /// the sort (also the counters during it).
+    pub cell_start: wgpu::Buffer,
+    /// 32-byte record of the first particle found outside (see [`NeighbourGrid::check`]).
+    pub error_flag: wgpu::Buffer,
+    cell_of: wgpu::Buffer,
+    rank: wgpu::Buffer,
+    src_of: wgpu::Buffer,
+    scratch: wgpu::Buffer,
+    /// Stand-in for the id buffer until one is registered.
+    no_ids: wgpu::Buffer,
+    ids: Option<wgpu::Buffer>,
+    prefix_sum: PrefixSum,
+
+    grid_layout: wgpu::BindGroupLayout,
+    grid_bind_group: wgpu::BindGroup,
+    params_bind_group: wgpu::BindGroup,
+    count_layout: wgpu::BindGroupLayout,
+    reorder_layout: wgpu::BindGroupLayout,
+    scatter_bind_group: wgpu::BindGroup,
+
+    count: wgpu::ComputePipeline,
+    scatter: wgpu::ComputePipeline,
+    gather16: wgpu::ComputePipeline,
+    copy16: wgpu::ComputePipeline,
+    gather4: wgpu::ComputePipeline,
+    copy4: wgpu::ComputePipeline,
+
+    registered: Vec<Registered>,
+}
+
+fn storage_buffer(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(4),
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn sized(buffer: &wgpu::Buffer, bytes: u64) -> wgpu::BindingResource<'_> {
+    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+        buffer,
+        offset: 0,
+        size: NonZeroU64::new(bytes),
+    })
+}
+
+fn bind(
+    gpu: &Gpu,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    entries: &[(u32, wgpu::BindingResource<'_>)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = entries
+        .iter()
+        .map(|(binding, resource)| wgpu::BindGroupEntry { binding: *binding, resource: resource.clone() })
+        .collect();
+    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
+impl NeighbourGrid {
+    /// Grid over [min − pad, max + pad] (pad = [`GRID_PAD_CELLS`] cells) with cells of
+    /// `cell_size` (= the kernel support radius), for `n` particles.
+    pub fn new(
+        gpu: &Gpu,
+        min: [f64; 3],
+        max: [f64; 3],
+        cell_size: f64,
+        n: u32,
+    ) -> Result<Self, GridError> {
+        if !(cell_size.is_finite() && cell_size > 0.0) {
+            return Err(GridError::InvalidCellSize { cell_size });
+        }
+        if (0..3).any(|a| !(min[a].is_finite() && max[a].is_finite() && min[a] < max[a])) {
+            return Err(GridError::InvalidBox { min, max });
+        }
+        if n == 0 {
+            return Err(GridError::NoParticles);
+        }
+        let limits = gpu.device.limits();
+        let max_binding = limits.max_storage_buffer_binding_size;
+        let pad = GRID_PAD_CELLS * cell_size;
+        // floor + 1 (not ceil): a particle exactly on max + pad still has a cell.
+        let dims64: [u64; 3] =
+            std::array::from_fn(|a| ((max[a] - min[a] + 2.0 * pad) / cell_size).floor() as u64 + 1);
+        let n_cells64 = dims64.iter().product::<u64>();
+        let max_cells = (max_binding / 4).saturating_sub(1).min(u64::from(u32::MAX) - 1);
+        if n_cells64 > max_cells {
+            return Err(GridError::TooManyCells { dims: dims64, n_cells: n_cells64, max: max_cells });
+        }
+        let scratch_bytes = u64::from(n) * 16;
+        if scratch_bytes > max_binding {
+            return Err(GridError::TooManyParticles { n, bytes: scratch_bytes, max: max_binding });
+        }
+        let n_cells = n_cells64 as u32;
+        let params = GridParams {
+            origin: [(min[0] - pad) as f32, (min[1] - pad) as f32, (min[2] - pad) as f32, 0.0],
+            cell_size: cell_size as f32,
+            inv_cell_size: (1.0 / cell_size) as f32,
+            n_particles: n,
+            n_cells,
+            dims: [dims64[0] as u32, dims64[1] as u32, dims64[2] as u32, 0],
+        };
+        let params_buffer = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("grid: params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let cell_start = storage_buffer(gpu, "grid: cell_start", (u64::from(n_cells) + 1) * 4);
+        let error_flag = storage_buffer(gpu, "grid: error record", 32);
+        let cell_of = storage_buffer(gpu, "grid: cell of particle", u64::from(n) * 4);
+        let rank = storage_buffer(gpu, "grid: rank in cell", u64::from(n) * 4);
+        let src_of = storage_buffer(gpu, "grid: gather map", u64::from(n) * 4);
+        let scratch = storage_buffer(gpu, "grid: reorder scratch", scratch_bytes);
+        let no_ids = storage_buffer(gpu, "grid: no id buffer", 4);
+        let prefix_sum = PrefixSum::new(gpu, &cell_start, n_cells + 1)?;
+
+        let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
+            gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(label),
+                entries,
+            })
+        };
+        use shaders::{storage_entry as st, uniform_entry as un};
+        let grid_layout = layout("grid (group 1)", &[un(0), st(1, true)]);
+        let params_layout = layout("grid params (group 1)", &[un(0)]);
+        let count_layout = layout(
+            "grid: count",
+            &[st(0, true), st(1, false), st(2, false), st(3, false), st(4, false), st(5, true)],
+        );
+        let scatter_layout = layout("grid: scatter", &[st(10, true), st(11, true), st(12, false)]);
+        let reorder_layout = layout("grid: reorder", &[st(0, true), st(1, true), st(2, false)]);
+
+        let cells_bytes = (u64::from(n_cells) + 1) * 4;
+        let grid_bind_group = bind(
+            gpu,
+            "grid (group 1)",
+            &grid_layout,
+            &[(0, params_buffer.as_entire_binding()), (1, sized(&cell_start, cells_bytes))],
+        );
+        let params_bind_group =
+            bind(gpu, "grid params (group 1)", &params_layout, &[(0, params_buffer.as_entire_binding())]);
+        let n_bytes = u64::from(n) * 4;
+        let scatter_bind_group = bind(
+            gpu,
+            "grid: scatter",
+            &scatter_layout,
+            &[
+                (10, sized(&cell_of, n_bytes)),
+                (11, sized(&rank, n_bytes)),
+                (12, sized(&src_of, n_bytes)),
+            ],
+        );
+
+        let sort_module =
+            shaders::module(gpu, "grid: sort", &[GRID_COMMON_WGSL, NEIGHBOUR_GRID_WGSL]);
+        let count = shaders::compute_pipeline_with_layouts(
+            gpu,
+            "grid: count",
+            &sort_module,
+            "count_cells",
+            &[Some(&count_layout), Some(&params_layout)],
+        );
+        let scatter = shaders::compute_pipeline_with_layouts(
+            gpu,
+            "grid: scatter",
+            &sort_module,
+            "scatter",
+            &[Some(&scatter_layout), Some(&grid_layout)],
+        );
+        let reorder_pipelines = |elem: &str| {
+            let alias = format!("alias Elem = {elem};\n");
+            let module =
+                shaders::module(gpu, "grid: reorder", &[&alias, GRID_COMMON_WGSL, REORDER_WGSL]);
+            let layouts = [Some(&reorder_layout), Some(&params_layout)];
+            (
+                shaders::compute_pipeline_with_layouts(gpu, "grid: gather", &module, "gather", &layouts),
+                shaders::compute_pipeline_with_layouts(gpu, "grid: copy back", &module, "copy_back", &layouts),
+            )
+        };
+        let (gather16, copy16) = reorder_pipelines("vec4<u32>");
+        let (gather4, copy4) = reorder_pipelines("u32");
+
+        Ok(NeighbourGrid {
+            params,
+            params_buffer,
+            cell_start,
+            error_flag,
+            cell_of,
+            rank,
+            src_of,
+            scratch,
+            no_ids,
+            ids: None,
+            prefix_sum,
+            grid_layout,
+            grid_bind_group,
+            params_bind_group,
+            count_layout,
+            reorder_layout,
+            scatter_bind_group,
+            count,
+            scatter,
+            gather16,
+            copy16,
+            gather4,
+            copy4,
+            registered: Vec::new(),
+        })
+    }
+
+    /// Layout of group 1 (grid) for pair kernels: binding 0 = `GridParams` uniform,
+    /// binding 1 = `cell_start` (read-only storage).
+    pub fn bind_group_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.grid_layout
+    }
+
+    /// The group-1 bind group matching [`NeighbourGrid::bind_group_layout`].
+    pub fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.grid_bind_group
+    }
+
+    pub fn n_particles(&self) -> u32 {
+        self.params.n_particles
+    }
+
+    /// Lower and upper corner of the grid (particles outside are an error).
+    pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let p = &self.params;
+        let lo = [p.origin[0], p.origin[1], p.origin[2]];
+        let hi = std::array::from_fn(|a| lo[a] + p.dims[a] as f32 * p.cell_size);
+        (lo, hi)
+    }
+
+    /// Number of buffers each sort permutes.
+    pub fn registered(&self) -> usize {
+        self.registered.len()
+    }
+
+    /// Registers a per-particle buffer (`STORAGE` usage, at least n × `elem_bytes`
+    /// bytes, `elem_bytes` 16 for vec4 or 4 for f32/u32) to be permuted by every sort.
+    /// After `queue_sort` the caller's buffer holds the sorted data; all registered
+    /// buffers share one scratch buffer. `pos` must be registered too.
+    pub fn register(&mut self, gpu: &Gpu, buffer: &wgpu::Buffer, elem_bytes: u32) -> Result<(), GridError> {
+        let bad = |reason: String| GridError::BadBuffer { buffer: format!("{buffer:?}"), reason };
+        if elem_bytes != 16 && elem_bytes != 4 {
+            return Err(bad(format!("element size {elem_bytes} bytes; valid: 16 (vec4) or 4 (f32/u32)")));
+        }
+        if !buffer.usage().contains(wgpu::BufferUsages::STORAGE) {
+            return Err(bad(format!("usage {:?} lacks STORAGE", buffer.usage())));
+        }
+        let bytes = u64::from(self.params.n_particles) * u64::from(elem_bytes);
+        if buffer.size() < bytes {
+            return Err(bad(format!(
+                "{} bytes, but {} particles × {elem_bytes} bytes need {bytes}",
+                buffer.size(),
+                self.params.n_particles
+            )));
+        }
+        let map_bytes = u64::from(self.params.n_particles) * 4;
+        let gather = bind(
+            gpu,
+            "grid: gather",
+            &self.reorder_layout,
+            &[(0, sized(&self.src_of, map_bytes)), (1, sized(buffer, bytes)), (2, sized(&self.scratch, bytes))],
+        );
+        let copy_back = bind(
+            gpu,
+            "grid: copy back",
+            &self.reorder_layout,
+            &[(0, sized(&self.src_of, map_bytes)), (1, sized(&self.scratch, bytes)), (2, sized(buffer, bytes))],
+        );
+        self.registered.push(Registered { gather, copy_back, wide: elem_bytes == 16 });
+        Ok(())
+    }
+
+    /// Registers the particles' original-id buffer (`u32`): it is permuted like any
+    /// registered buffer, and [`GridError::ParticleOutside`] names particles by it.
+    pub fn register_ids(&mut self, gpu: &Gpu, ids: &wgpu::Buffer) -> Result<(), GridError> {
+        self.register(gpu, ids, 4)?;
+        self.ids = Some(ids.clone());
+        Ok(())
+    }
+
+    /// Records the sort (see the module doc): four labelled compute passes, timed when
+    /// `timer` is given. `pos` (vec4, xyz used) must be one of the registered buffers
+    /// so that it ends up sorted as well.
+    pub fn queue_sort(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        pos: &wgpu::Buffer,
+        mut timer: Option<&mut StageTimer>,
+    ) {
+        let n = self.params.n_particles;
+        let n_bytes = u64::from(n) * 4;
+        let ids = self.ids.as_ref().unwrap_or(&self.no_ids);
+        let ids_bytes = if self.ids.is_some() { n_bytes } else { 4 };
+        let count_bind_group = bind(
+            gpu,
+            "grid: count",
+            &self.count_layout,
+            &[
+                (0, sized(pos, u64::from(n) * 16)),
+                (1, self.cell_start.as_entire_binding()),
+                (2, sized(&self.cell_of, n_bytes)),
+                (3, sized(&self.rank, n_bytes)),
+                (4, self.error_flag.as_entire_binding()),
+                (5, sized(ids, ids_bytes)),
+            ],
+        );
+        encoder.clear_buffer(&self.cell_start, 0, None);
+        {
+            let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, "grid: count");
+            pass.set_pipeline(&self.count);
+            pass.set_bind_group(0, &count_bind_group, &[]);
+            pass.set_bind_group(1, &self.params_bind_group, &[]);
+            shaders::dispatch_linear(&mut pass, n);
+        }
+        {
+            let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, "grid: scan");
+            self.prefix_sum.record(&mut pass);
+        }
+        {
+            let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, "grid: scatter");
+            pass.set_pipeline(&self.scatter);
+            pass.set_bind_group(0, &self.scatter_bind_group, &[]);
+            pass.set_bind_group(1, &self.grid_bind_group, &[]);
+            shaders::dispatch_linear(&mut pass, n);
+        }
+        if !self.registered.is_empty() {
+            let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, "grid: reorder");
+            pass.set_bind_group(1, &self.params_bind_group, &[]);
+            for r in &self.registered {
+                let (gather, copy) =
+                    if r.wide { (&self.gather16, &self.copy16) } else { (&self.gather4, &self.copy4) };
+                pass.set_pipeline(gather);
+                pass.set_bind_group(0, &r.gather, &[]);
+                shaders::dispatch_linear(&mut pass, n);
+                pass.set_pipeline(copy);
+                pass.set_bind_group(0, &r.copy_back, &[]);
+                shaders::dispatch_linear(&mut pass, n);
+            }
+        }
+    }
+
+    /// Reads the error record (waits for the GPU): `Err(ParticleOutside)` naming the
+    /// first particle any sort since the last [`NeighbourGrid::reset_error`] found
+    /// outside the grid. Nothing is clamped silently: such a particle was sorted into
+    /// the nearest cell only to keep the permutation whole.
+    pub fn check(&self, gpu: &Gpu) -> Result<(), GridError> {
+        let rec: Vec<GridErrorRecord> = gpu.read_buffer(&self.error_flag, 0, 1)?;
+        let Some(rec) = rec.first() else { return Ok(()) };
+        if rec.outside_count == 0 {
+            return Ok(());
+        }
+        let (grid_min, grid_max) = self.bounds();
+        Err(GridError::ParticleOutside {
+            id: self.ids.as_ref().map(|_| rec.id),
+            index: rec.index,
+            position: [rec.position[0], rec.position[1], rec.position[2]],
+            outside: rec.outside_count,
+            grid_min,
+            grid_max,
+        })
+    }
+
+    /// Clears the error record (after reporting it, or before a fresh start).
+    pub fn reset_error(&self, gpu: &Gpu) {
+        gpu.queue.write_buffer(&self.error_flag, 0, bytemuck::bytes_of(&GridErrorRecord::default()));
+    }
+
+    /// The gather map of the last sort (sorted slot → slot before the sort), for tests.
+    pub fn gather_map(&self) -> &wgpu::Buffer {
+        &self.src_of
+    }
+}

@@ -1,0 +1,186 @@
+//! A compiled SPH compute kernel with explicit bind group layouts, and its bound form.
+//!
+//! Every operator declares the bindings its WGSL uses as `(group, [(binding, Access)])`
+//! lists; [`SphKernel::bind`] builds the bind groups from whatever buffers the caller
+//! maps to them. Group 1 is always the neighbour grid's own layout and bind group
+//! (`grid_common.wgsl`), so pair kernels share it.
+
+use crate::gpu::Gpu;
+use crate::shaders;
+
+/// How a kernel uses a binding (must match the WGSL declaration exactly).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Access {
+    Read,
+    ReadWrite,
+    Uniform,
+}
+
+/// Bindings of one group: `(binding, access)`.
+pub type GroupBindings = &'static [(u32, Access)];
+
+/// Group index of the particle arrays.
+pub const PARTICLES: u32 = 0;
+/// Group index of the neighbour grid (owned by `neighbour_grid.rs`).
+pub const GRID: u32 = 1;
+/// Group index of bodies and markers.
+pub const BODIES: u32 = 2;
+/// Group index of the per-window parameters and diagnostics.
+pub const PARAMS: u32 = 3;
+
+/// Particle arrays, group 0: the binding numbers every kernel uses.
+pub mod particle_binding {
+    pub const POS: u32 = 0;
+    pub const VEL: u32 = 1;
+    pub const RHO: u32 = 2;
+    pub const PRESS: u32 = 3;
+    pub const ID: u32 = 4;
+    pub const DRHO: u32 = 5;
+    pub const DVEL: u32 = 6;
+    pub const RHO_N: u32 = 7;
+    pub const VEL_N: u32 = 8;
+}
+
+/// Bodies and markers, group 2.
+pub mod body_binding {
+    pub const MARKERS_IN: u32 = 0;
+    pub const BODIES: u32 = 1;
+    pub const CLOCK: u32 = 2;
+    pub const MARKER_LOAD: u32 = 3;
+    pub const MARKER_LOAD_C: u32 = 4;
+    pub const LOAD_RANGES: u32 = 5;
+    pub const BODY_LOADS: u32 = 6;
+}
+
+/// Parameters and diagnostics, group 3.
+pub mod param_binding {
+    pub const PARAMS: u32 = 0;
+    pub const STATUS: u32 = 1;
+    pub const BAD_VALUES: u32 = 2;
+    pub const COUNTS: u32 = 3;
+}
+
+/// The WGSL part before this line is a function library other modules may include;
+/// after it come the file's own bindings and entry points.
+pub const KERNEL_SECTION: &str = "// ---- kernels ----";
+
+/// The library part of a WGSL file (everything before [`KERNEL_SECTION`]).
+pub fn library(src: &'static str) -> &'static str {
+    src.split(KERNEL_SECTION).next().unwrap_or(src)
+}
+
+/// A compute pipeline and the layouts of its own (non-grid) groups.
+pub struct SphKernel {
+    pub label: &'static str,
+    pipeline: wgpu::ComputePipeline,
+    groups: Vec<(u32, wgpu::BindGroupLayout, GroupBindings)>,
+    uses_grid: bool,
+}
+
+/// A kernel with its bind groups: ready to dispatch.
+pub struct BoundKernel {
+    pub label: &'static str,
+    pipeline: wgpu::ComputePipeline,
+    groups: Vec<(u32, wgpu::BindGroup)>,
+}
+
+impl SphKernel {
+    /// Compiles `entry` of the module made of `parts` (after the prelude). `groups` lists
+    /// the kernel's bindings in groups 0, 2, 3; `grid_layout` is the neighbour grid's
+    /// layout for pair kernels (group 1), `None` otherwise.
+    pub fn new(
+        gpu: &Gpu,
+        label: &'static str,
+        parts: &[&str],
+        entry: &str,
+        groups: &[(u32, GroupBindings)],
+        grid_layout: Option<&wgpu::BindGroupLayout>,
+    ) -> SphKernel {
+        let module = shaders::module(gpu, label, parts);
+        let own: Vec<(u32, wgpu::BindGroupLayout, GroupBindings)> = groups
+            .iter()
+            .map(|(g, bindings)| {
+                let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
+                    .iter()
+                    .map(|(b, a)| match a {
+                        Access::Read => shaders::storage_entry(*b, true),
+                        Access::ReadWrite => shaders::storage_entry(*b, false),
+                        Access::Uniform => shaders::uniform_entry(*b),
+                    })
+                    .collect();
+                let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries: &entries,
+                });
+                (*g, layout, *bindings)
+            })
+            .collect();
+        let n_groups = own.iter().map(|(g, _, _)| *g + 1).max().unwrap_or(0).max(if grid_layout.is_some() { GRID + 1 } else { 0 });
+        let layouts: Vec<Option<&wgpu::BindGroupLayout>> = (0..n_groups)
+            .map(|g| {
+                if g == GRID && grid_layout.is_some() {
+                    grid_layout
+                } else {
+                    own.iter().find(|(og, _, _)| *og == g).map(|(_, l, _)| l)
+                }
+            })
+            .collect();
+        let pipeline = shaders::compute_pipeline_with_layouts(gpu, label, &module, entry, &layouts);
+        SphKernel { label, pipeline, groups: own, uses_grid: grid_layout.is_some() }
+    }
+
+    /// Binds the kernel: `buffer(group, binding)` supplies each declared binding.
+    /// Returns `None` when a binding has no buffer (a programming error the caller
+    /// reports).
+    pub fn bind<'a>(
+        &self,
+        gpu: &Gpu,
+        buffer: impl Fn(u32, u32) -> Option<&'a wgpu::Buffer>,
+        grid: Option<&wgpu::BindGroup>,
+    ) -> Option<BoundKernel> {
+        let mut groups = Vec::new();
+        for (g, layout, bindings) in &self.groups {
+            let mut entries = Vec::new();
+            for (b, _) in bindings.iter() {
+                entries.push(wgpu::BindGroupEntry { binding: *b, resource: buffer(*g, *b)?.as_entire_binding() });
+            }
+            let bg = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(self.label),
+                layout,
+                entries: &entries,
+            });
+            groups.push((*g, bg));
+        }
+        if self.uses_grid {
+            groups.push((GRID, grid?.clone()));
+        }
+        Some(BoundKernel { label: self.label, pipeline: self.pipeline.clone(), groups })
+    }
+}
+
+impl BoundKernel {
+    /// Records the kernel for `n` threads (one per element) into `pass`.
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, n: u32) {
+        if n == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.pipeline);
+        for (g, bg) in &self.groups {
+            pass.set_bind_group(*g, bg, &[]);
+        }
+        shaders::dispatch_linear(pass, n);
+    }
+
+    /// Records the kernel for `groups` workgroups (workgroup-per-item kernels).
+    pub fn dispatch_groups(&self, pass: &mut wgpu::ComputePass<'_>, groups: u32) {
+        if groups == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.pipeline);
+        for (g, bg) in &self.groups {
+            pass.set_bind_group(*g, bg, &[]);
+        }
+        let [x, y, z] = shaders::workgroups_for_groups(groups);
+        pass.dispatch_workgroups(x, y, z);
+    }
+}

@@ -1,0 +1,33 @@
+//! Tait equation of state, Joubert eq. (4): `p = ρ0 c²/γ ((ρ/ρ0)^γ − 1)`.
+//! WGSL: `shaders/tait_eos.wgsl` (its library part is fused into the integrator and the
+//! boundary pressure; its kernel sets the pressures at the start of a run).
+
+use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::gpu::Gpu;
+use crate::particles::{Kind, ParticleSet};
+use crate::sph_kernel::{particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+
+pub const TAIT_EOS_WGSL: &str = include_str!("../shaders/tait_eos.wgsl");
+
+/// Compiles the `tait_eos` kernel (pressure of every fluid particle from its density).
+pub fn kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
+    let consts = c.wgsl();
+    SphKernel::new(
+        gpu,
+        "sph: tait_eos",
+        &[&consts, STEP_PARAMS_WGSL, TAIT_EOS_WGSL],
+        "tait_eos",
+        &[
+            (PARTICLES, &[(pb::RHO, Access::Read), (pb::PRESS, Access::ReadWrite), (pb::ID, Access::Read)]),
+            (PARAMS, &[(0, Access::Uniform)]),
+        ],
+        None,
+    )
+}
+
+/// CPU twin: the pressure of every fluid particle (others unchanged), Joubert eq. (4).
+pub fn tait_eos_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<f64> {
+    (0..set.len())
+        .map(|k| if set.kinds.kind(set.id[k]) == Kind::Fluid { c.pressure(set.rho[k]) } else { set.press[k] })
+        .collect()
+}
