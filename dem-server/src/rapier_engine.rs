@@ -5,7 +5,7 @@ use crate::engine::{ContactModel, DemEngine, DemError};
 use crate::geometry::BodyGeometry;
 use couplet_protocol::{BodyLoad, BodyState, CouplingMode, Motion, Scene};
 use rapier3d::prelude::{
-    CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Real, RigidBodyBuilder, RigidBodyHandle, Vector,
+    CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Pose, Real, RigidBodyBuilder, RigidBodyHandle, Vector,
 };
 use std::collections::HashMap;
 
@@ -24,6 +24,51 @@ struct Body {
     mass: f64,
     /// Solid volume, m³ (Joubert eq. 28).
     volume: f64,
+    /// Kinematic bodies only: their motion in closed form (see [`Kinematic`]).
+    kinematic: Option<Kinematic>,
+}
+
+/// A kinematic body's prescribed motion, kept in `f64`: x(t) = x₀ + v t and
+/// q(t) = exp(ω t) q₀ (world-frame ω). rapier would accumulate `x += v dt` in `f32`
+/// every substep, which drifts by 1e-3 of the travel over a few thousand steps; the
+/// engine instead puts the body where this says after each step.
+#[derive(Debug, Clone, Copy)]
+struct Kinematic {
+    /// Scene coordinates at t = 0, m.
+    x0: [f64; 3],
+    /// Unit quaternion [x, y, z, w] at t = 0.
+    q0: [f64; 4],
+    v: [f64; 3],
+    w: [f64; 3],
+}
+
+impl Kinematic {
+    fn pose(&self, t: f64) -> ([f64; 3], [f64; 4]) {
+        let x = [0, 1, 2].map(|k| self.x0[k] + self.v[k] * t);
+        (x, quat_mul(quat_from_scaled_axis(self.w.map(|c| c * t)), self.q0))
+    }
+}
+
+/// Unit quaternion [x, y, z, w] of the rotation by |a| about a/|a|.
+fn quat_from_scaled_axis(a: [f64; 3]) -> [f64; 4] {
+    let angle = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    if angle == 0.0 {
+        return [0.0, 0.0, 0.0, 1.0];
+    }
+    let s = (0.5 * angle).sin() / angle;
+    [a[0] * s, a[1] * s, a[2] * s, (0.5 * angle).cos()]
+}
+
+/// Hamilton product p q (apply q, then p).
+fn quat_mul(p: [f64; 4], q: [f64; 4]) -> [f64; 4] {
+    let [px, py, pz, pw] = p;
+    let [qx, qy, qz, qw] = q;
+    [
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+        pw * qw - px * qx - py * qy - pz * qz,
+    ]
 }
 
 /// Mass properties of one body as rapier integrates it (body frame, about the COM).
@@ -148,7 +193,13 @@ impl RapierEngine {
                 );
             }
             index_of.insert(handle, i);
-            bodies.push(Body { handle, name: spec.name.clone(), motion: spec.motion, mass, volume });
+            let kinematic = (spec.motion == Motion::Kinematic).then(|| Kinematic {
+                x0: spec.position,
+                q0: quat_from_scaled_axis(spec.rotation),
+                v: spec.velocity,
+                w: spec.angular_velocity,
+            });
+            bodies.push(Body { handle, name: spec.name.clone(), motion: spec.motion, mass, volume, kinematic });
         }
         add_walls(&mut world, scene, origin);
         Ok(Self { world, bodies, index_of, origin, max_dt: scene.dem.max_dt, time: 0.0, steps: 0 })
@@ -198,6 +249,10 @@ impl RapierEngine {
             s.linear_velocity = [v.x as f64, v.y as f64, v.z as f64];
             s.angular_velocity = [w.x as f64, w.y as f64, w.z as f64];
         }
+        if let Some(k) = &b.kinematic {
+            (s.position, s.orientation) = k.pose(self.time);
+            (s.linear_velocity, s.angular_velocity) = (k.v, k.w);
+        }
         s
     }
 }
@@ -207,6 +262,7 @@ impl RapierEngine {
 fn gravity_scale(scene: &Scene, i: usize) -> f64 {
     let b = &scene.bodies[i];
     match &scene.fluid {
+        // Joubert eq. (28); with gravity on the fluid, its pressure carries the buoyancy instead.
         Some(f) if !scene.gravity.on_fluid && b.coupling == CouplingMode::Resolved => 1.0 - f.density / b.density,
         _ => 1.0,
     }
@@ -310,6 +366,13 @@ impl DemEngine for RapierEngine {
         self.world.step();
         self.steps += 1;
         self.time += dt;
+        for b in &self.bodies {
+            if let (Some(k), Some(rb)) = (&b.kinematic, self.world.bodies.get_mut(b.handle)) {
+                let (x, q) = k.pose(self.time);
+                let rotation = rapier3d::math::Rotation::from_xyzw(q[0] as Real, q[1] as Real, q[2] as Real, q[3] as Real);
+                rb.set_position(Pose::from_parts(vec3(sub(x, self.origin)), rotation.normalize()), false);
+            }
+        }
         // rapier quarantines (disables, restores) bodies that went non-finite; report the first.
         let bad = self.world.quarantine().bodies().iter().find_map(|h| self.index_of.get(h).copied()).or_else(|| {
             self.bodies.iter().enumerate().find_map(|(i, b)| {

@@ -165,13 +165,16 @@ fn spacing_is_close_to_delta() {
     }
 }
 
-/// Marker count scales like area/δ²: halving δ multiplies it by 4 (within 10 %).
+/// Marker count scales like area/δ²: halving δ multiplies it by 4, within 15 %: the
+/// divisions per edge are whole numbers, so each direction's count is off by up to half a
+/// division, a factor (1 ± 1/(2n))² with n ≈ 9 divisions here (the octahedron's edge
+/// gets 9 and then 19 sub-triangle edges: 4.46).
 #[test]
 fn count_scales_with_inverse_square_spacing() {
     for s in [Shape::Sphere { radius: 0.1 }, Shape::Cylinder { radius: 0.1, half_height: 0.1 }, octahedron(0.1)] {
         let n1 = generate_markers(&s, 0.01).unwrap().len() as f64;
         let n2 = generate_markers(&s, 0.005).unwrap().len() as f64;
-        assert!((n2 / n1 / 4.0 - 1.0).abs() < 0.1, "{s:?}: {n1} → {n2}");
+        assert!((n2 / n1 / 4.0 - 1.0).abs() < 0.15, "{s:?}: {n1} → {n2}");
     }
 }
 

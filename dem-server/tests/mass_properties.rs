@@ -79,6 +79,11 @@ fn hull_and_compound_recentred_on_com() {
         cube(1.0), cube(1.0), cube(1.0 + a)
     );
     let e = RapierEngine::new(&scene(&bodies)).unwrap();
+    // The f64 volumes (outward face loops, divergence theorem) that eq. (28) uses.
+    let mut st = Vec::<BodyState>::new();
+    e.states(&mut st);
+    assert!(rel(st[0].volume, a * a * a) < 1e-12 && rel(st[1].volume, 2.0 * a * a * a) < 1e-12);
+    assert!(rel(st[1].mass, 1000.0 * a * a * a) < 1e-12);
     let hull = e.mass_properties(0).unwrap();
     assert!(rel(hull.mass, 500.0 * a * a * a) < 1e-4);
     assert!(hull.local_com.iter().all(|c| c.abs() < 1e-5 * a), "{:?}", hull.local_com);
@@ -88,4 +93,13 @@ fn hull_and_compound_recentred_on_com() {
     assert!(pair.local_com.iter().all(|c| c.abs() < 1e-5 * a), "{:?}", pair.local_com);
     assert!(rel(pair.inertia[0][0], m * (a * a + a * a) / 12.0) < 1e-4);
     assert!(rel(pair.inertia[1][1], m * (4.0 * a * a + a * a) / 12.0) < 1e-4);
+}
+
+/// A degenerate hull (coplanar vertices) is refused, naming the body and the reason.
+#[test]
+fn degenerate_hull_is_refused_with_body_named() {
+    let bodies = "[[bodies]]\nname = \"flat\"\nshape.convex.vertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]\n\
+                  density = 500.0\nposition = [0.5, 0.5, 0.5]\n";
+    let msg = RapierEngine::new(&scene(bodies)).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(msg.contains("bodies[0] \"flat\"") && msg.contains("convex hull"), "{msg}");
 }

@@ -26,20 +26,18 @@ fn quintic_w(q: f32) -> f32 {
     return SIGMA * (a2 * a2 * a - 6.0 * b2 * b2 * b + 15.0 * c2 * c2 * c);
 }
 
-// W'(r)/r = σ/(h r) (−5(3−q)⁴ + 30(2−q)⁴ − 75(1−q)⁴); the bracket vanishes like −120 q
-// at q → 0, so the quotient is taken from its limit below QUINTIC_Q_SMALL.
-const QUINTIC_Q_SMALL: f32 = 1e-3;
+// W'(r)/r = σ/(h² q) (−5(3−q)⁴ + 30(2−q)⁴ − 75(1−q)⁴). For q ≤ 1 the bracket divided by q
+// is the cubic −50q³ + 120q² − 120 (expanded exactly): evaluating the bracket there would
+// cancel ~400-sized terms down to ~120 q in f32.
 fn quintic_grad_factor(q: f32) -> f32 {
-    if q < QUINTIC_Q_SMALL {
-        return -120.0 * SIGMA * INV_H * INV_H;
+    if q <= 1.0 {
+        return SIGMA * INV_H * INV_H * ((-50.0 * q + 120.0) * q * q - 120.0);
     }
     let a = max(3.0 - q, 0.0);
     let b = max(2.0 - q, 0.0);
-    let c = max(1.0 - q, 0.0);
     let a2 = a * a;
     let b2 = b * b;
-    let c2 = c * c;
-    return SIGMA * INV_H * INV_H * (-5.0 * a2 * a2 + 30.0 * b2 * b2 - 75.0 * c2 * c2) / q;
+    return SIGMA * INV_H * INV_H * (-5.0 * a2 * a2 + 30.0 * b2 * b2) / q;
 }
 
 fn kernel_w(r: f32) -> f32 {

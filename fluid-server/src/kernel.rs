@@ -94,9 +94,11 @@ impl SmoothingKernel {
                 -5.0 * self.sigma / (self.h * self.h) * t.powi(3)
             }
             KernelKind::Quintic => {
-                if r <= 0.0 {
-                    // lim W'(r)/r = −120 σ/h² (Taylor expansion of the three terms).
-                    -120.0 * self.sigma / (self.h * self.h)
+                let q = r / self.h;
+                if q <= 1.0 {
+                    // The q ≤ 1 bracket of dw_dr divided by q, expanded exactly (no
+                    // cancellation near q = 0; same form as kernel.wgsl).
+                    self.sigma / (self.h * self.h) * ((-50.0 * q + 120.0) * q * q - 120.0)
                 } else {
                     self.dw_dr(r) / r
                 }

@@ -1,6 +1,37 @@
-//! placeholder
+//! couplet's fluid server: weakly compressible SPH (standard scheme) on wgpu compute
+//! shaders, one operator per `.rs` + `shaders/*.wgsl` pair, each with its CPU `f64` twin.
+
+pub use constants::{SphConstants, StepParams};
+pub use error::FluidError;
+pub use kernel::SmoothingKernel;
+pub use limits::FluidLimits;
+pub use particles::{initial_particles, Kind, ParticleKinds, ParticleSet};
+pub use plan::{stages, Stage};
+pub use solver::{FluidSolver, Op, ParticleCounts};
+
 pub mod gpu;
 pub mod neighbour_grid;
 pub mod prefix_sum;
+pub mod server;
 pub mod shaders;
 pub mod timing;
+
+pub mod adami2012_boundary_pressure;
+pub mod blowup_check;
+pub mod body_load_reduce;
+pub mod constants;
+pub mod continuity;
+pub mod error;
+pub mod fluid_rates;
+pub mod integrate;
+pub mod joubert2020_body_loads;
+pub mod kernel;
+pub mod limits;
+pub mod marker_update;
+pub mod momentum;
+pub mod neighbour_count;
+pub mod particles;
+pub mod plan;
+pub mod solver;
+pub mod sph_kernel;
+pub mod tait_eos;

@@ -145,12 +145,15 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
         particles_rx: &particles_rx, wake: &wake, wake_fluid: &wake_fluid, wake_dem: &wake_dem,
     });
 
-    // Shut down whatever is still alive, on success and on failure alike.
+    // On success the servers are told to shut down and given time to exit cleanly; on
+    // failure the run is lost and the survivors are killed at once (one may be blocked
+    // waiting for data from the dead one), so the error surfaces within a second.
+    let grace = if result.is_ok() { Duration::from_secs(5) } else { Duration::ZERO };
     let _ = commands.send(Command { protocol_version: PROTOCOL_VERSION, kind: CommandKind::Shutdown as u32, ..Default::default() });
     let _ = wake_fluid.wake();
     let _ = wake_dem.wake();
     for s in [peers.fluid.as_mut(), peers.dem.as_mut()].into_iter().flatten() {
-        s.finish(Duration::from_secs(5));
+        s.finish(grace);
     }
     let recording = recorder.as_ref().map(|r| r.path().to_owned());
     if let Some(r) = recorder.as_mut() {

@@ -18,12 +18,16 @@ pub struct WindowPlan {
 }
 
 /// Picks the window: the fluid's stable step (Joubert eq. 24: acoustic CFL and viscous
-/// limit) times `coupling.window_substeps`; without fluid, the DEM step. Then no longer
+/// limit) times `coupling.window_substeps`; without fluid, the DEM step; without a DEM
+/// server, the output interval (nothing to exchange). Then no longer
 /// than `time.max_window` or the output interval (so snapshots fall on windows), and
 /// shrunk so that a whole number of windows reaches `time.end` exactly.
 pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) -> WindowPlan {
     let mut candidates: Vec<(f64, String)> = Vec::new();
-    if let Some(dt) = fluid_dt {
+    if dem_dt.is_none() {
+        // Nothing to couple: the fluid substeps through whole output intervals, and the
+        // orchestrator only hears from it when there is something to record.
+    } else if let Some(dt) = fluid_dt {
         let k = scene.coupling.window_substeps;
         candidates.push((dt * k as f64, format!("fluid stable step {dt:.3e} s × {k} fluid step(s) per window")));
     } else if let Some(dt) = dem_dt {
@@ -65,11 +69,19 @@ mod tests {
     #[test]
     fn window_is_fluid_step_and_divides_end() {
         let p = choose_window(&scene(""), Some(3e-4), Some(1e-3));
+        // ceil(1 / 3e-4) windows of 1/3334 s.
         assert_eq!(p.windows, 3334);
         assert!((p.window * p.windows as f64 - 1.0).abs() < 1e-12);
         assert!(p.window <= 3e-4);
         assert_eq!(p.fluid_substeps, 1);
         assert_eq!(p.dem_substeps, 1);
+    }
+
+    #[test]
+    fn fluid_alone_steps_through_output_intervals() {
+        let p = choose_window(&scene(""), Some(3e-4), None);
+        assert_eq!(p.windows, 10);
+        assert_eq!(p.fluid_substeps, 334);
     }
 
     #[test]

@@ -1,0 +1,875 @@
+//! The fluid solver: standard WCSPH on the GPU, one window at a time.
+//!
+//! [`SphPipelines`] (compiled kernels, built once from the scene) and [`SphData`] (the
+//! buffers of one particle set, with its neighbour grid and bound kernels) are joined
+//! by [`FluidSolver::queue_step`], one predictor–corrector step made of labelled compute
+//! passes:
+//!
+//! ```text
+//! marker_update?  grid sort  │ boundary pressure  fluid_rates  marker_loads?  predict
+//!                            │ boundary pressure  fluid_rates  marker_loads?  correct   advance_clock?
+//! ```
+//!
+//! and, once per window, `reduce_body_loads?` and the blow-up check. Stages switched off
+//! by the scene (see [`crate::plan::stages`]) are compiled out or not dispatched, and
+//! marker buffers exist only once markers do. No buffer is allocated and nothing is
+//! read back inside a step. Positions live on the GPU relative to the domain centre
+//! (DESIGN.md, "Numbers on the GPU").
+//!
+//! A later stage for the gradient correction (Joubert eq. 10) slots in after the grid
+//! sort as one more pair pass writing a B matrix per particle, which the pair terms of
+//! `continuity`, `momentum`, the boundary pressure and the body loads then multiply.
+
+use crate::constants::{SphConstants, StepParams};
+use crate::gpu::Gpu;
+use crate::limits::FluidLimits;
+use crate::marker_update::{Clock, GpuBody, GpuMarker};
+use crate::neighbour_grid::NeighbourGrid;
+use crate::particles::{initial_particles, wall_layers, Kind, ParticleKinds, ParticleSet};
+use crate::plan::Stage;
+use crate::sph_kernel::{body_binding as bb, param_binding as qb, particle_binding as pb, BoundKernel, SphKernel, BODIES, PARAMS, PARTICLES};
+use crate::timing::{self, StageTimer};
+use crate::{
+    adami2012_boundary_pressure, blowup_check, body_load_reduce, fluid_rates, integrate, joubert2020_body_loads,
+    marker_update, neighbour_count, plan, tait_eos,
+};
+use couplet_protocol::{BodyLoad, BodyState, CouplingPoint, ParticleRecord, Scene};
+use wgpu::util::DeviceExt;
+
+pub use crate::error::FluidError;
+
+/// Particles per kind.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ParticleCounts {
+    pub fluid: u32,
+    pub wall: u32,
+    /// Sum of the coupling points given to [`FluidSolver::set_bodies`] (0 before).
+    pub markers: u32,
+}
+
+/// One stage of a step, for tests and benchmarks that run stages one by one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Op {
+    TaitEos,
+    MarkerUpdate,
+    Sort,
+    BoundaryPressure,
+    FluidRates,
+    MarkerLoads,
+    Predict,
+    Correct,
+    AdvanceClock,
+    ReduceBodyLoads,
+}
+
+/// Kernels of the marker coupling (compiled only for scenes with resolved bodies, or at
+/// the first `set_bodies`).
+pub struct MarkerPipelines {
+    marker_update: SphKernel,
+    advance_clock: SphKernel,
+    marker_loads: SphKernel,
+    reduce: SphKernel,
+}
+
+/// The compiled kernels of a scene (no data).
+pub struct SphPipelines {
+    tait_eos: SphKernel,
+    boundary_pressure: SphKernel,
+    fluid_rates: SphKernel,
+    predict: SphKernel,
+    correct: SphKernel,
+    find_bad: SphKernel,
+    capture_bad: SphKernel,
+    neighbour_count: SphKernel,
+    markers: Option<MarkerPipelines>,
+}
+
+impl SphPipelines {
+    fn new(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout, with_markers: bool) -> Self {
+        SphPipelines {
+            tait_eos: tait_eos::kernel(gpu, c),
+            boundary_pressure: adami2012_boundary_pressure::kernel(gpu, c, grid_layout),
+            fluid_rates: fluid_rates::kernel(gpu, c, grid_layout),
+            predict: integrate::predict_kernel(gpu, c),
+            correct: integrate::correct_kernel(gpu, c),
+            find_bad: blowup_check::find_kernel(gpu, c),
+            capture_bad: blowup_check::capture_kernel(gpu, c),
+            neighbour_count: neighbour_count::kernel(gpu, c, grid_layout),
+            markers: with_markers.then(|| MarkerPipelines::new(gpu, c, grid_layout)),
+        }
+    }
+}
+
+impl MarkerPipelines {
+    fn new(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> Self {
+        MarkerPipelines {
+            marker_update: marker_update::marker_update_kernel(gpu, c),
+            advance_clock: marker_update::advance_clock_kernel(gpu, c),
+            marker_loads: joubert2020_body_loads::kernel(gpu, c, grid_layout),
+            reduce: body_load_reduce::kernel(gpu, c),
+        }
+    }
+}
+
+/// Buffers of the marker coupling.
+pub struct BodyBuffers {
+    pub markers_in: wgpu::Buffer,
+    pub bodies: wgpu::Buffer,
+    pub clock: wgpu::Buffer,
+    pub marker_load: wgpu::Buffer,
+    pub marker_load_c: wgpu::Buffer,
+    pub load_ranges: wgpu::Buffer,
+    pub body_loads: wgpu::Buffer,
+    /// Entries of `bodies` (body indices it can hold).
+    pub body_capacity: usize,
+}
+
+struct BoundMarkers {
+    marker_update: BoundKernel,
+    advance_clock: BoundKernel,
+    marker_loads: BoundKernel,
+    reduce: BoundKernel,
+}
+
+struct Bound {
+    tait_eos: BoundKernel,
+    boundary_pressure: BoundKernel,
+    fluid_rates: BoundKernel,
+    predict: BoundKernel,
+    correct: BoundKernel,
+    find_bad: BoundKernel,
+    capture_bad: BoundKernel,
+    markers: Option<BoundMarkers>,
+}
+
+/// The buffers of one particle set (struct of arrays, permuted by the grid every step),
+/// its neighbour grid and its bound kernels.
+pub struct SphData {
+    pub kinds: ParticleKinds,
+    pub n_total: u32,
+    /// vec4<f32>: xyz position relative to the solver origin, m.
+    pub pos: wgpu::Buffer,
+    /// vec4<f32>: xyz velocity, m/s.
+    pub vel: wgpu::Buffer,
+    pub rho: wgpu::Buffer,
+    pub press: wgpu::Buffer,
+    /// Original id (kind by range).
+    pub id: wgpu::Buffer,
+    pub drho: wgpu::Buffer,
+    pub dvel: wgpu::Buffer,
+    /// ρⁿ and uⁿ during a step (written by `predict`, not permuted).
+    pub rho_n: wgpu::Buffer,
+    pub vel_n: wgpu::Buffer,
+    pub params: wgpu::Buffer,
+    pub status: wgpu::Buffer,
+    pub bad_values: wgpu::Buffer,
+    pub grid: NeighbourGrid,
+    pub bodies: Option<BodyBuffers>,
+    bound: Bound,
+}
+
+const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
+    .union(wgpu::BufferUsages::COPY_SRC)
+    .union(wgpu::BufferUsages::COPY_DST);
+
+fn storage_init(gpu: &Gpu, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    // Bindings need a non-empty buffer: an empty array still gets 16 bytes.
+    let mut contents = bytes.to_vec();
+    if contents.len() < 16 {
+        contents.resize(16, 0);
+    }
+    gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: &contents, usage: STORAGE })
+}
+
+fn vec4s(v: &[[f64; 3]]) -> Vec<[f32; 4]> {
+    v.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, 0.0]).collect()
+}
+
+fn missing(what: &str) -> FluidError {
+    FluidError::Grid { step: 0, message: format!("internal: kernel binding for {what} is missing") }
+}
+
+impl SphData {
+    /// Uploads `set` (positions relative to the origin already) and builds its grid
+    /// over `[grid_min, grid_max]` (relative).
+    fn new(
+        gpu: &Gpu,
+        c: &SphConstants,
+        pipelines: &SphPipelines,
+        set: &ParticleSet,
+        grid_min: [f64; 3],
+        grid_max: [f64; 3],
+        body_capacity: usize,
+    ) -> Result<SphData, FluidError> {
+        let n = set.len();
+        for (what, got) in [("vel", set.vel.len()), ("rho", set.rho.len()), ("press", set.press.len()), ("id", set.id.len())] {
+            if got != n {
+                return Err(FluidError::BadParticleSet { what, got, expected: n });
+            }
+        }
+        if set.kinds.total() != n {
+            return Err(FluidError::BadParticleSet { what: "kinds (fluid + wall + markers)", got: set.kinds.total(), expected: n });
+        }
+        let limit = gpu.device.limits().max_storage_buffer_binding_size;
+        let needed = n as u64 * 16;
+        if needed > limit {
+            return Err(FluidError::TooLarge { what: format!("{n} particles (vec4 arrays)"), needed, limit });
+        }
+        let f32s = |v: &[f64]| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
+        let pos = storage_init(gpu, "sph: pos", bytemuck::cast_slice(&vec4s(&set.pos)));
+        let vel = storage_init(gpu, "sph: vel", bytemuck::cast_slice(&vec4s(&set.vel)));
+        let rho = storage_init(gpu, "sph: rho", bytemuck::cast_slice(&f32s(&set.rho)));
+        let press = storage_init(gpu, "sph: press", bytemuck::cast_slice(&f32s(&set.press)));
+        let id = storage_init(gpu, "sph: id", bytemuck::cast_slice(&set.id));
+        let zeros4 = vec![0u8; n * 4];
+        let zeros16 = vec![0u8; n * 16];
+        let drho = storage_init(gpu, "sph: drho", &zeros4);
+        let dvel = storage_init(gpu, "sph: dvel", &zeros16);
+        let rho_n = storage_init(gpu, "sph: rho_n", &zeros4);
+        let vel_n = storage_init(gpu, "sph: vel_n", &zeros16);
+        let step_params = StepParams {
+            n_total: n as u32,
+            n_fluid: set.kinds.n_fluid as u32,
+            n_wall: set.kinds.n_wall as u32,
+            n_markers: set.kinds.n_markers as u32,
+            ..Default::default()
+        };
+        let params = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("sph: step params"),
+            contents: bytemuck::bytes_of(&step_params),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let status = storage_init(gpu, "sph: blow-up status", bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]));
+        let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 32]);
+
+        let mut grid = NeighbourGrid::new(gpu, grid_min, grid_max, c.support_radius(), n as u32)?;
+        grid.register(gpu, &pos, 16)?;
+        grid.register(gpu, &vel, 16)?;
+        grid.register(gpu, &rho, 4)?;
+        grid.register(gpu, &press, 4)?;
+        grid.register_ids(gpu, &id)?;
+
+        let bodies = (set.kinds.n_markers > 0).then(|| {
+            let m = set.kinds.n_markers;
+            let cap = body_capacity.max(1);
+            BodyBuffers {
+                markers_in: storage_init(gpu, "sph: markers in", &vec![0u8; m * 48]),
+                bodies: storage_init(gpu, "sph: bodies", &vec![0u8; cap * 32]),
+                clock: storage_init(gpu, "sph: clock", &[0u8; 16]),
+                marker_load: storage_init(gpu, "sph: marker load", &vec![0u8; m * 32]),
+                marker_load_c: storage_init(gpu, "sph: marker load compensation", &vec![0u8; m * 32]),
+                load_ranges: storage_init(gpu, "sph: load ranges", &vec![0u8; cap * 16]),
+                body_loads: storage_init(gpu, "sph: body loads", &vec![0u8; cap * 32]),
+                body_capacity: cap,
+            }
+        });
+
+        let bound = {
+            let particle = |b: u32| -> Option<&wgpu::Buffer> {
+                Some(match b {
+                    pb::POS => &pos,
+                    pb::VEL => &vel,
+                    pb::RHO => &rho,
+                    pb::PRESS => &press,
+                    pb::ID => &id,
+                    pb::DRHO => &drho,
+                    pb::DVEL => &dvel,
+                    pb::RHO_N => &rho_n,
+                    pb::VEL_N => &vel_n,
+                    _ => return None,
+                })
+            };
+            let resolve = |g: u32, b: u32| -> Option<&wgpu::Buffer> {
+                match g {
+                    PARTICLES => particle(b),
+                    BODIES => {
+                        let bb_ = bodies.as_ref()?;
+                        Some(match b {
+                            bb::MARKERS_IN => &bb_.markers_in,
+                            bb::BODIES => &bb_.bodies,
+                            bb::CLOCK => &bb_.clock,
+                            bb::MARKER_LOAD => &bb_.marker_load,
+                            bb::MARKER_LOAD_C => &bb_.marker_load_c,
+                            bb::LOAD_RANGES => &bb_.load_ranges,
+                            bb::BODY_LOADS => &bb_.body_loads,
+                            _ => return None,
+                        })
+                    }
+                    PARAMS => match b {
+                        qb::PARAMS => Some(&params),
+                        qb::STATUS => Some(&status),
+                        qb::BAD_VALUES => Some(&bad_values),
+                        _ => None,
+                    },
+                    _ => None,
+                }
+            };
+            let g = Some(grid.bind_group());
+            let p = pipelines;
+            let markers = match (&p.markers, &bodies) {
+                (Some(m), Some(_)) => Some(BoundMarkers {
+                    marker_update: m.marker_update.bind(gpu, resolve, None).ok_or_else(|| missing("marker_update"))?,
+                    advance_clock: m.advance_clock.bind(gpu, resolve, None).ok_or_else(|| missing("advance_clock"))?,
+                    marker_loads: m.marker_loads.bind(gpu, resolve, g).ok_or_else(|| missing("marker_loads"))?,
+                    reduce: m.reduce.bind(gpu, resolve, None).ok_or_else(|| missing("reduce_body_loads"))?,
+                }),
+                _ => None,
+            };
+            Bound {
+                tait_eos: p.tait_eos.bind(gpu, resolve, None).ok_or_else(|| missing("tait_eos"))?,
+                boundary_pressure: p.boundary_pressure.bind(gpu, resolve, g).ok_or_else(|| missing("boundary pressure"))?,
+                fluid_rates: p.fluid_rates.bind(gpu, resolve, g).ok_or_else(|| missing("fluid_rates"))?,
+                predict: p.predict.bind(gpu, resolve, None).ok_or_else(|| missing("predict"))?,
+                correct: p.correct.bind(gpu, resolve, None).ok_or_else(|| missing("correct"))?,
+                find_bad: p.find_bad.bind(gpu, resolve, None).ok_or_else(|| missing("find_bad"))?,
+                capture_bad: p.capture_bad.bind(gpu, resolve, None).ok_or_else(|| missing("capture_bad"))?,
+                markers,
+            }
+        };
+        Ok(SphData {
+            kinds: set.kinds,
+            n_total: n as u32,
+            pos,
+            vel,
+            rho,
+            press,
+            id,
+            drho,
+            dvel,
+            rho_n,
+            vel_n,
+            params,
+            status,
+            bad_values,
+            grid,
+            bodies,
+            bound,
+        })
+    }
+
+    /// Records one stage as a labelled compute pass (nothing when the stage is not
+    /// present for this data).
+    pub fn queue_op(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, timer: Option<&mut StageTimer>, op: Op) {
+        let n = self.n_total;
+        let b = &self.bound;
+        let m = b.markers.as_ref();
+        let (kernel, label): (&BoundKernel, &str) = match op {
+            Op::Sort => {
+                self.grid.queue_sort(gpu, encoder, &self.pos, timer);
+                return;
+            }
+            Op::TaitEos => (&b.tait_eos, "sph: tait_eos"),
+            Op::BoundaryPressure => (&b.boundary_pressure, "sph: adami2012_boundary_pressure"),
+            Op::FluidRates => (&b.fluid_rates, "sph: fluid_rates"),
+            Op::Predict => (&b.predict, "sph: predict"),
+            Op::Correct => (&b.correct, "sph: correct"),
+            Op::MarkerUpdate => match m {
+                Some(m) => (&m.marker_update, "sph: marker_update"),
+                None => return,
+            },
+            Op::MarkerLoads => match m {
+                Some(m) => (&m.marker_loads, "sph: joubert2020_marker_loads"),
+                None => return,
+            },
+            Op::AdvanceClock => {
+                if let Some(m) = m {
+                    let mut pass = timing::begin_pass(timer, gpu, encoder, "sph: advance_clock");
+                    m.advance_clock.dispatch_groups(&mut pass, 1);
+                }
+                return;
+            }
+            Op::ReduceBodyLoads => {
+                if let Some(m) = m {
+                    let groups = self.bodies.as_ref().map_or(0, |b| b.body_capacity as u32);
+                    let mut pass = timing::begin_pass(timer, gpu, encoder, "sph: reduce_body_loads");
+                    m.reduce.dispatch_groups(&mut pass, groups);
+                }
+                return;
+            }
+        };
+        let mut pass = timing::begin_pass(timer, gpu, encoder, label);
+        kernel.dispatch(&mut pass, n);
+    }
+
+    /// Reads the particle arrays back (buffer order, positions relative to the origin).
+    pub fn read(&self, gpu: &Gpu) -> Result<ParticleSet, FluidError> {
+        let n = u64::from(self.n_total);
+        let pos: Vec<[f32; 4]> = gpu.read_buffer(&self.pos, 0, n)?;
+        let vel: Vec<[f32; 4]> = gpu.read_buffer(&self.vel, 0, n)?;
+        let rho: Vec<f32> = gpu.read_buffer(&self.rho, 0, n)?;
+        let press: Vec<f32> = gpu.read_buffer(&self.press, 0, n)?;
+        let id: Vec<u32> = gpu.read_buffer(&self.id, 0, n)?;
+        let v3 = |v: &[f32; 4]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+        Ok(ParticleSet {
+            pos: pos.iter().map(v3).collect(),
+            vel: vel.iter().map(v3).collect(),
+            rho: rho.iter().map(|x| f64::from(*x)).collect(),
+            press: press.iter().map(|x| f64::from(*x)).collect(),
+            id,
+            kinds: self.kinds,
+        })
+    }
+
+    /// Reads the rates (buffer order): dρ/dt and du/dt.
+    pub fn read_rates(&self, gpu: &Gpu) -> Result<(Vec<f64>, Vec<[f64; 3]>), FluidError> {
+        let n = u64::from(self.n_total);
+        let drho: Vec<f32> = gpu.read_buffer(&self.drho, 0, n)?;
+        let dvel: Vec<[f32; 4]> = gpu.read_buffer(&self.dvel, 0, n)?;
+        Ok((
+            drho.iter().map(|x| f64::from(*x)).collect(),
+            dvel.iter().map(|v| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])]).collect(),
+        ))
+    }
+
+    /// Reads the per-marker window sums (force, moment) in marker (DEM) order.
+    pub fn read_marker_loads(&self, gpu: &Gpu) -> Result<Vec<([f64; 3], [f64; 3])>, FluidError> {
+        let Some(b) = &self.bodies else { return Ok(Vec::new()) };
+        let m = self.kinds.n_markers as u64;
+        let s: Vec<[f32; 4]> = gpu.read_buffer(&b.marker_load, 0, 2 * m)?;
+        let c: Vec<[f32; 4]> = gpu.read_buffer(&b.marker_load_c, 0, 2 * m)?;
+        let v = |k: usize| std::array::from_fn(|a| f64::from(s[k][a]) - f64::from(c[k][a]));
+        Ok((0..m as usize).map(|k| (v(2 * k), v(2 * k + 1))).collect())
+    }
+}
+
+/// The fluid solver of a scene; see the module doc.
+pub struct FluidSolver {
+    consts: SphConstants,
+    limits: FluidLimits,
+    stages: Vec<Stage>,
+    /// World position of the GPU coordinate origin (the domain centre), m.
+    origin: [f64; 3],
+    grid_min: [f64; 3],
+    grid_max: [f64; 3],
+    n_scene_bodies: usize,
+    pipelines: SphPipelines,
+    data: SphData,
+    marker_capacity: Option<usize>,
+    /// Body index of each load range (contiguous markers of one body).
+    load_bodies: Vec<u32>,
+    step_params: StepParams,
+    time: f64,
+    steps: u64,
+    loads_ready: bool,
+}
+
+impl FluidSolver {
+    /// Builds the particles of `scene` ([`initial_particles`]) and the solver.
+    pub fn new(gpu: &Gpu, scene: &Scene) -> Result<FluidSolver, FluidError> {
+        let c = SphConstants::from_scene(scene)?;
+        let set = initial_particles(scene, &c)?;
+        Self::from_particles(gpu, scene, set)
+    }
+
+    /// A solver for `scene` started from an explicit particle set (world coordinates;
+    /// ids and kinds as in [`ParticleSet`]); fluid pressures are set from the densities
+    /// by the Tait equation. For tests and restarts.
+    pub fn from_particles(gpu: &Gpu, scene: &Scene, mut set: ParticleSet) -> Result<FluidSolver, FluidError> {
+        let consts = SphConstants::from_scene(scene)?;
+        let limits = FluidLimits::from_scene(scene)?;
+        let stages = plan::stages(scene);
+        let d = &scene.domain;
+        let origin: [f64; 3] = std::array::from_fn(|k| 0.5 * (d.min[k] + d.max[k]));
+        // Walls reach ceil(support) spacings outside the domain; one more spacing of
+        // slack, and the grid pads another cell.
+        let margin = (wall_layers(scene) as f64 + 1.0) * consts.spacing;
+        let grid_min = std::array::from_fn(|k| d.min[k] - origin[k] - margin);
+        let grid_max = std::array::from_fn(|k| d.max[k] - origin[k] + margin);
+        for p in &mut set.pos {
+            for k in 0..3 {
+                p[k] -= origin[k];
+            }
+        }
+        // Only a throwaway grid gives the layout the pipelines are built with; wgpu
+        // deduplicates identical bind group layouts, so later grids' bind groups fit.
+        let probe = NeighbourGrid::new(gpu, grid_min, grid_max, consts.support_radius(), 1)?;
+        let pipelines = SphPipelines::new(gpu, &consts, probe.bind_group_layout(), scene.has_resolved_bodies());
+        drop(probe);
+        let data = SphData::new(gpu, &consts, &pipelines, &set, grid_min, grid_max, scene.bodies.len())?;
+        let step_params = StepParams {
+            n_total: data.n_total,
+            n_fluid: data.kinds.n_fluid as u32,
+            n_wall: data.kinds.n_wall as u32,
+            n_markers: data.kinds.n_markers as u32,
+            dt: limits.dt as f32,
+            ..Default::default()
+        };
+        let solver = FluidSolver {
+            consts,
+            limits,
+            stages,
+            origin,
+            grid_min,
+            grid_max,
+            n_scene_bodies: scene.bodies.len(),
+            pipelines,
+            data,
+            marker_capacity: None,
+            load_bodies: Vec::new(),
+            step_params,
+            time: 0.0,
+            steps: 0,
+            loads_ready: false,
+        };
+        // Fluid pressures from the initial densities (Joubert eq. 4).
+        solver.write_params(gpu);
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: init") });
+        solver.data.queue_op(gpu, &mut encoder, None, Op::TaitEos);
+        gpu.queue.submit([encoder.finish()]);
+        Ok(solver)
+    }
+
+    pub fn counts(&self) -> ParticleCounts {
+        let k = self.data.kinds;
+        ParticleCounts { fluid: k.n_fluid as u32, wall: k.n_wall as u32, markers: k.n_markers as u32 }
+    }
+
+    pub fn limits(&self) -> FluidLimits {
+        self.limits
+    }
+
+    pub fn stages(&self) -> &[Stage] {
+        &self.stages
+    }
+
+    pub fn constants(&self) -> &SphConstants {
+        &self.consts
+    }
+
+    /// World position of the GPU coordinate origin, m.
+    pub fn origin(&self) -> [f64; 3] {
+        self.origin
+    }
+
+    /// The buffers (tests and benchmarks).
+    pub fn data(&self) -> &SphData {
+        &self.data
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    fn write_params(&self, gpu: &Gpu) {
+        gpu.queue.write_buffer(&self.data.params, 0, bytemuck::bytes_of(&self.step_params));
+    }
+
+    /// Sets the bodies and markers for the next window: `states` at the window start and
+    /// the world-frame coupling points in DEM order (contiguous per body). The first
+    /// call fixes the marker capacity (the marker particles are appended then); later
+    /// calls must give the same number of points.
+    pub fn set_bodies(&mut self, gpu: &Gpu, states: &[BodyState], points: &[CouplingPoint]) -> Result<(), FluidError> {
+        if let Some(cap) = self.marker_capacity
+            && cap != points.len()
+        {
+            return Err(FluidError::MarkerCount { got: points.len(), capacity: cap });
+        }
+        // Validate before touching anything.
+        let body_capacity = match &self.data.bodies {
+            Some(b) => b.body_capacity,
+            None => self
+                .n_scene_bodies
+                .max(states.iter().map(|s| s.body as usize + 1).max().unwrap_or(0))
+                .max(points.iter().map(|p| p.body as usize + 1).max().unwrap_or(0))
+                .max(1),
+        };
+        let mut bodies = vec![GpuBody::default(); body_capacity];
+        let mut has_state = vec![false; body_capacity];
+        for (index, s) in states.iter().enumerate() {
+            let b = s.body as usize;
+            if b >= body_capacity {
+                return Err(FluidError::BodyIndex { index, body: s.body, capacity: body_capacity });
+            }
+            if s.position.iter().chain(&s.linear_velocity).any(|x| !x.is_finite()) {
+                return Err(FluidError::NonFiniteInput {
+                    what: "position or velocity",
+                    item: format!("body state {index} (body {})", s.body),
+                    value: format!("{:?} / {:?}", s.position, s.linear_velocity),
+                });
+            }
+            let rel = |k: usize| (s.position[k] - self.origin[k]) as f32;
+            let v = s.linear_velocity.map(|x| x as f32);
+            bodies[b] = GpuBody { cg: [rel(0), rel(1), rel(2), 0.0], vel: [v[0], v[1], v[2], 0.0] };
+            has_state[b] = true;
+        }
+        let mut ranges: Vec<[u32; 4]> = Vec::new();
+        let mut seen = vec![false; body_capacity];
+        for (index, p) in points.iter().enumerate() {
+            let b = p.body as usize;
+            if b >= body_capacity || !has_state[b] {
+                return Err(FluidError::MarkerBody { index, body: p.body, n_bodies: states.len() });
+            }
+            if p.position.iter().chain(&p.velocity).chain(&p.normal).chain(std::iter::once(&p.measure)).any(|x| !x.is_finite()) {
+                return Err(FluidError::NonFiniteInput {
+                    what: "position, velocity, normal or area",
+                    item: format!("coupling point {index} (body {})", p.body),
+                    value: format!("{:?}", p),
+                });
+            }
+            match ranges.last_mut() {
+                Some(r) if r[2] == p.body => r[1] += 1,
+                _ => {
+                    if seen[b] {
+                        return Err(FluidError::MarkerOrder { index, body: p.body });
+                    }
+                    seen[b] = true;
+                    ranges.push([index as u32, 1, p.body, 0]);
+                }
+            }
+        }
+        if self.marker_capacity.is_none() {
+            self.marker_capacity = Some(points.len());
+            if !points.is_empty() {
+                self.append_markers(gpu, points, body_capacity)?;
+            }
+        }
+        let Some(buffers) = &self.data.bodies else {
+            return Ok(());
+        };
+        let markers: Vec<GpuMarker> = points.iter().map(|p| GpuMarker::from_point(p, self.origin)).collect();
+        gpu.queue.write_buffer(&buffers.markers_in, 0, bytemuck::cast_slice(&markers));
+        gpu.queue.write_buffer(&buffers.bodies, 0, bytemuck::cast_slice(&bodies));
+        gpu.queue.write_buffer(&buffers.load_ranges, 0, bytemuck::cast_slice(&ranges));
+        self.load_bodies = ranges.iter().map(|r| r[2]).collect();
+        self.step_params.n_load_bodies = ranges.len() as u32;
+        self.loads_ready = false;
+        Ok(())
+    }
+
+    /// Rebuilds the data with `points.len()` marker particles appended (first
+    /// `set_bodies`): the current particle state is read back once.
+    fn append_markers(&mut self, gpu: &Gpu, points: &[CouplingPoint], body_capacity: usize) -> Result<(), FluidError> {
+        let mut set = self.data.read(gpu)?;
+        let marker_base = set.kinds.marker_base() as u32;
+        for (k, p) in points.iter().enumerate() {
+            let m = GpuMarker::from_point(p, self.origin);
+            set.pos.push(std::array::from_fn(|a| f64::from(m.pos_area[a])));
+            set.vel.push(std::array::from_fn(|a| f64::from(m.vel_body[a])));
+            set.rho.push(self.consts.rho0);
+            set.press.push(0.0);
+            set.id.push(marker_base + k as u32);
+        }
+        set.kinds.n_markers = points.len();
+        if self.pipelines.markers.is_none() {
+            // A scene without resolved bodies that still receives markers (tests).
+            let probe = NeighbourGrid::new(gpu, self.grid_min, self.grid_max, self.consts.support_radius(), 1)?;
+            self.pipelines.markers = Some(MarkerPipelines::new(gpu, &self.consts, probe.bind_group_layout()));
+        }
+        self.data = SphData::new(gpu, &self.consts, &self.pipelines, &set, self.grid_min, self.grid_max, body_capacity)?;
+        self.step_params.n_total = self.data.n_total;
+        self.step_params.n_markers = points.len() as u32;
+        Ok(())
+    }
+
+    /// Records one predictor–corrector step (Joubert eqs. 20–23) as labelled passes.
+    pub fn queue_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, mut timer: Option<&mut StageTimer>) {
+        let d = &self.data;
+        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerUpdate);
+        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Sort);
+        for update in [Op::Predict, Op::Correct] {
+            d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::BoundaryPressure);
+            d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::FluidRates);
+            d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerLoads);
+            d.queue_op(gpu, encoder, timer.as_deref_mut(), update);
+        }
+        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::AdvanceClock);
+    }
+
+    /// Resets the window accumulators (clock, marker load sums) in `encoder`.
+    fn queue_window_start(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        if let Some(b) = &self.data.bodies {
+            gpu.queue.write_buffer(&b.clock, 0, bytemuck::bytes_of(&Clock::default()));
+            encoder.clear_buffer(&b.marker_load, 0, None);
+            encoder.clear_buffer(&b.marker_load_c, 0, None);
+        }
+    }
+
+    /// Runs `ops` once with substep `dt` and load weight `load_weight` after resetting the
+    /// window accumulators, then waits (tests and benchmarks).
+    pub fn run_ops(&mut self, gpu: &Gpu, ops: &[Op], dt: f64, load_weight: f64) -> Result<(), FluidError> {
+        self.step_params.dt = dt as f32;
+        self.step_params.load_weight = load_weight as f32;
+        self.write_params(gpu);
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: ops") });
+        self.queue_window_start(gpu, &mut encoder);
+        for op in ops {
+            self.data.queue_op(gpu, &mut encoder, None, *op);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        gpu.wait()?;
+        Ok(())
+    }
+
+    /// Advances the fluid over `window` seconds in `ceil(window / dt)` equal substeps and
+    /// returns their number. At the end: body loads reduced (when markers exist), the
+    /// blow-up check and the grid's error record (each a small readback).
+    pub fn advance(&mut self, gpu: &Gpu, window: f64, mut timer: Option<&mut StageTimer>) -> Result<u32, FluidError> {
+        if !(window.is_finite() && window > 0.0) {
+            return Err(FluidError::BadWindow { window });
+        }
+        // A window that is a whole number of steps up to round-off takes that many.
+        let substeps = ((window / self.limits.dt) * (1.0 - 1e-9)).ceil().max(1.0) as u32;
+        let dt = window / f64::from(substeps);
+        self.step_params.dt = dt as f32;
+        self.step_params.load_weight = (0.5 / f64::from(substeps)) as f32;
+        self.write_params(gpu);
+        for s in 0..substeps {
+            let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: step") });
+            if s == 0 {
+                self.queue_window_start(gpu, &mut encoder);
+            }
+            self.queue_step(gpu, &mut encoder, timer.as_deref_mut());
+            if s + 1 == substeps {
+                self.data.queue_op(gpu, &mut encoder, timer.as_deref_mut(), Op::ReduceBodyLoads);
+            }
+            if let Some(t) = timer.as_deref_mut() {
+                t.finish(gpu, &mut encoder);
+            }
+            gpu.queue.submit([encoder.finish()]);
+            if let Some(t) = timer.as_deref_mut() {
+                t.collect(gpu)?;
+            }
+        }
+        self.time += window;
+        self.steps += u64::from(substeps);
+        self.loads_ready = self.data.bodies.is_some();
+        self.check(gpu)?;
+        Ok(substeps)
+    }
+
+    /// End-of-window checks: blow-up (non-finite, runaway density or speed) and
+    /// particles outside the grid.
+    fn check(&self, gpu: &Gpu) -> Result<(), FluidError> {
+        let d = &self.data;
+        gpu.queue.write_buffer(&d.status, 0, bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]));
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: check") });
+        {
+            let mut pass = timing::begin_pass(None, gpu, &mut encoder, "sph: blowup_check");
+            d.bound.find_bad.dispatch(&mut pass, d.n_total);
+            d.bound.capture_bad.dispatch(&mut pass, d.n_total);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 1)?;
+        if let Some(&id) = status.first()
+            && id != blowup_check::NO_BAD_ID
+        {
+            let v: Vec<[f32; 4]> = gpu.read_buffer(&d.bad_values, 0, 2)?;
+            let (pos, rho, vel) = (v[0], v[0][3], v[1]);
+            let finite = |x: &[f32]| x.iter().all(|a| a.is_finite());
+            let c = &self.consts;
+            let speed = (vel[..3].iter().map(|x| f64::from(*x).powi(2)).sum::<f64>()).sqrt();
+            let world: [f64; 3] = std::array::from_fn(|k| f64::from(pos[k]) + self.origin[k]);
+            let (what, value) = if !finite(&pos[..3]) {
+                ("position", format!("{:?}", &pos[..3]))
+            } else if !finite(&vel[..3]) {
+                ("velocity", format!("{:?} at {world:?}", &vel[..3]))
+            } else if !rho.is_finite() || (f64::from(rho) / c.rho0 - 1.0).abs() > blowup_check::BLOWUP_DENSITY_DEVIATION {
+                ("density", format!("{rho} kg/m³ at {world:?}"))
+            } else {
+                ("speed", format!("{speed} m/s at {world:?}"))
+            };
+            return Err(FluidError::BlowUp {
+                step: self.steps,
+                time: self.time,
+                id,
+                kind: match d.kinds.kind(id) {
+                    Kind::Fluid => "fluid",
+                    Kind::Wall => "wall",
+                    Kind::Marker => "marker",
+                },
+                what,
+                value,
+                rho_min: c.rho0 * (1.0 - blowup_check::BLOWUP_DENSITY_DEVIATION),
+                rho_max: c.rho0 * (1.0 + blowup_check::BLOWUP_DENSITY_DEVIATION),
+                u_max: c.sound_speed,
+            });
+        }
+        if let Err(e) = d.grid.check(gpu) {
+            d.grid.reset_error(gpu);
+            return Err(FluidError::Grid { step: self.steps, message: e.to_string() });
+        }
+        Ok(())
+    }
+
+    /// Fluid force and moment per body, averaged over the last window (Joubert eqs.
+    /// 31–32); one entry per body that has markers, in marker order. Empty without markers.
+    pub fn loads(&mut self, gpu: &Gpu) -> Result<Vec<BodyLoad>, FluidError> {
+        let Some(b) = &self.data.bodies else { return Ok(Vec::new()) };
+        if !self.loads_ready {
+            return Ok(self.load_bodies.iter().map(|&body| BodyLoad { body, ..Default::default() }).collect());
+        }
+        let n = self.load_bodies.len() as u64;
+        let raw: Vec<[f32; 4]> = gpu.read_buffer(&b.body_loads, 0, 2 * n)?;
+        let v = |x: [f32; 4]| [f64::from(x[0]), f64::from(x[1]), f64::from(x[2])];
+        Ok(self
+            .load_bodies
+            .iter()
+            .enumerate()
+            .map(|(g, &body)| BodyLoad { force: v(raw[2 * g]), body, _pad: 0, moment: v(raw[2 * g + 1]) })
+            .collect())
+    }
+
+    /// All particles (buffer order) in world coordinates.
+    pub fn particles(&self, gpu: &Gpu) -> Result<ParticleSet, FluidError> {
+        let mut set = self.data.read(gpu)?;
+        for p in &mut set.pos {
+            for k in 0..3 {
+                p[k] += self.origin[k];
+            }
+        }
+        Ok(set)
+    }
+
+    /// Fluid particles in id order, world coordinates.
+    pub fn snapshot(&mut self, gpu: &Gpu) -> Result<Vec<ParticleRecord>, FluidError> {
+        let set = self.particles(gpu)?;
+        let n_fluid = set.kinds.n_fluid;
+        let mut out = vec![ParticleRecord::default(); n_fluid];
+        for k in 0..set.len() {
+            let id = set.id[k] as usize;
+            if id < n_fluid {
+                out[id] = ParticleRecord {
+                    position: set.pos[k].map(|x| x as f32),
+                    pressure: set.press[k] as f32,
+                    velocity: set.vel[k].map(|x| x as f32),
+                    density: set.rho[k] as f32,
+                };
+            }
+        }
+        Ok(out)
+    }
+
+    /// Mean number of neighbours inside the support per fluid particle (sorts first).
+    pub fn neighbour_stats(&mut self, gpu: &Gpu) -> Result<f64, FluidError> {
+        let d = &self.data;
+        let counts = storage_init(gpu, "sph: neighbour counts", &vec![0u8; d.n_total as usize * 4]);
+        let resolve = |g: u32, b: u32| -> Option<&wgpu::Buffer> {
+            match (g, b) {
+                (PARTICLES, pb::POS) => Some(&d.pos),
+                (PARTICLES, pb::ID) => Some(&d.id),
+                (PARAMS, qb::PARAMS) => Some(&d.params),
+                (PARAMS, qb::COUNTS) => Some(&counts),
+                _ => None,
+            }
+        };
+        let bound = self
+            .pipelines
+            .neighbour_count
+            .bind(gpu, resolve, Some(d.grid.bind_group()))
+            .ok_or_else(|| missing("neighbour_count"))?;
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: neighbours") });
+        d.queue_op(gpu, &mut encoder, None, Op::Sort);
+        {
+            let mut pass = timing::begin_pass(None, gpu, &mut encoder, "sph: neighbour_count");
+            bound.dispatch(&mut pass, d.n_total);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let c: Vec<u32> = gpu.read_buffer(&counts, 0, u64::from(d.n_total))?;
+        let total: u64 = c.iter().map(|x| u64::from(*x)).sum();
+        Ok(total as f64 / d.kinds.n_fluid.max(1) as f64)
+    }
+}

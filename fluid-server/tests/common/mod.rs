@@ -1,0 +1,80 @@
+//! Shared helpers of the fluid-server tests: scenes from TOML text, seeded particle sets.
+#![allow(dead_code)]
+
+use couplet_fluid::{ParticleKinds, ParticleSet, SphConstants};
+use couplet_protocol::Scene;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+
+/// A scene with a fluid block; `extra` is appended to the TOML (effects, bodies…).
+pub fn scene(fluid: &str, extra: &str) -> Scene {
+    let text = format!(
+        r#"
+[meta]
+name = "test"
+[time]
+end = 1.0
+output_interval = 0.1
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.2, 0.2, 0.2]
+[fluid]
+density = 1000.0
+kinematic_viscosity = 1e-3
+sound_speed = 20.0
+spacing = 0.01
+blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, 0.2, 0.2] }}]
+{fluid}
+{extra}
+"#
+    );
+    match Scene::parse(&text, Path::new("test.toml")) {
+        Ok(s) => s,
+        Err(e) => panic!("test scene: {e}\n{text}"),
+    }
+}
+
+/// A seeded set: a lattice of spacing δ over `n_side³` points inside the domain, the
+/// first `n_fluid` fluid, the rest wall, each position perturbed by up to `jitter`·δ,
+/// random velocities (|u| ≲ u_scale) and densities ρ0 (1 ± 1 %), pressures from the EOS
+/// (walls: random around the fluid's).
+pub fn random_set(c: &SphConstants, n_side: usize, wall_fraction: f64, jitter: f64, u_scale: f64, seed: u64) -> ParticleSet {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let d = c.spacing;
+    let n = n_side * n_side * n_side;
+    let mut idx: Vec<usize> = (0..n).collect();
+    // Walls: a random subset (its ids come after the fluid's).
+    let n_wall = (n as f64 * wall_fraction) as usize;
+    for i in (1..n).rev() {
+        let j = rng.random_range(0..=i);
+        idx.swap(i, j);
+    }
+    let mut set = ParticleSet::default();
+    for &k in &idx {
+        let (x, y, z) = (k % n_side, (k / n_side) % n_side, k / (n_side * n_side));
+        let mut jit = || (rng.random::<f64>() - 0.5) * 2.0 * jitter * d;
+        let p = [0.02 + (x as f64 + 0.5) * d + jit(), 0.02 + (y as f64 + 0.5) * d + jit(), 0.02 + (z as f64 + 0.5) * d + jit()];
+        set.pos.push(p);
+    }
+    let n_fluid = n - n_wall;
+    for i in 0..n {
+        let u = if i < n_fluid {
+            [0, 1, 2].map(|_| (rng.random::<f64>() - 0.5) * 2.0 * u_scale)
+        } else {
+            [0.0; 3]
+        };
+        set.vel.push(u);
+        let rho = c.rho0 * (1.0 + 0.02 * (rng.random::<f64>() - 0.5));
+        set.rho.push(rho);
+        set.press.push(c.pressure(rho));
+        set.id.push(i as u32);
+    }
+    set.kinds = ParticleKinds { n_fluid, n_wall, n_markers: 0 };
+    set
+}
+
+/// Largest |a − b| and largest |b| over pairs of scalars.
+pub fn max_err(pairs: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
+    pairs.fold((0.0, 0.0), |(e, m), (a, b)| (f64::max(e, (a - b).abs()), f64::max(m, b.abs())))
+}

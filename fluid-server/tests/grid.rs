@@ -1,0 +1,536 @@
+//! Neighbour grid: the counting sort and the WGSL pair-loop helpers against brute force.
+//!
+//! Every test holds `shared_test_gpu()` for its whole body (one GPU, serialised).
+
+use couplet_fluid::gpu::{Gpu, shared_test_gpu};
+use couplet_fluid::neighbour_grid::{GRID_COMMON_WGSL, GridError, GridParams, NeighbourGrid};
+use couplet_fluid::shaders;
+use couplet_fluid::timing::{StageTimer, TimingMode};
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use wgpu::util::DeviceExt;
+
+fn buffer_init<T: bytemuck::Pod>(gpu: &Gpu, label: &str, data: &[T]) -> wgpu::Buffer {
+    gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::cast_slice(data),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    })
+}
+
+/// The particle arrays of a test: pos (w = id as f32), vel, rho (f32), id (u32).
+struct Particles {
+    pos: Vec<[f32; 4]>,
+    vel: Vec<[f32; 4]>,
+    rho: Vec<f32>,
+    id: Vec<u32>,
+}
+
+impl Particles {
+    fn from_positions(xyz: &[[f32; 3]]) -> Particles {
+        let n = xyz.len();
+        Particles {
+            pos: xyz.iter().enumerate().map(|(i, p)| [p[0], p[1], p[2], i as f32]).collect(),
+            vel: (0..n).map(|i| [i as f32 * 0.5, -(i as f32), 3.0, i as f32 + 0.25]).collect(),
+            rho: (0..n).map(|i| 1000.0 + i as f32 * 1e-3).collect(),
+            id: (0..n as u32).collect(),
+        }
+    }
+}
+
+struct OnGpu {
+    pos: wgpu::Buffer,
+    vel: wgpu::Buffer,
+    rho: wgpu::Buffer,
+    id: wgpu::Buffer,
+}
+
+fn upload_and_register(gpu: &Gpu, grid: &mut NeighbourGrid, p: &Particles) -> OnGpu {
+    let b = OnGpu {
+        pos: buffer_init(gpu, "pos", &p.pos),
+        vel: buffer_init(gpu, "vel", &p.vel),
+        rho: buffer_init(gpu, "rho", &p.rho),
+        id: buffer_init(gpu, "id", &p.id),
+    };
+    grid.register(gpu, &b.pos, 16).unwrap();
+    grid.register(gpu, &b.vel, 16).unwrap();
+    grid.register(gpu, &b.rho, 4).unwrap();
+    grid.register_ids(gpu, &b.id).unwrap();
+    b
+}
+
+fn sort(gpu: &Gpu, grid: &NeighbourGrid, b: &OnGpu) {
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    grid.queue_sort(gpu, &mut encoder, &b.pos, None);
+    gpu.queue.submit([encoder.finish()]);
+}
+
+/// Seeded particles in the box [0, 1] × [0, 0.75] × [0, 0.5] (cell 0.125, 10 × 8 × 6 =
+/// 480 cells with the padding): uniform ones, a dense cluster, points exactly on cell
+/// faces/edges/corners (dyadic, so exact in f32), exact duplicates, points in the
+/// padding, all shuffled.
+fn scene(n: usize, seed: u64) -> Vec<[f32; 3]> {
+    const H: f32 = 0.125;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut v = Vec::with_capacity(n);
+    let max = [1.0f32, 0.75, 0.5];
+    while v.len() < n {
+        let kind = v.len() % 10;
+        let p = match kind {
+            // Uniform over the box.
+            0..=4 => std::array::from_fn(|a| rng.random_range(0.0..=max[a])),
+            // Dense cluster straddling cell faces at 0.25 and 0.375.
+            5 | 6 => std::array::from_fn(|a| [0.25, 0.375, 0.25][a] + rng.random_range(-0.04..0.04)),
+            // On cell faces: one, two or three coordinates on a multiple of H.
+            7 | 8 => {
+                let mut p: [f32; 3] = std::array::from_fn(|a| rng.random_range(0.0..=max[a]));
+                for a in 0..3 {
+                    if rng.random_bool(0.6) {
+                        let cells = (max[a] / H) as u32;
+                        p[a] = rng.random_range(0..=cells) as f32 * H;
+                    }
+                }
+                p
+            }
+            // In the padding (inside the grid, outside the box), or a duplicate.
+            _ => {
+                if rng.random_bool(0.5) && !v.is_empty() {
+                    v[rng.random_range(0..v.len())]
+                } else {
+                    let a = rng.random_range(0..3);
+                    let mut p: [f32; 3] = std::array::from_fn(|a| rng.random_range(0.0..=max[a]));
+                    p[a] = if rng.random_bool(0.5) { -0.1 } else { max[a] + 0.1 };
+                    p
+                }
+            }
+        };
+        v.push(p);
+    }
+    v.shuffle(&mut rng);
+    v
+}
+
+const NEIGHBOUR_TEST_WGSL: &str = r#"
+struct TestParams { radius: f32, n: u32, _p0: u32, _p1: u32 }
+@group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> ids: array<u32>;
+// Per particle: (count, Σ id, Σ id², count by the 27-cell loop).
+@group(0) @binding(2) var<storage, read_write> out: array<vec4<u32>>;
+@group(3) @binding(0) var<uniform> test: TestParams;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn count_neighbours(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= grid.n_particles { return; }
+    let r2_max = test.radius * test.radius;
+    let p_i = pos[i].xyz;
+    let c_i = cell_coord(p_i);
+    var count = 0u;
+    var id_sum = 0u;
+    var id_sq = 0u;
+    for (var dz = -1; dz <= 1; dz++) {
+        for (var dy = -1; dy <= 1; dy++) {
+            let js = row_range(c_i, dy, dz);
+            for (var j = js.x; j < js.y; j++) {
+                let r_ij = p_i - pos[j].xyz;
+                let r2 = dot(r_ij, r_ij);
+                if r2 >= r2_max || j == i { continue; }
+                count += 1u;
+                id_sum += ids[j];
+                id_sq += ids[j] * ids[j];
+            }
+        }
+    }
+    var count27 = 0u;
+    for (var dz = -1; dz <= 1; dz++) {
+        for (var dy = -1; dy <= 1; dy++) {
+            for (var dx = -1; dx <= 1; dx++) {
+                let c = c_i + vec3<i32>(dx, dy, dz);
+                if !cell_in_grid(c) { continue; }
+                let js = cell_range(cell_index(c));
+                for (var j = js.x; j < js.y; j++) {
+                    let r_ij = p_i - pos[j].xyz;
+                    if dot(r_ij, r_ij) >= r2_max || j == i { continue; }
+                    count27 += 1u;
+                }
+            }
+        }
+    }
+    out[i] = vec4<u32>(count, id_sum, id_sq, count27);
+}
+"#;
+
+/// Same f32 arithmetic as the GPU's `dot` without fused multiply-add.
+fn r2(a: [f32; 4], b: [f32; 4]) -> f32 {
+    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+/// Relative band around r² inside which the GPU's `dot` (possibly fused multiply-add)
+/// and the CPU's unfused sum may round to opposite sides of the test: pairs there are
+/// ties, counted as "either". Measured tie counts are printed; 1e-5 is ~100 ulp.
+const TIE_BAND: f32 = 1e-5;
+
+/// The grid finds exactly the pairs a brute-force O(n²) search finds.
+///
+/// Reference: brute force on the CPU over the *sorted* f32 positions read back from the
+/// GPU, with the same f32 test `r² < radius²`; radius = cell size (the loop's limit).
+/// Per particle the neighbour set is compared by count, Σ id and Σ id² (wrapping u32)
+/// — exact for every particle without a tie (|r² − radius²| ≤ 1e-5 radius²);
+/// particles with ties must lie between the sure count and sure + tied.
+#[test]
+fn grid_neighbours_match_brute_force() {
+    let gpu = shared_test_gpu().unwrap();
+    let n = 12_000;
+    let h = 0.125;
+    let xyz = scene(n, 2024);
+    let parts = Particles::from_positions(&xyz);
+    let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0, 0.75, 0.5], h, n as u32).unwrap();
+    assert_eq!(grid.params.dims, [10, 8, 6, 0]);
+    assert_eq!(grid.params.n_cells, 480);
+    let b = upload_and_register(&gpu, &mut grid, &parts);
+    sort(&gpu, &grid, &b);
+    grid.check(&gpu).unwrap();
+
+    let pos: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
+    let ids: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+
+    // GPU pair count through grid_common.wgsl, groups 0 (particles), 1 (grid), 3 (params).
+    let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("neighbour test out"),
+        size: n as u64 * 16,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let test_params = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("neighbour test params"),
+        contents: bytemuck::cast_slice(&[(h as f32).to_bits(), n as u32, 0, 0]),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let particles_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("test particles"),
+        entries: &[
+            shaders::storage_entry(0, true),
+            shaders::storage_entry(1, true),
+            shaders::storage_entry(2, false),
+        ],
+    });
+    let params_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("test params"),
+        entries: &[shaders::uniform_entry(0)],
+    });
+    let module = shaders::module(&gpu, "neighbour test", &[GRID_COMMON_WGSL, NEIGHBOUR_TEST_WGSL]);
+    let pipeline = shaders::compute_pipeline_with_layouts(
+        &gpu,
+        "neighbour test",
+        &module,
+        "count_neighbours",
+        &[Some(&particles_layout), Some(grid.bind_group_layout()), None, Some(&params_layout)],
+    );
+    let particles_bg = shaders::bind_buffers(&gpu, "test particles", &particles_layout, &[&b.pos, &b.id, &out]);
+    let params_bg = shaders::bind_buffers(&gpu, "test params", &params_layout, &[&test_params]);
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &particles_bg, &[]);
+        pass.set_bind_group(1, grid.bind_group(), &[]);
+        pass.set_bind_group(3, &params_bg, &[]);
+        shaders::dispatch_linear(&mut pass, n as u32);
+    }
+    gpu.queue.submit([encoder.finish()]);
+    let got: Vec<[u32; 4]> = gpu.read_buffer(&out, 0, n as u64).unwrap();
+
+    let radius2 = (h as f32) * (h as f32);
+    let (lo, hi) = (radius2 * (1.0 - TIE_BAND), radius2 * (1.0 + TIE_BAND));
+    let mut tied_particles = 0;
+    let mut pairs = 0u64;
+    for i in 0..n {
+        let (mut sure, mut tied, mut id_sum, mut id_sq) = (0u32, 0u32, 0u32, 0u32);
+        for j in 0..n {
+            if j == i {
+                continue;
+            }
+            let d2 = r2(pos[i], pos[j]);
+            if d2 < lo {
+                sure += 1;
+                id_sum = id_sum.wrapping_add(ids[j]);
+                id_sq = id_sq.wrapping_add(ids[j].wrapping_mul(ids[j]));
+            } else if d2 < hi {
+                tied += 1;
+            }
+        }
+        pairs += u64::from(sure);
+        let [count, gsum, gsq, count27] = got[i];
+        assert_eq!(count, count27, "particle slot {i}: row loop and 27-cell loop disagree");
+        if tied == 0 {
+            assert_eq!(
+                (count, gsum, gsq),
+                (sure, id_sum, id_sq),
+                "particle id {} at {:?}: GPU (count, Σid, Σid²) vs brute force",
+                ids[i],
+                pos[i]
+            );
+        } else {
+            tied_particles += 1;
+            assert!(
+                (sure..=sure + tied).contains(&count),
+                "particle id {}: GPU count {count} outside brute force [{sure}, {}]",
+                ids[i],
+                sure + tied
+            );
+        }
+    }
+    println!(
+        "neighbours: {n} particles, {pairs} ordered pairs (mean {:.1} per particle), \
+         {tied_particles} particle(s) with a tie at |r| = h",
+        pairs as f64 / n as f64
+    );
+}
+
+/// Every registered buffer is permuted by the same permutation; `cell_start` is a
+/// monotone exclusive prefix with `cell_start[n_cells] == n`, and each sorted particle
+/// lies in its cell's range. Reference: the arrays before upload (bit-exact).
+#[test]
+fn grid_sort_permutes_every_registered_buffer() {
+    let gpu = shared_test_gpu().unwrap();
+    let n = 20_000;
+    let xyz = scene(n, 7);
+    let parts = Particles::from_positions(&xyz);
+    let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0, 0.75, 0.5], 0.125, n as u32).unwrap();
+    let b = upload_and_register(&gpu, &mut grid, &parts);
+    assert_eq!(grid.registered(), 4);
+
+    for round in 0..2 {
+        // The second sort runs on sorted data: counters must be cleared each time.
+        sort(&gpu, &grid, &b);
+        grid.check(&gpu).unwrap();
+        let pos: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
+        let vel: Vec<[f32; 4]> = gpu.read_buffer(&b.vel, 0, n as u64).unwrap();
+        let rho: Vec<f32> = gpu.read_buffer(&b.rho, 0, n as u64).unwrap();
+        let ids: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+        let nc = grid.params.n_cells as usize;
+        let cell_start: Vec<u32> = gpu.read_buffer(&grid.cell_start, 0, nc as u64 + 1).unwrap();
+
+        let mut seen = vec![false; n];
+        for (j, &id) in ids.iter().enumerate() {
+            let k = id as usize;
+            assert!(k < n && !seen[k], "round {round}: id {id} at slot {j} repeated or out of range");
+            seen[k] = true;
+            assert_eq!(bytemuck::cast::<_, [u32; 4]>(pos[j]), bytemuck::cast::<_, [u32; 4]>(parts.pos[k]));
+            assert_eq!(bytemuck::cast::<_, [u32; 4]>(vel[j]), bytemuck::cast::<_, [u32; 4]>(parts.vel[k]));
+            assert_eq!(rho[j].to_bits(), parts.rho[k].to_bits());
+        }
+
+        assert_eq!(cell_start[0], 0);
+        assert_eq!(cell_start[nc], n as u32, "cell_start[n_cells] must be n");
+        assert!(cell_start.windows(2).all(|w| w[0] <= w[1]), "cell_start not monotone");
+        let g = &grid.params;
+        for (j, p) in pos.iter().enumerate() {
+            // Same f32 arithmetic as cell_coord(): (p − origin) · inv_cell_size, floor.
+            let c: [u32; 3] =
+                std::array::from_fn(|a| ((p[a] - g.origin[a]) * g.inv_cell_size).floor() as u32);
+            let ci = (c[0] + g.dims[0] * (c[1] + g.dims[1] * c[2])) as usize;
+            assert!(
+                (cell_start[ci] as usize..cell_start[ci + 1] as usize).contains(&j),
+                "round {round}: slot {j} at {p:?} (cell {ci}) outside its cell range"
+            );
+        }
+    }
+}
+
+/// A particle beyond the padded box is reported by id and position, never clamped
+/// silently; so is a NaN position. A particle in the padding is fine. Reference: the
+/// positions placed by the test.
+#[test]
+fn grid_reports_particle_outside() {
+    let gpu = shared_test_gpu().unwrap();
+    let n = 1000;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut xyz: Vec<[f32; 3]> = (0..n).map(|_| std::array::from_fn(|_| rng.random_range(0.0..1.0))).collect();
+    // In the padding of one cell (0.1): inside the grid, no error.
+    xyz[10] = [-0.09, 1.09, 0.5];
+    let parts = Particles::from_positions(&xyz);
+    let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0; 3], 0.1, n as u32).unwrap();
+    let b = upload_and_register(&gpu, &mut grid, &parts);
+    sort(&gpu, &grid, &b);
+    grid.check(&gpu).unwrap();
+
+    // Ids in the arrays after the sort; move the particle with id 500 far out.
+    let ids: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+    let mut pos: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
+    let slot = ids.iter().position(|&id| id == 500).unwrap();
+    pos[slot] = [0.5, 1.35, 0.5, pos[slot][3]];
+    gpu.queue.write_buffer(&b.pos, 0, bytemuck::cast_slice(&pos));
+    sort(&gpu, &grid, &b);
+    match grid.check(&gpu) {
+        Err(GridError::ParticleOutside { id, index, position, outside, .. }) => {
+            assert_eq!(id, Some(500));
+            assert_eq!(index as usize, slot);
+            assert_eq!(position, [0.5, 1.35, 0.5]);
+            assert_eq!(outside, 1);
+        }
+        other => panic!("expected ParticleOutside for id 500, got {other:?}"),
+    }
+    let msg = grid.check(&gpu).unwrap_err().to_string();
+    assert!(msg.contains("particle id 500"), "message: {msg}");
+    println!("outside: {msg}");
+    // The permutation stays complete even with a particle outside.
+    let mut ids: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+    ids.sort_unstable();
+    assert!(ids.iter().enumerate().all(|(k, &id)| id == k as u32));
+
+    // NaN position: reported as well.
+    grid.reset_error(&gpu);
+    let ids: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+    let mut pos: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
+    for p in pos.iter_mut() {
+        p[1] = p[1].min(0.9);
+    }
+    let slot = ids.iter().position(|&id| id == 123).unwrap();
+    pos[slot][0] = f32::NAN;
+    gpu.queue.write_buffer(&b.pos, 0, bytemuck::cast_slice(&pos));
+    sort(&gpu, &grid, &b);
+    match grid.check(&gpu) {
+        Err(GridError::ParticleOutside { id, position, outside, .. }) => {
+            assert_eq!(id, Some(123));
+            assert!(position[0].is_nan());
+            assert_eq!(outside, 1);
+        }
+        other => panic!("expected ParticleOutside for id 123, got {other:?}"),
+    }
+}
+
+/// The WGSL `GridParams` (grid_common.wgsl) reads every field at the offset the Rust
+/// struct writes it. Reference: the Rust struct's bytes.
+#[test]
+fn grid_params_layout_agrees_with_wgsl() {
+    let gpu = shared_test_gpu().unwrap();
+    let grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0; 3], 0.5, 16).unwrap();
+    let params = GridParams {
+        origin: [1.5, -2.5, 3.25, 4.75],
+        cell_size: 0.125,
+        inv_cell_size: 8.0,
+        n_particles: 123_456,
+        n_cells: 789,
+        dims: [7, 8, 9, 10],
+    };
+    let params_buffer = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("params"),
+        contents: bytemuck::bytes_of(&params),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("out"),
+        size: 48,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    const WGSL: &str = r#"
+@group(0) @binding(0) var<storage, read_write> out: array<u32, 12>;
+@compute @workgroup_size(1)
+fn main() {
+    out[0] = bitcast<u32>(grid.origin.x);
+    out[1] = bitcast<u32>(grid.origin.y);
+    out[2] = bitcast<u32>(grid.origin.z);
+    out[3] = bitcast<u32>(grid.origin.w);
+    out[4] = bitcast<u32>(grid.cell_size);
+    out[5] = bitcast<u32>(grid.inv_cell_size);
+    out[6] = grid.n_particles;
+    out[7] = grid.n_cells;
+    out[8] = grid.dims.x;
+    out[9] = grid.dims.y;
+    out[10] = grid.dims.z;
+    out[11] = grid.dims.w + cell_start[0] * 0u;
+}
+"#;
+    let out_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("out"),
+        entries: &[shaders::storage_entry(0, false)],
+    });
+    let module = shaders::module(&gpu, "layout test", &[GRID_COMMON_WGSL, WGSL]);
+    let pipeline = shaders::compute_pipeline_with_layouts(
+        &gpu,
+        "layout test",
+        &module,
+        "main",
+        &[Some(&out_layout), Some(grid.bind_group_layout())],
+    );
+    let grid_bg = shaders::bind_buffers(&gpu, "grid", grid.bind_group_layout(), &[&params_buffer, &grid.cell_start]);
+    let out_bg = shaders::bind_buffers(&gpu, "out", &out_layout, &[&out]);
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &out_bg, &[]);
+        pass.set_bind_group(1, &grid_bg, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+    gpu.queue.submit([encoder.finish()]);
+    let got: Vec<u32> = gpu.read_buffer(&out, 0, 12).unwrap();
+    let want: [u32; 12] = bytemuck::cast(params);
+    assert_eq!(got, want.to_vec());
+}
+
+/// Workgroup split: 1-D up to 65535 workgroups, then x × y covering every thread.
+#[test]
+fn gpu_workgroups_split() {
+    assert_eq!(shaders::workgroups(0), [0, 1, 1]);
+    assert_eq!(shaders::workgroups(1), [1, 1, 1]);
+    assert_eq!(shaders::workgroups(128), [1, 1, 1]);
+    assert_eq!(shaders::workgroups(129), [2, 1, 1]);
+    assert_eq!(shaders::workgroups(65535 * 128), [65535, 1, 1]);
+    let [x, y, z] = shaders::workgroups(65535 * 128 + 1);
+    assert_eq!((x, y, z), (65535, 2, 1));
+    let n = 400_000_000u32;
+    let [x, y, _] = shaders::workgroups(n);
+    assert!(x <= 65535 && u64::from(x) * u64::from(y) * 128 >= u64::from(n));
+}
+
+/// Stage timer: every pass of a sort is reported under its label with a finite,
+/// non-negative time (no wall-clock value is asserted). Prints the sort's stage times
+/// for 262 144 particles (the SPHERIC-2 size) on this machine.
+#[test]
+fn gpu_stage_timer_reports_sort_stages() {
+    let gpu = shared_test_gpu().unwrap();
+    println!("device: {}", gpu.describe());
+    let n = 262_144u32;
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    // Dam-break box 1.6 × 0.67 × 0.6 m, support 2.4 dp with dp ≈ 0.0125.
+    let xyz: Vec<[f32; 3]> = (0..n)
+        .map(|_| [rng.random_range(0.0..1.6), rng.random_range(0.0..0.67), rng.random_range(0.0..0.6)])
+        .collect();
+    let parts = Particles::from_positions(&xyz);
+    let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.6, 0.67, 0.6], 0.03, n).unwrap();
+    let b = upload_and_register(&gpu, &mut grid, &parts);
+    let mut timer = StageTimer::new(&gpu, 16);
+    let steps = 5;
+    for _ in 0..steps {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        grid.queue_sort(&gpu, &mut encoder, &b.pos, Some(&mut timer));
+        timer.finish(&gpu, &mut encoder);
+        gpu.queue.submit([encoder.finish()]);
+        timer.collect(&gpu).unwrap();
+    }
+    grid.check(&gpu).unwrap();
+    let totals = timer.totals_with_counts();
+    println!("timing mode {:?}, {} cells", timer.mode(), grid.params.n_cells);
+    for label in ["grid: count", "grid: scan", "grid: scatter", "grid: reorder"] {
+        let (_, s, count) = totals
+            .iter()
+            .find(|(l, _, _)| l == label)
+            .unwrap_or_else(|| panic!("no time for {label}: {totals:?}"));
+        assert_eq!(*count, steps);
+        assert!(s.is_finite() && *s >= 0.0);
+        println!("  {label}: {:.3} ms per sort", s / steps as f64 * 1e3);
+    }
+    assert_eq!(timer.dropped(), 0);
+    if gpu.timestamps {
+        assert_eq!(timer.mode(), TimingMode::Timestamps);
+    }
+}
