@@ -15,6 +15,12 @@ type V3 = Vector3<f64>;
 /// (~1e-16·size) and well below any meaningful feature.
 pub const GEOMETRY_REL_TOL: f64 = 1e-9;
 
+/// Hull triangles whose unit normals differ by less than this (and whose planes are
+/// within this fraction of the size) form one face. Looser than [`GEOMETRY_REL_TOL`]:
+/// scene vertices are decimal text, so the corners of a face meant to be planar (a
+/// rectangle of a rotated box) are coplanar only to the digits given.
+const COPLANAR_TOL: f64 = 1e-6;
+
 fn v3(p: [f64; 3]) -> V3 {
     V3::new(p[0], p[1], p[2])
 }
@@ -115,7 +121,7 @@ impl Polyhedron {
                 n = -n;
             }
             let d = n.dot(&pa);
-            match planes.iter_mut().find(|(m, e, _)| (m - n).norm() < 1e-6 && (e - d).abs() < 1e-6 * size) {
+            match planes.iter_mut().find(|(m, e, _)| (m - n).norm() < COPLANAR_TOL && (e - d).abs() < COPLANAR_TOL * size) {
                 Some((_, _, ids)) => ids.extend([a, b, c]),
                 None => planes.push((n, d, vec![a, b, c])),
             }

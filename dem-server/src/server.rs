@@ -92,8 +92,8 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
             validate_loads(sample.payload(), n_bodies)
                 .map_err(|source| TransportError::Invalid { service: loads_rx.service.clone(), source })?;
             loads.extend_from_slice(sample.payload());
-            if loads.len() != markers.body_ranges().len() {
-                return Err(ServerError::LoadCount { step, got: loads.len(), expected: markers.body_ranges().len() });
+            if loads.len() != markers.body_count() {
+                return Err(ServerError::LoadCount { step, got: loads.len(), expected: markers.body_count() });
             }
             exchange_us += hop_us + t.elapsed().as_secs_f64() * 1e6;
         }

@@ -6,7 +6,8 @@
 //! particle snapshot for the recording.
 
 use crate::gpu::{Gpu, GpuError};
-use crate::solver::{FluidError, FluidSolver};
+use crate::error::FluidError;
+use crate::solver::FluidSolver;
 use couplet_protocol::transport::{parent_alive, Control, Endpoint, TransportError};
 use couplet_protocol::{
     monotonic_ns, validate_points, validate_states, BodyLoad, BodyState, CommandKind,

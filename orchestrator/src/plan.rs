@@ -17,7 +17,10 @@ pub fn plan(scene_path: &Path, spacing: Option<f64>) -> Result<String, RunError>
     }
 
     let _ = writeln!(w, "\nprocesses:");
-    let fluid_limits = scene.fluid.as_ref().map(|_| couplet_fluid::limits::FluidLimits::from_scene(&scene));
+    let fluid_limits = match &scene.fluid {
+        Some(_) => Some(couplet_fluid::limits::FluidLimits::from_scene(&scene).map_err(fluid_err)?),
+        None => None,
+    };
     match &scene.fluid {
         Some(_) => {
             let _ = writeln!(w, "  fluid-server: yes — the scene has a [fluid] section");
@@ -40,11 +43,14 @@ pub fn plan(scene_path: &Path, spacing: Option<f64>) -> Result<String, RunError>
     }
 
     if let Some(f) = &scene.fluid {
-        let counts = couplet_fluid::particles::count(&scene);
-        let markers = couplet_dem::markers::MarkerSet::from_scene(&scene).map(|m| m.len()).unwrap_or(0);
+        let consts = couplet_fluid::constants::SphConstants::from_scene(&scene).map_err(fluid_err)?;
+        let set = couplet_fluid::particles::initial_particles(&scene, &consts).map_err(fluid_err)?;
+        let markers = couplet_dem::markers::MarkerSet::from_scene(&scene)
+            .map_err(|e| RunError::Io { what: "generating markers".into(), source: std::io::Error::other(e.to_string()) })?
+            .len();
         let _ = writeln!(w, "\nfluid: δ = {} m, kernel {:?}, support {} δ (h = {:.3e} m), c_s = {} m/s, ν = {} m²/s",
             f.spacing, f.kernel, f.support, f.smoothing_length(), f.sound_speed, f.kinematic_viscosity);
-        let _ = writeln!(w, "  particles: {} fluid, {} wall, {} body markers", counts.fluid, counts.wall, markers);
+        let _ = writeln!(w, "  particles: {} fluid, {} wall, {} body markers", set.kinds.n_fluid, set.kinds.n_wall, markers);
         let _ = writeln!(w, "\nGPU stages (in dispatch order):");
         for s in couplet_fluid::plan::stages(&scene) {
             let _ = writeln!(w, "  {:<22} {}", s.name, s.reason);
@@ -77,4 +83,8 @@ pub fn plan(scene_path: &Path, spacing: Option<f64>) -> Result<String, RunError>
         }
     }
     Ok(o)
+}
+
+fn fluid_err(e: couplet_fluid::error::FluidError) -> RunError {
+    RunError::Io { what: "preparing the fluid".into(), source: std::io::Error::other(e.to_string()) }
 }
