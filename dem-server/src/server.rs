@@ -48,7 +48,9 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     let wake_orchestrator = ep.waker(ServiceLeaf::OrchestratorWake)?;
 
     // Hello last: once the orchestrator has it, every port of this process exists.
-    Control::hello_sender(&ep)?.send(Hello {
+    // Kept for the whole run: a dropped publisher takes its undelivered samples with it.
+    let hello = Control::hello_sender(&ep)?;
+    hello.send(Hello {
         protocol_version: PROTOCOL_VERSION,
         role: Role::Dem as u32,
         pid: std::process::id(),

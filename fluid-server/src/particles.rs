@@ -153,9 +153,18 @@ impl Obstacle {
 /// * Fixed box obstacles (`motion = "fixed"`, `shape.box`): wall particles on the
 ///   domain lattice inside the box, down to the support radius below its surface
 ///   (deeper ones would never see the fluid).
-/// * Density: hydrostatic when gravity acts on the fluid: p = ρ0 |g_y| (h_s − y), with
-///   h_s the top of the highest block over the particle's (x, z) column, ρ from the
-///   inverted Tait equation (Joubert eq. 4); assumes y is up (the scene default). Else ρ0.
+/// * Density: hydrostatic when gravity acts on the fluid: p = ρ0 |g_y| s with s the
+///   particle's depth on the lattice below h_s, the top of the highest block over its
+///   (x, z) column (so p is exactly the weight of the lattice mass above), ρ from the
+///   inverted Tait equation (Joubert eq. 4); assumes y is up (the scene default). The
+///   column is then compressed along y towards its bottom, the particle at mass depth s
+///   going to height d(H) − d(s) above the block bottom with d(s) = ∫₀ˢ ρ0/ρ ds', so that
+///   each particle's volume m/ρ matches its density: on an uncompressed lattice standard
+///   SPH sees a uniform particle density but a varying ρ, an imbalance of ≈ 3 p/(ρ c²) of
+///   g that sets the column oscillating (measured: ±3 % of ρgH). The bottom row keeps
+///   its lattice gap to the wall (a wider gap pulls it down at ~g); the free surface
+///   drops by H − d(H) ≈ H·ρgH/(2ρc²) (2 mm for 0.3 m at c_s = 17.5 m/s).
+///   Without gravity on the fluid: ρ0.
 ///   Walls start at ρ0; the boundary-pressure stage sets them before they are used.
 pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet, FluidError> {
     let f = scene.fluid.as_ref().ok_or(FluidError::NoFluid)?;
@@ -247,16 +256,27 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
     let g_y = if scene.gravity.on_fluid { scene.gravity.vector[1] } else { 0.0 };
     let mut rho = vec![c.rho0; pos.len()];
     if g_y < 0.0 {
-        for (p, r) in pos.iter().zip(rho.iter_mut()).take(n_fluid) {
-            let surface = f
+        let g = -g_y;
+        // k = ρ0 g / B: ρ(s) = ρ0 (1 + k s)^(1/γ) at mass depth s (Joubert eq. 4 inverted).
+        let k = c.rho0 * g / c.tait_b();
+        let inv_gamma = 1.0 / c.gamma;
+        for (p, r) in pos.iter_mut().zip(rho.iter_mut()).take(n_fluid) {
+            let column = f
                 .blocks
                 .iter()
-                .filter(|b| (b.min[0]..=b.max[0]).contains(&p[0]) && (b.min[2]..=b.max[2]).contains(&p[2]))
-                .map(|b| b.max[1])
-                .fold(f64::NEG_INFINITY, f64::max);
-            // Hydrostatic pressure, then Joubert eq. (4) inverted.
-            let p_h = c.rho0 * (-g_y) * (surface - p[1]).max(0.0);
+                .filter(|b| (b.min[0]..=b.max[0]).contains(&p[0]) && (b.min[2]..=b.max[2]).contains(&p[2]));
+            let surface = column.clone().map(|b| b.max[1]).fold(f64::NEG_INFINITY, f64::max);
+            let bottom = column.map(|b| b.min[1]).fold(f64::INFINITY, f64::min);
+            // Mass depth: the lattice holds ρ0 per unit volume, so the weight above the
+            // particle is exactly ρ0 g s.
+            let s = (surface - p[1]).max(0.0);
+            let p_h = c.rho0 * g * s;
             *r = c.density(p_h);
+            // Compress the column towards its bottom so that each particle's volume m/ρ
+            // matches its density: compressed depth d(s) = ∫₀ˢ ρ0/ρ ds'.
+            let depth = |s: f64| ((1.0 + k * s).powf(1.0 - inv_gamma) - 1.0) / (k * (1.0 - inv_gamma));
+            let height = surface - bottom;
+            p[1] = bottom + depth(height) - depth(s);
         }
     }
     let n = pos.len();

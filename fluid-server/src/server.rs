@@ -56,7 +56,9 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     let wake_dem = ep.waker(ServiceLeaf::DemWake)?;
     let wake_orchestrator = ep.waker(ServiceLeaf::OrchestratorWake)?;
 
-    Control::hello_sender(&ep)?.send(Hello {
+    // Kept for the whole run: a dropped publisher takes its undelivered samples with it.
+    let hello = Control::hello_sender(&ep)?;
+    hello.send(Hello {
         protocol_version: PROTOCOL_VERSION,
         role: Role::Fluid as u32,
         pid: std::process::id(),

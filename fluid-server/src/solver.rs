@@ -47,6 +47,9 @@ pub struct ParticleCounts {
     pub markers: u32,
 }
 
+/// Window sum of one marker's (force, moment), N and N·m.
+pub type MarkerLoad = ([f64; 3], [f64; 3]);
+
 /// One stage of a step, for tests and benchmarks that run stages one by one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Op {
@@ -422,7 +425,7 @@ impl SphData {
     }
 
     /// Reads the per-marker window sums (force, moment) in marker (DEM) order.
-    pub fn read_marker_loads(&self, gpu: &Gpu) -> Result<Vec<([f64; 3], [f64; 3])>, FluidError> {
+    pub fn read_marker_loads(&self, gpu: &Gpu) -> Result<Vec<MarkerLoad>, FluidError> {
         let Some(b) = &self.bodies else { return Ok(Vec::new()) };
         let m = self.kinds.n_markers as u64;
         let s: Vec<[f32; 4]> = gpu.read_buffer(&b.marker_load, 0, 2 * m)?;
@@ -476,9 +479,7 @@ impl FluidSolver {
         let grid_min = std::array::from_fn(|k| d.min[k] - origin[k] - margin);
         let grid_max = std::array::from_fn(|k| d.max[k] - origin[k] + margin);
         for p in &mut set.pos {
-            for k in 0..3 {
-                p[k] -= origin[k];
-            }
+            *p = std::array::from_fn(|k| p[k] - origin[k]);
         }
         // Only a throwaway grid gives the layout the pipelines are built with; wgpu
         // deduplicates identical bind group layouts, so later grids' bind groups fit.
@@ -643,7 +644,8 @@ impl FluidSolver {
     /// Rebuilds the data with `points.len()` marker particles appended (first
     /// `set_bodies`): the current particle state is read back once.
     fn append_markers(&mut self, gpu: &Gpu, points: &[CouplingPoint], body_capacity: usize) -> Result<(), FluidError> {
-        let mut set = self.data.read(gpu)?;
+        let read = self.data.read(gpu)?;
+        let mut set = carve_out_bodies(read, points, self.origin, self.consts.spacing);
         let marker_base = set.kinds.marker_base() as u32;
         for (k, p) in points.iter().enumerate() {
             let m = GpuMarker::from_point(p, self.origin);
@@ -661,6 +663,8 @@ impl FluidSolver {
         }
         self.data = SphData::new(gpu, &self.consts, &self.pipelines, &set, self.grid_min, self.grid_max, body_capacity)?;
         self.step_params.n_total = self.data.n_total;
+        self.step_params.n_fluid = self.data.kinds.n_fluid as u32;
+        self.step_params.n_wall = self.data.kinds.n_wall as u32;
         self.step_params.n_markers = points.len() as u32;
         Ok(())
     }
@@ -676,7 +680,7 @@ impl FluidSolver {
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerLoads);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), update);
         }
-        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::AdvanceClock);
+        d.queue_op(gpu, encoder, timer, Op::AdvanceClock);
     }
 
     /// Resets the window accumulators (clock, marker load sums) in `encoder`.
@@ -701,6 +705,9 @@ impl FluidSolver {
         }
         gpu.queue.submit([encoder.finish()]);
         gpu.wait()?;
+        if ops.contains(&Op::ReduceBodyLoads) {
+            self.loads_ready = self.data.bodies.is_some();
+        }
         Ok(())
     }
 
@@ -817,9 +824,7 @@ impl FluidSolver {
     pub fn particles(&self, gpu: &Gpu) -> Result<ParticleSet, FluidError> {
         let mut set = self.data.read(gpu)?;
         for p in &mut set.pos {
-            for k in 0..3 {
-                p[k] += self.origin[k];
-            }
+            *p = std::array::from_fn(|k| p[k] + self.origin[k]);
         }
         Ok(set)
     }
@@ -871,5 +876,132 @@ impl FluidSolver {
         let c: Vec<u32> = gpu.read_buffer(&counts, 0, u64::from(d.n_total))?;
         let total: u64 = c.iter().map(|x| u64::from(*x)).sum();
         Ok(total as f64 / d.kinds.n_fluid.max(1) as f64)
+    }
+}
+
+/// Removes the fluid particles that lie inside a resolved body, or less than half a
+/// spacing outside its surface (the gap a wall keeps to the fluid lattice), and renumbers
+/// the ids so that kinds stay contiguous id ranges. Inside-ness comes from the body's own
+/// markers: a point is inside when it lies behind the outward normal of its nearest
+/// marker, `(x − m)·n < δ/2`; this needs no shape code here and holds for any surface
+/// whose markers are denser than its curvature radius (Joubert §2.6 meshes them at δ).
+/// `set` is in buffer order with GPU-relative positions; the result is in id order.
+/// Cost: every fluid particle within a body's bounding sphere against that body's
+/// markers, done once when the markers first arrive.
+fn carve_out_bodies(set: ParticleSet, points: &[CouplingPoint], origin: [f64; 3], spacing: f64) -> ParticleSet {
+    // Markers per body in GPU-relative coordinates, with each body's bounding sphere.
+    let mut bodies: Vec<(u32, [f64; 3], f64, Vec<([f64; 3], [f64; 3])>)> = Vec::new();
+    for p in points {
+        let m = std::array::from_fn(|k| f64::from(p.position[k]) - origin[k]);
+        let n = p.normal.map(f64::from);
+        match bodies.last_mut() {
+            Some(b) if b.0 == p.body => b.3.push((m, n)),
+            _ => bodies.push((p.body, [0.0; 3], 0.0, vec![(m, n)])),
+        }
+    }
+    for b in &mut bodies {
+        let c: [f64; 3] = std::array::from_fn(|k| b.3.iter().map(|(m, _)| m[k]).sum::<f64>() / b.3.len() as f64);
+        b.1 = c;
+        b.2 = b.3.iter().map(|(m, _)| dist2(*m, c).sqrt()).fold(0.0, f64::max) + spacing;
+    }
+    let removed = |x: [f64; 3]| {
+        bodies.iter().any(|(_, c, r, markers)| {
+            if dist2(x, *c) > r * r {
+                return false;
+            }
+            let nearest = markers.iter().min_by(|a, b| dist2(x, a.0).total_cmp(&dist2(x, b.0)));
+            nearest.is_some_and(|(m, n)| (0..3).map(|k| (x[k] - m[k]) * n[k]).sum::<f64>() < 0.5 * spacing)
+        })
+    };
+    let n = set.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_key(|&i| set.id[i]);
+    let mut out = ParticleSet {
+        pos: Vec::with_capacity(n),
+        vel: Vec::with_capacity(n),
+        rho: Vec::with_capacity(n),
+        press: Vec::with_capacity(n),
+        id: Vec::with_capacity(n),
+        kinds: set.kinds,
+    };
+    let mut dropped = 0;
+    for i in order {
+        if (set.id[i] as usize) < set.kinds.n_fluid && removed(set.pos[i]) {
+            dropped += 1;
+            continue;
+        }
+        out.id.push(out.pos.len() as u32);
+        out.pos.push(set.pos[i]);
+        out.vel.push(set.vel[i]);
+        out.rho.push(set.rho[i]);
+        out.press.push(set.press[i]);
+    }
+    out.kinds.n_fluid -= dropped;
+    out
+}
+
+fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|k| (a[k] - b[k]).powi(2)).sum()
+}
+
+#[cfg(test)]
+mod carve_out_tests {
+    use super::*;
+
+    /// Fluid inside a resolved sphere is removed at the first markers, fluid outside
+    /// beyond half a spacing is kept, and kinds stay contiguous id ranges. Reference:
+    /// the geometry itself (|x − c| < r + δ/2 is removed, |x − c| > r + δ kept; between
+    /// the two the nearest-marker test may go either way on a discrete surface).
+    #[test]
+    fn fluid_inside_a_resolved_sphere_is_removed() {
+        let (delta, r, c) = (0.1, 0.45, [0.5, 0.5, 0.5]);
+        let mut pos = Vec::new();
+        for i in 0..10 {
+            for j in 0..10 {
+                for k in 0..10 {
+                    pos.push([(i as f64 + 0.5) * delta, (j as f64 + 0.5) * delta, (k as f64 + 0.5) * delta]);
+                }
+            }
+        }
+        pos.push([-0.05, -0.05, -0.05]); // one wall particle
+        let n = pos.len();
+        // Markers on a Fibonacci sphere, ≈ one per δ².
+        let m = (4.0 * std::f64::consts::PI * r * r / (delta * delta)).round() as usize;
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let points: Vec<CouplingPoint> = (0..m)
+            .map(|i| {
+                let y = 1.0 - 2.0 * (i as f64 + 0.5) / m as f64;
+                let rho = (1.0 - y * y).sqrt();
+                let n = [rho * (golden * i as f64).cos(), y, rho * (golden * i as f64).sin()];
+                CouplingPoint {
+                    position: std::array::from_fn(|k| (c[k] + r * n[k]) as f32),
+                    measure: (delta * delta) as f32,
+                    normal: n.map(|x| x as f32),
+                    ..Default::default()
+                }
+            })
+            .collect();
+        let set = ParticleSet {
+            vel: vec![[0.0; 3]; n],
+            rho: vec![1000.0; n],
+            press: vec![0.0; n],
+            id: (0..n as u32).rev().collect(), // buffer order differs from id order
+            pos: {
+                let mut p = pos.clone();
+                p.reverse();
+                p
+            },
+            kinds: ParticleKinds { n_fluid: n - 1, n_wall: 1, n_markers: 0 },
+        };
+        let out = carve_out_bodies(set, &points, [0.0; 3], delta);
+        assert_eq!(out.id, (0..out.len() as u32).collect::<Vec<_>>());
+        assert_eq!(out.kinds.n_wall, 1);
+        assert_eq!(out.pos[out.kinds.n_fluid], [-0.05, -0.05, -0.05], "the wall particle stays last");
+        for p in &out.pos[..out.kinds.n_fluid] {
+            assert!(dist2(*p, c).sqrt() > r + 0.5 * delta - 1e-9 - 0.02, "kept a particle inside: {p:?}");
+        }
+        let far_outside = pos[..n - 1].iter().filter(|p| dist2(**p, c).sqrt() > r + delta).count();
+        let kept_far = out.pos[..out.kinds.n_fluid].iter().filter(|p| dist2(**p, c).sqrt() > r + delta).count();
+        assert_eq!(kept_far, far_outside);
     }
 }

@@ -18,6 +18,9 @@
 //!   into a query set; `finish` resolves them into a buffer, `collect` maps it (one
 //!   wait per `collect`, so call it once per step or less often, up to `max_stages`
 //!   passes between two calls);
+//! - a stage made of several passes and copies is timed as one span:
+//!   `timing::begin_span(timer.as_deref_mut(), gpu, &mut encoder, "grid: reorder")`, then
+//!   untimed passes (`begin_pass(None, …)`) and copies, then `timing::end_span(…)`;
 //! - **wall clock** (no timestamp queries): `begin_pass` first submits what the
 //!   encoder holds and waits, charging the elapsed time to the previous stage, so every
 //!   stage is submitted and waited for on its own. Commands recorded between two
@@ -59,6 +62,8 @@ pub struct StageTimer {
     totals: Vec<(String, f64, u64)>,
     /// Passes not timed because more than `max_stages` ran between two `collect`s.
     dropped: u64,
+    /// Timestamps: the query pair of the span now open.
+    open_span: Option<u32>,
 }
 
 impl StageTimer {
@@ -91,7 +96,7 @@ impl StageTimer {
                 period_ns: f64::from(gpu.queue.get_timestamp_period()),
             }
         });
-        StageTimer { timestamps, pending: None, totals: Vec::new(), dropped: 0 }
+        StageTimer { timestamps, pending: None, totals: Vec::new(), dropped: 0, open_span: None }
     }
 
     pub fn mode(&self) -> TimingMode {
@@ -132,6 +137,43 @@ impl StageTimer {
                 self.pending = Some((label.to_owned(), Instant::now()));
                 plain_pass(encoder, label)
             }
+        }
+    }
+
+    /// Starts a stage that is more than one compute pass, or includes copies: its
+    /// time runs from here to [`StageTimer::end_span`]. Passes inside a span are
+    /// begun untimed (plain `encoder.begin_compute_pass` or `begin_pass(None, …)`).
+    /// Timestamps are written by empty compute passes, so only `TIMESTAMP_QUERY` is
+    /// needed.
+    pub fn begin_span(&mut self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, label: &str) {
+        match &mut self.timestamps {
+            Some(ts) => {
+                let k = ts.labels.len() as u32;
+                if 2 * k + 2 > ts.capacity {
+                    self.dropped += 1;
+                    self.open_span = None;
+                    return;
+                }
+                ts.labels.push(label.to_owned());
+                self.open_span = Some(k);
+                mark(encoder, label, &ts.query_set, 2 * k);
+            }
+            None => {
+                self.flush_wall(gpu, encoder);
+                self.pending = Some((label.to_owned(), Instant::now()));
+            }
+        }
+    }
+
+    /// Ends the span begun by [`StageTimer::begin_span`].
+    pub fn end_span(&mut self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        match &mut self.timestamps {
+            Some(ts) => {
+                if let Some(k) = self.open_span.take() {
+                    mark(encoder, "span end", &ts.query_set, 2 * k + 1);
+                }
+            }
+            None => self.flush_wall(gpu, encoder),
         }
     }
 
@@ -247,11 +289,37 @@ impl StageTimer {
     }
 }
 
+/// An empty compute pass whose only job is to write timestamp `index`.
+fn mark(encoder: &mut wgpu::CommandEncoder, label: &str, query_set: &wgpu::QuerySet, index: u32) {
+    let _ = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+            query_set,
+            beginning_of_pass_write_index: Some(index),
+            end_of_pass_write_index: None,
+        }),
+    });
+}
+
 fn plain_pass<'e>(encoder: &'e mut wgpu::CommandEncoder, label: &str) -> wgpu::ComputePass<'e> {
     encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
         label: Some(label),
         timestamp_writes: None,
     })
+}
+
+/// [`StageTimer::begin_span`] when `timer` is `Some`; nothing otherwise.
+pub fn begin_span(timer: Option<&mut StageTimer>, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, label: &str) {
+    if let Some(t) = timer {
+        t.begin_span(gpu, encoder, label);
+    }
+}
+
+/// [`StageTimer::end_span`] when `timer` is `Some`; nothing otherwise.
+pub fn end_span(timer: Option<&mut StageTimer>, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+    if let Some(t) = timer {
+        t.end_span(gpu, encoder);
+    }
 }
 
 /// A labelled compute pass, timed when `timer` is `Some`. Pass

@@ -62,9 +62,15 @@ fn ns(t: f64) -> u64 {
 }
 
 impl Recorder {
-    /// Creates `path` and attaches `scene_text`.
+    /// Creates `path` (replacing an earlier recording there: re-running into the same
+    /// output folder is the usual way to redo a run) and attaches `scene_text`.
     pub fn create(path: &Path, scene_name: &str, scene_text: &str) -> Result<Self, RecordError> {
         let err = |e: foxglove::FoxgloveError| RecordError::Mcap { path: path.to_owned(), detail: e.to_string() };
+        match std::fs::remove_file(path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(RecordError::Mcap { path: path.to_owned(), detail: format!("cannot replace it: {e}") }),
+        }
         let ctx = Context::new();
         let writer = ctx.mcap_writer().create_new_buffered_file(path).map_err(err)?;
         let raw = |topic: &str, name: &str, schema: &str| {
