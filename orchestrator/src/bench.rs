@@ -25,8 +25,8 @@ pub enum BenchError {
 /// Warm-up steps before timing: the first dispatches compile pipelines lazily on some drivers.
 const WARMUP_STEPS: u32 = 3;
 
-pub fn bench(scene_path: &Path, steps: u32, spacing: Option<f64>) -> Result<String, BenchError> {
-    let (scene, _) = resolve_scene(scene_path, spacing)?;
+pub fn bench(scene_path: &Path, steps: u32, overrides: &[(String, String)]) -> Result<String, BenchError> {
+    let (scene, _) = resolve_scene(scene_path, overrides)?;
     if scene.fluid.is_none() {
         return Err(BenchError::NoFluid);
     }
@@ -96,7 +96,7 @@ pub fn bench(scene_path: &Path, steps: u32, spacing: Option<f64>) -> Result<Stri
         let s = run(&RunOptions {
             scene: scene_path.to_owned(),
             out: Some(out.clone()),
-            spacing,
+            overrides: overrides.to_vec(),
             max_windows: Some(windows),
             record: false,
             progress: false,

@@ -16,6 +16,34 @@ struct Cli {
     command: Cmd,
 }
 
+/// Scene overrides shared by `run`, `plan` and `bench`.
+#[derive(clap::Args, Clone, Default)]
+struct Overrides {
+    /// Override fluid.spacing, m (shorthand for `--set fluid.spacing=M`).
+    #[arg(long)]
+    spacing: Option<f64>,
+    /// Override any scene field: `--set time.end=0.5 --set fluid.kernel='"quintic"'`
+    /// (the value is TOML). Checked like the file.
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    set: Vec<String>,
+}
+
+impl Overrides {
+    fn list(&self) -> anyhow::Result<Vec<(String, String)>> {
+        let mut out = Vec::new();
+        if let Some(s) = self.spacing {
+            out.push(("fluid.spacing".to_owned(), format!("{s:e}")));
+        }
+        for kv in &self.set {
+            let (k, v) = kv
+                .split_once('=')
+                .ok_or_else(|| anyhow::anyhow!("--set {kv}: expected PATH=VALUE, e.g. time.end=0.5"))?;
+            out.push((k.trim().to_owned(), v.trim().to_owned()));
+        }
+        Ok(out)
+    }
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run a scene end to end and record it to OUT/run.mcap.
@@ -24,9 +52,8 @@ enum Cmd {
         /// Output folder. Default: out/<scene name>.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Override fluid.spacing, m.
-        #[arg(long)]
-        spacing: Option<f64>,
+        #[command(flatten)]
+        overrides: Overrides,
         /// Stop after this many coupling windows.
         #[arg(long)]
         windows: Option<u64>,
@@ -34,8 +61,8 @@ enum Cmd {
     /// Print the processes, GPU stages and time-step limits a scene will use, and why.
     Plan {
         scene: PathBuf,
-        #[arg(long)]
-        spacing: Option<f64>,
+        #[command(flatten)]
+        overrides: Overrides,
     },
     /// Time the fluid of a scene headless and the exchange of a short coupled run.
     Bench {
@@ -43,8 +70,8 @@ enum Cmd {
         /// Fluid steps to time.
         #[arg(long, default_value_t = 50)]
         steps: u32,
-        #[arg(long)]
-        spacing: Option<f64>,
+        #[command(flatten)]
+        overrides: Overrides,
     },
     /// (internal) Serve the fluid side of a run.
     #[command(name = "fluid-server", hide = true)]
@@ -68,11 +95,11 @@ pub fn main() -> ExitCode {
 
 fn real_main(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Cmd::Run { scene, out, spacing, windows } => {
+        Cmd::Run { scene, out, overrides, windows } => {
             let s = run(&RunOptions {
                 scene: scene.clone(),
                 out,
-                spacing,
+                overrides: overrides.list()?,
                 max_windows: windows,
                 record: true,
                 progress: true,
@@ -80,8 +107,8 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             .with_context(|| format!("running {}", scene.display()))?;
             println!("{}", summary_text(&s));
         }
-        Cmd::Plan { scene, spacing } => print!("{}", plan::plan(&scene, spacing)?),
-        Cmd::Bench { scene, steps, spacing } => print!("{}", bench::bench(&scene, steps, spacing)?),
+        Cmd::Plan { scene, overrides } => print!("{}", plan::plan(&scene, &overrides.list()?)?),
+        Cmd::Bench { scene, steps, overrides } => print!("{}", bench::bench(&scene, steps, &overrides.list()?)?),
         Cmd::FluidServer { run_id, scene } => {
             let s = couplet_protocol::Scene::load(&scene)?;
             couplet_fluid::server::serve(&run_id, &s).context("fluid-server")?;

@@ -7,8 +7,8 @@ use std::fmt::Write;
 use std::path::Path;
 
 /// The plan as text (markdown-ish, for a terminal).
-pub fn plan(scene_path: &Path, spacing: Option<f64>) -> Result<String, RunError> {
-    let (scene, _) = resolve_scene(scene_path, spacing)?;
+pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String, RunError> {
+    let (scene, _) = resolve_scene(scene_path, overrides)?;
     let mut o = String::new();
     let w = &mut o;
     let _ = writeln!(w, "scene: {} ({})", scene.meta.name, scene_path.display());

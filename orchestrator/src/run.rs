@@ -47,8 +47,8 @@ pub struct RunOptions {
     pub scene: PathBuf,
     /// Output folder (recording, resolved scene). None: `out/<scene name>`.
     pub out: Option<PathBuf>,
-    /// Override of `fluid.spacing`, m.
-    pub spacing: Option<f64>,
+    /// Scene overrides `(dotted.path, TOML value)`, applied in order (`--set`, `--spacing`).
+    pub overrides: Vec<(String, String)>,
     /// Stop after this many windows (benchmarks); None: run to `time.end`.
     pub max_windows: Option<u64>,
     /// Write an MCAP recording.
@@ -81,11 +81,11 @@ pub struct RunSummary {
 
 /// Loads a scene and applies the command-line overrides; returns the scene and the TOML
 /// text the servers will load (written next to the recording).
-pub fn resolve_scene(path: &Path, spacing: Option<f64>) -> Result<(Scene, String), RunError> {
+pub fn resolve_scene(path: &Path, overrides: &[(String, String)]) -> Result<(Scene, String), RunError> {
     let mut text = std::fs::read_to_string(path)
         .map_err(|source| RunError::Scene(SceneError::Io { file: path.to_owned(), source }))?;
-    if let Some(s) = spacing {
-        text = couplet_protocol::scene::override_value(&text, path, "fluid", "spacing", s)?;
+    for (field, value) in overrides {
+        text = couplet_protocol::scene::override_field(&text, path, field, value)?;
     }
     let scene = Scene::parse(&text, path)?;
     Ok((scene, text))
@@ -107,7 +107,7 @@ impl Peers {
 
 /// Runs a scene end to end.
 pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
-    let (scene, text) = resolve_scene(&opts.scene, opts.spacing)?;
+    let (scene, text) = resolve_scene(&opts.scene, &opts.overrides)?;
     let has_fluid = scene.fluid.is_some();
     let has_dem = scene.needs_dem();
     if !has_fluid && !has_dem {

@@ -395,25 +395,35 @@ impl Default for CouplingSpec {
     }
 }
 
-/// Returns `text` with `[section] key = value` replaced (or added): command-line
-/// overrides such as `--spacing`. Comments are not kept; the result is the scene the
-/// servers load, written next to the recording.
-pub fn override_value(text: &str, file: &Path, section: &str, key: &str, value: f64) -> Result<String, SceneError> {
-    let mut table: toml::Table = toml::from_str(text).map_err(|e| {
+/// Returns `text` with the field at dotted `path` (e.g. `fluid.spacing`, `time.end`)
+/// set to `value`, a TOML value (`0.02`, `"quintic"`, `true`): the command line's
+/// `--set` overrides. Intermediate tables must exist; comments are not kept. The result
+/// is the scene the servers load, written next to the recording.
+pub fn override_field(text: &str, file: &Path, path: &str, value: &str) -> Result<String, SceneError> {
+    let parse_err = |e: toml::de::Error, text: &str| {
         let (line, column) = e.span().map_or((0, 0), |s| line_col(text, s.start));
         SceneError::Parse { file: file.to_owned(), line, column, message: e.message().to_owned() }
-    })?;
+    };
     let invalid = |why: &str| SceneError::Invalid {
         file: file.to_owned(),
-        field: format!("{section}.{key}"),
-        value: value.to_string(),
+        field: path.to_owned(),
+        value: value.to_owned(),
         why: why.to_owned(),
     };
-    let sec = table
-        .get_mut(section)
-        .and_then(|v| v.as_table_mut())
-        .ok_or_else(|| invalid("the scene has no such section to override"))?;
-    sec.insert(key.to_owned(), toml::Value::Float(value));
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| parse_err(e, text))?;
+    let wrapped = format!("v = {value}");
+    let parsed: toml::Table = toml::from_str(&wrapped).map_err(|_| invalid("is not a TOML value"))?;
+    let new = parsed.get("v").cloned().ok_or_else(|| invalid("is not a TOML value"))?;
+    let mut keys: Vec<&str> = path.split('.').collect();
+    let last = keys.pop().filter(|k| !k.is_empty()).ok_or_else(|| invalid("needs a dotted path such as fluid.spacing"))?;
+    let mut t = &mut table;
+    for k in keys {
+        t = t
+            .get_mut(k)
+            .and_then(|v| v.as_table_mut())
+            .ok_or_else(|| invalid(&format!("the scene has no table `{k}` on that path")))?;
+    }
+    t.insert(last.to_owned(), new);
     toml::to_string(&table).map_err(|e| invalid(&e.to_string()))
 }
 
@@ -603,6 +613,20 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         let text = MINIMAL.replace("spacing = 0.05", "spacing = -0.05");
         let e = Scene::parse(&text, Path::new("x.toml")).unwrap_err().to_string();
         assert!(e.contains("fluid.spacing") && e.contains("-0.05"), "{e}");
+    }
+
+    #[test]
+    fn overrides_replace_a_field_and_are_checked() {
+        let text = override_field(MINIMAL, Path::new("t.toml"), "fluid.spacing", "0.1").unwrap();
+        let s = Scene::parse(&text, Path::new("t.toml")).unwrap();
+        assert_eq!(s.fluid.unwrap().spacing, 0.1);
+        let text = override_field(MINIMAL, Path::new("t.toml"), "time.end", "2").unwrap();
+        assert!(matches!(Scene::parse(&text, Path::new("t.toml")).unwrap().time.end, e if e == 2.0));
+        let e = override_field(MINIMAL, Path::new("t.toml"), "nope.x", "1").unwrap_err().to_string();
+        assert!(e.contains("nope.x") && e.contains("no table `nope`"), "{e}");
+        // An override is checked like the file: a typo is rejected when parsed.
+        let text = override_field(MINIMAL, Path::new("t.toml"), "fluid.spacingg", "1").unwrap();
+        assert!(Scene::parse(&text, Path::new("t.toml")).is_err());
     }
 
     #[test]
