@@ -27,8 +27,8 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     var sum_pw = 0.0;
     var sum_rho_r_w = vec3<f32>(0.0);
     var sum_w = 0.0;
-    for (var dz = -1; dz <= 1; dz++) {
-        for (var dy = -1; dy <= 1; dy++) {
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let js = row_range(c_i, dy, dz);
             for (var j = js.x; j < js.y; j++) {
                 let r_wf = p_i - pos[j].xyz;

@@ -1,7 +1,7 @@
 // ---- fluid_rates.wgsl: continuity + momentum in one pair loop (CPU twins:
 // continuity.rs, momentum.rs) ----
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, continuity, momentum.
-// One thread per fluid particle gathers from the 27 neighbour cells; no atomics.
+// One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
@@ -27,8 +27,8 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     let c_i = cell_coord(p_i);
     var drho_i = 0.0;
     var acc = vec3<f32>(0.0);
-    for (var dz = -1; dz <= 1; dz++) {
-        for (var dy = -1; dy <= 1; dy++) {
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let js = row_range(c_i, dy, dz);
             for (var j = js.x; j < js.y; j++) {
                 let r_ij = p_i - pos[j].xyz;

@@ -9,15 +9,17 @@
 //
 // After `NeighbourGrid::queue_sort` the particle arrays are sorted by cell: the
 // particles of cell `ci` are the indices `cell_start[ci] .. cell_start[ci + 1u]`.
-// Cells are numbered x fastest, so the three cells x−1, x, x+1 of one (y, z) row are
-// one contiguous index range: the loop visits 9 rows instead of 27 cells.
+// Cells are `support / GRID_REACH` wide (neighbour_grid.rs, GRID_REACH), so the
+// neighbours of a particle lie in the cells within GRID_REACH of its own on every
+// axis. Cells are numbered x fastest, so the 2·GRID_REACH + 1 cells of one (y, z) row
+// are one contiguous index range: the loop visits (2·GRID_REACH + 1)² rows.
 //
-// The loop every pair kernel uses (support radius h ≤ grid.cell_size):
+// The loop every pair kernel uses (support radius h ≤ GRID_REACH · grid.cell_size):
 //
 //   let p_i = pos[i].xyz;
 //   let c_i = cell_coord(p_i);
-//   for (var dz = -1; dz <= 1; dz++) {
-//       for (var dy = -1; dy <= 1; dy++) {
+//   for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+//       for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
 //           let js = row_range(c_i, dy, dz);          // empty when the row is outside
 //           for (var j = js.x; j < js.y; j++) {
 //               let r_ij = p_i - pos[j].xyz;
@@ -28,20 +30,11 @@
 //       }
 //   }
 //
-// The cell-by-cell form (27 cells), equivalent, for kernels that want a per-cell step:
+// The cell-by-cell form, equivalent, for kernels that want a per-cell step: the same
+// two loops and a third over dx in -GRID_REACH..=GRID_REACH, skipping cells with
+// `!cell_in_grid(c)` and visiting `cell_range(cell_index(c))`.
 //
-//   for (var dz = -1; dz <= 1; dz++) {
-//       for (var dy = -1; dy <= 1; dy++) {
-//           for (var dx = -1; dx <= 1; dx++) {
-//               let c = c_i + vec3<i32>(dx, dy, dz);
-//               if !cell_in_grid(c) { continue; }
-//               let js = cell_range(cell_index(c));
-//               for (var j = js.x; j < js.y; j++) { … }
-//           }
-//       }
-//   }
-//
-// Needs from the prelude: WORKGROUP_SIZE, linear_id.
+// Needs from the prelude: WORKGROUP_SIZE, GRID_REACH, linear_id.
 
 // Mirror of neighbour_grid::GridParams (48 bytes; checked by tests/grid.rs).
 struct GridParams {
@@ -79,8 +72,8 @@ fn cell_range(ci: u32) -> vec2<u32> {
     return vec2<u32>(cell_start[ci], cell_start[ci + 1u]);
 }
 
-// Sorted particle indices [x, y) of the cells (c.x−1 ..= c.x+1, c.y+dy, c.z+dz),
-// clipped to the grid; empty when that row lies outside.
+// Sorted particle indices [x, y) of the cells (c.x − GRID_REACH ..= c.x + GRID_REACH,
+// c.y + dy, c.z + dz), clipped to the grid; empty when that row lies outside.
 fn row_range(c: vec3<i32>, dy: i32, dz: i32) -> vec2<u32> {
     let y = c.y + dy;
     let z = c.z + dz;
@@ -88,8 +81,8 @@ fn row_range(c: vec3<i32>, dy: i32, dz: i32) -> vec2<u32> {
     if y < 0 || y >= dims.y || z < 0 || z >= dims.z {
         return vec2<u32>(0u, 0u);
     }
-    let x0 = max(c.x - 1, 0);
-    let x1 = min(c.x + 1, dims.x - 1);
+    let x0 = max(c.x - GRID_REACH, 0);
+    let x1 = min(c.x + GRID_REACH, dims.x - 1);
     if x0 > x1 {
         return vec2<u32>(0u, 0u);
     }

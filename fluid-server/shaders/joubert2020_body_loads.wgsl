@@ -48,8 +48,8 @@ fn marker_loads(@builtin(workgroup_id) wid: vec3<u32>,
     if NU > 0.0 {
         let c_i = cell_coord(p_i);
         var grad_u = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-        for (var dz = -1; dz <= 1; dz++) {
-            for (var dy = -1; dy <= 1; dy++) {
+        for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+            for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
                 let js = row_range(c_i, dy, dz);
                 for (var j = js.x; j < js.y; j++) {
                     let r_ij = p_i - pos[j].xyz;

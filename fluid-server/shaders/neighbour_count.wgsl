@@ -23,8 +23,8 @@ fn neighbour_count(@builtin(workgroup_id) wid: vec3<u32>,
     let p_i = pos[i].xyz;
     let c_i = cell_coord(p_i);
     var n = 0u;
-    for (var dz = -1; dz <= 1; dz++) {
-        for (var dy = -1; dy <= 1; dy++) {
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let js = row_range(c_i, dy, dz);
             for (var j = js.x; j < js.y; j++) {
                 let r_ij = p_i - pos[j].xyz;

@@ -1,5 +1,5 @@
 //! The fused pair loop of a fluid particle: continuity ([`crate::continuity`]) and
-//! momentum ([`crate::momentum`]) in one pass over the 27 neighbour cells, one thread per
+//! momentum ([`crate::momentum`]) in one pass over the neighbour cells, one thread per
 //! particle, no atomics. WGSL: `shaders/fluid_rates.wgsl`. Switched-off effects are
 //! compiled out (constants generated from the scene), so they cost nothing.
 

@@ -33,10 +33,22 @@ pub const GRID_COMMON_WGSL: &str = include_str!("../shaders/grid_common.wgsl");
 const NEIGHBOUR_GRID_WGSL: &str = include_str!("../shaders/neighbour_grid.wgsl");
 const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 
-/// Padding around the particle box, in cells. One cell lets particles drift slightly
-/// past the domain (wall layers, a step's overshoot before the boundary pushes
-/// back) without an error.
-pub const GRID_PAD_CELLS: f64 = 1.0;
+/// Cells per support radius, and so how many cells the pair loops reach on each side
+/// of a particle's own cell (`GRID_REACH` in WGSL, from [`crate::shaders::prelude`]).
+///
+/// On lavapipe every storage load in a pair loop is a per-lane scalar loop, so a pair
+/// kernel costs about its candidates. Cells of support/R and (2R+1)² rows of 2R+1
+/// contiguous cells visit (2R+1)³/R³ support³ of space per particle: 27 (R = 1), 15.6
+/// (R = 2), 12.7 (R = 3). Measured back to back (`couplet bench`, ms per step of
+/// boundary pressure + fluid_rates, two passes each): hydrostatic tank δ = 0.02,
+/// R = 1 60 + 44, R = 2 40 + 30, R = 3 40 + 31; settling sphere δ = 1e-3, R = 1
+/// 236 + 350, R = 2 137 + 202, R = 3 144 + 207 (and a 3× larger scan than R = 2).
+pub const GRID_REACH: u32 = 2;
+
+/// Padding around the particle box, in cells: one support radius lets particles drift
+/// slightly past the domain (wall layers, a step's overshoot before the boundary
+/// pushes back) without an error.
+pub const GRID_PAD_CELLS: f64 = GRID_REACH as f64;
 
 /// Uniform of the grid (WGSL mirror: `GridParams` in grid_common.wgsl).
 #[repr(C)]
@@ -84,8 +96,8 @@ const _: () = {
 pub enum GridError {
     #[error("grid box min {min:?} / max {max:?} is invalid: need finite values with min < max on every axis")]
     InvalidBox { min: [f64; 3], max: [f64; 3] },
-    #[error("grid cell size {cell_size} is invalid: need a finite value > 0 (the kernel support radius)")]
-    InvalidCellSize { cell_size: f64 },
+    #[error("grid support radius {support_radius} is invalid: need a finite value > 0 (the kernel support radius)")]
+    InvalidSupport { support_radius: f64 },
     #[error("a neighbour grid needs at least one particle (n = 0)")]
     NoParticles,
     #[error(
@@ -102,7 +114,7 @@ pub enum GridError {
     BadBuffer { buffer: String, reason: String },
     #[error(
         "{} at ({}, {}, {}) is outside the neighbour grid [{:?}, {:?}] (non-finite, or beyond \
-         the box padded by {GRID_PAD_CELLS} cell); {outside} particle sort(s) found outside \
+         the box padded by {GRID_PAD_CELLS} cells); {outside} particle sort(s) found outside \
          since the last reset",
         match id { Some(id) => format!("particle id {id} (slot {index} before the sort)"),
                    None => format!("particle in slot {index} before the sort (no id buffer registered)") },
@@ -204,17 +216,18 @@ fn bind(
 
 impl NeighbourGrid {
     /// Grid over [min − pad, max + pad] (pad = [`GRID_PAD_CELLS`] cells) with cells of
-    /// `cell_size` (= the kernel support radius), for `n` particles.
+    /// `support_radius / GRID_REACH` (see [`GRID_REACH`]), for `n` particles.
     pub fn new(
         gpu: &Gpu,
         min: [f64; 3],
         max: [f64; 3],
-        cell_size: f64,
+        support_radius: f64,
         n: u32,
     ) -> Result<Self, GridError> {
-        if !(cell_size.is_finite() && cell_size > 0.0) {
-            return Err(GridError::InvalidCellSize { cell_size });
+        if !(support_radius.is_finite() && support_radius > 0.0) {
+            return Err(GridError::InvalidSupport { support_radius });
         }
+        let cell_size = support_radius / f64::from(GRID_REACH);
         if (0..3).any(|a| !(min[a].is_finite() && max[a].is_finite() && min[a] < max[a])) {
             return Err(GridError::InvalidBox { min, max });
         }

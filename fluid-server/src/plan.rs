@@ -36,7 +36,11 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     let mut push = |name: &'static str, reason: String| out.push(Stage { name, reason });
     push(
         NEIGHBOUR_GRID,
-        format!("cell size = support {:.3e} m; counting sort by cell once per step", f.support_radius()),
+        format!(
+            "cell size = support/{reach} = {:.3e} m; counting sort by cell once per step",
+            f.support_radius() / f64::from(crate::neighbour_grid::GRID_REACH),
+            reach = crate::neighbour_grid::GRID_REACH
+        ),
     );
     let resolved = scene.has_resolved_bodies();
     if resolved {

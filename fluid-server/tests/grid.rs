@@ -3,7 +3,7 @@
 //! Every test holds `shared_test_gpu()` for its whole body (one GPU, serialised).
 
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
-use couplet_fluid::neighbour_grid::{GRID_COMMON_WGSL, GridError, GridParams, NeighbourGrid};
+use couplet_fluid::neighbour_grid::{GRID_COMMON_WGSL, GRID_REACH, GridError, GridParams, NeighbourGrid};
 use couplet_fluid::shaders;
 use couplet_fluid::timing::{StageTimer, TimingMode};
 use rand::seq::SliceRandom;
@@ -66,12 +66,13 @@ fn sort(gpu: &Gpu, grid: &NeighbourGrid, b: &OnGpu) {
     gpu.queue.submit([encoder.finish()]);
 }
 
-/// Seeded particles in the box [0, 1] × [0, 0.75] × [0, 0.5] (cell 0.125, 11 × 9 × 7 =
-/// 693 cells with the padding): uniform ones, a dense cluster, points exactly on cell
-/// faces/edges/corners (dyadic, so exact in f32), exact duplicates, points in the
-/// padding, all shuffled.
+/// Seeded particles in the box [0, 1] × [0, 0.75] × [0, 0.5] (support 0.125, cells of
+/// 0.125 / GRID_REACH, padding of one support): uniform ones, a dense cluster, points
+/// exactly on cell faces/edges/corners (dyadic for GRID_REACH 1, 2, 4; for 3 only the
+/// multiples of 0.125 are exact in f32 — still cell faces), exact duplicates, points in
+/// the padding, all shuffled.
 fn scene(n: usize, seed: u64) -> Vec<[f32; 3]> {
-    const H: f32 = 0.125;
+    const H: f32 = 0.125 / GRID_REACH as f32;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut v = Vec::with_capacity(n);
     let max = [1.0f32, 0.75, 0.5];
@@ -115,7 +116,7 @@ const NEIGHBOUR_TEST_WGSL: &str = r#"
 struct TestParams { radius: f32, n: u32, _p0: u32, _p1: u32 }
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-// Per particle: (count, Σ id, Σ id², count by the 27-cell loop).
+// Per particle: (count, Σ id, Σ id², count by the cell-by-cell loop).
 @group(0) @binding(2) var<storage, read_write> out: array<vec4<u32>>;
 @group(3) @binding(0) var<uniform> test: TestParams;
 
@@ -133,8 +134,8 @@ fn count_neighbours(
     var count = 0u;
     var id_sum = 0u;
     var id_sq = 0u;
-    for (var dz = -1; dz <= 1; dz++) {
-        for (var dy = -1; dy <= 1; dy++) {
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let js = row_range(c_i, dy, dz);
             for (var j = js.x; j < js.y; j++) {
                 let r_ij = p_i - pos[j].xyz;
@@ -146,22 +147,22 @@ fn count_neighbours(
             }
         }
     }
-    var count27 = 0u;
-    for (var dz = -1; dz <= 1; dz++) {
-        for (var dy = -1; dy <= 1; dy++) {
-            for (var dx = -1; dx <= 1; dx++) {
+    var count_cells = 0u;
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
+            for (var dx = -GRID_REACH; dx <= GRID_REACH; dx++) {
                 let c = c_i + vec3<i32>(dx, dy, dz);
                 if !cell_in_grid(c) { continue; }
                 let js = cell_range(cell_index(c));
                 for (var j = js.x; j < js.y; j++) {
                     let r_ij = p_i - pos[j].xyz;
                     if dot(r_ij, r_ij) >= r2_max || j == i { continue; }
-                    count27 += 1u;
+                    count_cells += 1u;
                 }
             }
         }
     }
-    out[i] = vec4<u32>(count, id_sum, id_sq, count27);
+    out[i] = vec4<u32>(count, id_sum, id_sq, count_cells);
 }
 "#;
 
@@ -188,7 +189,8 @@ const TIE_BAND: f32 = 1e-6;
 /// The grid finds exactly the pairs a brute-force O(n²) search finds.
 ///
 /// Reference: brute force on the CPU over the *sorted* f32 positions read back from the
-/// GPU, with the same f32 test `r² < radius²`; radius = cell size (the loop's limit).
+/// GPU, with the same f32 test `r² < radius²`; radius = the support the grid was built
+/// for (GRID_REACH cells, the loop's limit).
 /// Per particle the neighbour set is compared by count, Σ id and Σ id² (wrapping u32)
 /// — exact for every particle without a tie (|r² − radius²| ≤ 1e-6 radius², not exact);
 /// particles with ties must lie between the sure count and sure + tied.
@@ -200,9 +202,12 @@ fn grid_neighbours_match_brute_force() {
     let xyz = scene(n, 2024);
     let parts = Particles::from_positions(&xyz);
     let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0, 0.75, 0.5], h, n as u32).unwrap();
-    // (extent + 2 pad) / h + 1 per axis: 1.25/0.125 + 1, 1.0/0.125 + 1, 0.75/0.125 + 1.
-    assert_eq!(grid.params.dims, [11, 9, 7, 0]);
-    assert_eq!(grid.params.n_cells, 693);
+    assert_eq!(grid.params.cell_size, (h / f64::from(GRID_REACH)) as f32);
+    // (extent + 2 pad) / cell + 1 per axis, pad = one support = GRID_REACH cells:
+    // (1.25, 1.0, 0.75) / (h / R) + 1 = (10, 8, 6) R + 1 (11 × 9 × 7 for R = 1).
+    let r = GRID_REACH;
+    assert_eq!(grid.params.dims, [10 * r + 1, 8 * r + 1, 6 * r + 1, 0]);
+    assert_eq!(grid.params.n_cells, (10 * r + 1) * (8 * r + 1) * (6 * r + 1));
     let b = upload_and_register(&gpu, &mut grid, &parts);
     sort(&gpu, &grid, &b);
     grid.check(&gpu).unwrap();
@@ -276,8 +281,8 @@ fn grid_neighbours_match_brute_force() {
             }
         }
         pairs += u64::from(sure);
-        let [count, gsum, gsq, count27] = got[i];
-        assert_eq!(count, count27, "particle slot {i}: row loop and 27-cell loop disagree");
+        let [count, gsum, gsq, count_cells] = got[i];
+        assert_eq!(count, count_cells, "particle slot {i}: row loop and cell-by-cell loop disagree");
         if tied == 0 {
             assert_eq!(
                 (count, gsum, gsq),
@@ -363,7 +368,7 @@ fn grid_reports_particle_outside() {
     let n = 1000;
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let mut xyz: Vec<[f32; 3]> = (0..n).map(|_| std::array::from_fn(|_| rng.random_range(0.0..1.0))).collect();
-    // In the padding of one cell (0.1): inside the grid, no error.
+    // In the padding of one support (0.1): inside the grid, no error.
     xyz[10] = [-0.09, 1.09, 0.5];
     let parts = Particles::from_positions(&xyz);
     let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0; 3], 0.1, n as u32).unwrap();
