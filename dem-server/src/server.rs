@@ -84,13 +84,15 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
         }
 
         let wait_start = Instant::now();
+        let wait_start_ns = monotonic_ns();
         let mut wait_us = 0.0;
         loads.clear();
         if coupled {
             let sample = wake.wait_for(|| loads_rx.try_step(step), alive)?;
             wait_us = wait_start.elapsed().as_secs_f64() * 1e6;
             let t = Instant::now();
-            let hop_us = monotonic_ns().saturating_sub(sample.user_header().sent_ns) as f64 * 1e-3;
+            // From the later of send and the start of the wait (see the fluid server's hop_us).
+            let hop_us = monotonic_ns().saturating_sub(sample.user_header().sent_ns.max(wait_start_ns)) as f64 * 1e-3;
             validate_loads(sample.payload(), n_bodies)
                 .map_err(|source| TransportError::Invalid { service: loads_rx.service.clone(), source })?;
             loads.extend_from_slice(sample.payload());

@@ -94,10 +94,14 @@ pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// Number of wall layers: `ceil(support)` spacings, so that a fluid particle touching
-/// the wall sees a full support of wall particles.
+/// Number of wall layers: `ceil(support − ½)`. The first fluid row sits δ/2 inside the
+/// face and wall layer k at (k + ½)δ outside it, so a fluid particle reaches
+/// (support − ½)δ into the wall; one more layer would lie beyond every kernel (and
+/// costs a boundary-pressure pass over it every step: walls are half the particles of
+/// a small closed box). A particle pressed closer than δ/2 to the wall sees at most the
+/// kernel's near-zero tail truncated.
 pub fn wall_layers(scene: &Scene) -> usize {
-    scene.fluid.as_ref().map_or(0, |f| f.support.ceil() as usize)
+    scene.fluid.as_ref().map_or(0, |f| (f.support - 0.5).ceil().max(1.0) as usize)
 }
 
 /// Lattice coordinates along one axis of `[min, max]`, cell-centred: min + δ/2 + iδ.

@@ -88,12 +88,13 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
         let mut wait_us = 0.0;
         if coupled {
             let wait_start = Instant::now();
+            let wait_start_ns = monotonic_ns();
             let (mut got_points, mut got_states) = (false, false);
             wake.wait_for(
                 || {
                     if !got_points {
                         if let Some(s) = points_rx.try_step(step)? {
-                            exchange_us += hop_us(s.user_header());
+                            exchange_us += hop_us(s.user_header(), wait_start_ns);
                             validate_points(s.payload(), n_bodies).map_err(|source| {
                                 TransportError::Invalid { service: points_rx.service.clone(), source }
                             })?;
@@ -104,7 +105,7 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
                     }
                     if !got_states {
                         if let Some(s) = bodies_rx.try_step(step)? {
-                            exchange_us += hop_us(s.user_header());
+                            exchange_us += hop_us(s.user_header(), wait_start_ns);
                             validate_states(s.payload(), n_bodies).map_err(|source| {
                                 TransportError::Invalid { service: bodies_rx.service.clone(), source }
                             })?;
@@ -155,7 +156,10 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     }
 }
 
-/// Time the sample spent between its sender's `send` and now, µs.
-fn hop_us(h: &WindowHeader) -> f64 {
-    monotonic_ns().saturating_sub(h.sent_ns) as f64 * 1e-3
+/// The hop's share of the exchange, µs: from the later of the sample's send and the
+/// moment this side started waiting for it, to now. A sample sent while this side was
+/// still busy elsewhere (the DEM publishes t_{n+1} before the next command) waited in
+/// shared memory at no cost to the window.
+pub(crate) fn hop_us(h: &WindowHeader, wait_start_ns: u64) -> f64 {
+    monotonic_ns().saturating_sub(h.sent_ns.max(wait_start_ns)) as f64 * 1e-3
 }

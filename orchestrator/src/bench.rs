@@ -33,8 +33,6 @@ pub fn bench(scene_path: &Path, steps: u32, overrides: &[(String, String)]) -> R
     let gpu = Gpu::new()?;
     let mut solver = FluidSolver::new(&gpu, &scene)?;
     let dt = solver.limits().dt;
-    let counts = solver.counts();
-    let total = (counts.fluid + counts.wall + counts.markers) as f64;
 
     // Bodies, if any, are frozen where the scene puts them: the fluid's cost does not
     // depend on where they are. Their markers come from the DEM crate's generator.
@@ -54,12 +52,15 @@ pub fn bench(scene_path: &Path, steps: u32, overrides: &[(String, String)]) -> R
         solver.set_bodies(&gpu, &states, &points)?;
     }
 
+    // After the markers: they add particles and carve fluid out of the bodies.
+    let counts = solver.counts();
+    let total = (counts.fluid + counts.wall + counts.markers) as f64;
     solver.advance(&gpu, dt * WARMUP_STEPS as f64, None)?;
     let neighbours = solver.neighbour_stats(&gpu)?;
-    // Full neighbour passes over every particle per step: the fused continuity +
-    // momentum pass, once in the predictor and once in the corrector (Joubert eqs. 20–21).
-    // The boundary-pressure and marker-load passes visit only wall and marker particles
-    // and are not counted.
+    // Every particle takes part in one neighbour pass per derivative evaluation — fluid
+    // particles in the fused continuity + momentum pass, wall and marker particles in the
+    // boundary-pressure pass — and a predictor–corrector step evaluates twice (Joubert
+    // eqs. 20–21). Neighbours are counted for fluid particles (walls see fewer).
     let passes = 2.0;
 
     // Wall clock without per-stage instrumentation …

@@ -414,17 +414,38 @@ pub fn override_field(text: &str, file: &Path, path: &str, value: &str) -> Resul
     let wrapped = format!("v = {value}");
     let parsed: toml::Table = toml::from_str(&wrapped).map_err(|_| invalid("is not a TOML value"))?;
     let new = parsed.get("v").cloned().ok_or_else(|| invalid("is not a TOML value"))?;
-    let mut keys: Vec<&str> = path.split('.').collect();
-    let last = keys.pop().filter(|k| !k.is_empty()).ok_or_else(|| invalid("needs a dotted path such as fluid.spacing"))?;
-    let mut t = &mut table;
-    for k in keys {
-        t = t
-            .get_mut(k)
-            .and_then(|v| v.as_table_mut())
-            .ok_or_else(|| invalid(&format!("the scene has no table `{k}` on that path")))?;
+    // Walk the path: a name enters a table, a number an array (`bodies.0.position`).
+    let keys: Vec<&str> = path.split('.').collect();
+    if keys.iter().any(|k| k.is_empty()) {
+        return Err(invalid("needs a dotted path such as fluid.spacing or bodies.0.position"));
     }
-    t.insert(last.to_owned(), new);
-    toml::to_string(&table).map_err(|e| invalid(&e.to_string()))
+    let mut node = toml::Value::Table(table);
+    let mut cur = &mut node;
+    for (i, k) in keys.iter().enumerate() {
+        let last = i + 1 == keys.len();
+        cur = match cur {
+            toml::Value::Table(t) if last => {
+                t.insert((*k).to_owned(), new);
+                break;
+            }
+            toml::Value::Table(t) => t.get_mut(*k).ok_or_else(|| invalid(&format!("the scene has no `{k}` on that path")))?,
+            toml::Value::Array(a) => {
+                let idx: usize = k.parse().map_err(|_| invalid(&format!("`{k}` must be an index into an array")))?;
+                let len = a.len();
+                let slot = a.get_mut(idx).ok_or_else(|| invalid(&format!("index {idx} is past the array's {len} entries")))?;
+                if last {
+                    *slot = new;
+                    break;
+                }
+                slot
+            }
+            _ => return Err(invalid(&format!("`{k}` is not inside a table or array"))),
+        };
+    }
+    match node {
+        toml::Value::Table(t) => toml::to_string(&t).map_err(|e| invalid(&e.to_string())),
+        _ => Err(invalid("the scene is not a table")),
+    }
 }
 
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
@@ -623,7 +644,10 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         let text = override_field(MINIMAL, Path::new("t.toml"), "time.end", "2").unwrap();
         assert!(matches!(Scene::parse(&text, Path::new("t.toml")).unwrap().time.end, e if e == 2.0));
         let e = override_field(MINIMAL, Path::new("t.toml"), "nope.x", "1").unwrap_err().to_string();
-        assert!(e.contains("nope.x") && e.contains("no table `nope`"), "{e}");
+        assert!(e.contains("nope.x") && e.contains("no `nope`"), "{e}");
+        let text = override_field(MINIMAL, Path::new("t.toml"), "fluid.blocks.0.max", "[1, 0.25, 1]").unwrap();
+        assert_eq!(Scene::parse(&text, Path::new("t.toml")).unwrap().fluid.unwrap().blocks[0].max, [1.0, 0.25, 1.0]);
+        assert!(override_field(MINIMAL, Path::new("t.toml"), "fluid.blocks.3.max", "1").is_err());
         // An override is checked like the file: a typo is rejected when parsed.
         let text = override_field(MINIMAL, Path::new("t.toml"), "fluid.spacingg", "1").unwrap();
         assert!(Scene::parse(&text, Path::new("t.toml")).is_err());
