@@ -410,7 +410,7 @@ pub fn override_field(text: &str, file: &Path, path: &str, value: &str) -> Resul
         value: value.to_owned(),
         why: why.to_owned(),
     };
-    let mut table: toml::Table = toml::from_str(text).map_err(|e| parse_err(e, text))?;
+    let table: toml::Table = toml::from_str(text).map_err(|e| parse_err(e, text))?;
     let wrapped = format!("v = {value}");
     let parsed: toml::Table = toml::from_str(&wrapped).map_err(|_| invalid("is not a TOML value"))?;
     let new = parsed.get("v").cloned().ok_or_else(|| invalid("is not a TOML value"))?;

@@ -64,7 +64,7 @@ fn boxes_are_pushed_and_stay_apart_and_inside() {
             for b in a + 1..3 {
                 let sb = tracks[b][i];
                 let d = parry3d::query::distance(&pa, &cube, &pose(sb.position, sb.orientation), &cube).unwrap();
-                let depth = if d > 0.0 { 0.0 } else {
+                let depth = if d.distance > 0.0 { 0.0 } else {
                     parry3d::query::contact(&pa, &cube, &pose(sb.position, sb.orientation), &cube, 0.0)
                         .unwrap()
                         .map_or(0.0, |c| -c.dist)
