@@ -1,6 +1,7 @@
 // ---- fluid_rates.wgsl: continuity + momentum in one pair loop (CPU twins:
 // continuity.rs, momentum.rs) ----
-// Needs: prelude, SPH constants, StepParams, grid_common, kernel, continuity, momentum.
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel, continuity, momentum,
+// and `b_matrix(i)` (fluid_rates.rs: B_i of the gradient pass, or I without correction).
 // One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
@@ -25,6 +26,7 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     let rho_i = rho[i];
     let pr_i = press[i];
     let c_i = cell_coord(p_i);
+    let b_i = b_matrix(i);
     var drho_i = 0.0;
     var acc = vec3<f32>(0.0);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
@@ -39,8 +41,14 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 let grad_w = kernel_grad_factor(sqrt(r2)) * r_ij;
                 let u_ij = u_i - vel[j].xyz;
                 let rho_j = rho[j];
-                drho_i += continuity_term(u_ij, grad_w);
-                acc += pressure_term(pr_i, rho_i, press[j], rho_j, grad_w);
+                if GRADIENT_CORRECTION {
+                    let grad_w_c = b_i * grad_w;
+                    drho_i += corrected_continuity_term(rho_i, rho_j, u_ij, grad_w_c);
+                    acc += corrected_pressure_term(pr_i, rho_i, press[j], rho_j, grad_w_c);
+                } else {
+                    drho_i += continuity_term(u_ij, grad_w);
+                    acc += pressure_term(pr_i, rho_i, press[j], rho_j, grad_w);
+                }
                 // Free-slip walls carry pressure but no shear.
                 let viscous = NO_SLIP_WALLS || !is_wall(id[j]);
                 if LAMINAR_VISCOSITY && viscous {

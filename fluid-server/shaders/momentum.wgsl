@@ -9,6 +9,12 @@ fn pressure_term(p_i: f32, rho_i: f32, p_j: f32, rho_j: f32, grad_w: vec3<f32>) 
     return -MASS * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j)) * grad_w;
 }
 
+// Pressure part of Joubert eq. (13), gradient-corrected: −(1/ρ_i) Σ_j V_j (p_j − p_i) B_i ∇W_ij,
+// V_j = m/ρ_j; `grad_w_c` = B_i ∇W_ij.
+fn corrected_pressure_term(p_i: f32, rho_i: f32, p_j: f32, rho_j: f32, grad_w_c: vec3<f32>) -> vec3<f32> {
+    return (-MASS / (rho_i * rho_j)) * (p_j - p_i) * grad_w_c;
+}
+
 // Morris, Fox & Zhu (1997) eq. (8), μ = ρν.
 fn morris1997_viscous_term(rho_i: f32, rho_j: f32, r_ij: vec3<f32>, r2: f32, u_ij: vec3<f32>,
                            grad_w: vec3<f32>) -> vec3<f32> {

@@ -32,6 +32,11 @@ pub struct SphConstants {
     /// Domain walls are no-slip (take part in the viscous sums with zero velocity);
     /// free-slip walls do not enter them.
     pub no_slip_walls: bool,
+    /// Kernel-gradient correction (Joubert eq. 10) on: the gradient pass runs and the
+    /// continuity and pressure terms take the corrected difference form (eqs. 12–13).
+    pub gradient_correction: bool,
+    /// Particle shifting decrowding factor β (Joubert eq. 17); 0: off.
+    pub shifting_beta: f64,
 }
 
 /// `η² = 0.01 h²` in the Morris (1997) and Monaghan (1992) denominators `r² + η²`: keeps
@@ -60,6 +65,8 @@ impl SphConstants {
             laminar: scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0,
             alpha: scene.effects.artificial_viscosity,
             no_slip_walls: scene.domain.walls == WallKind::NoSlip,
+            gradient_correction: scene.effects.gradient_correction,
+            shifting_beta: scene.effects.particle_shifting,
         })
     }
 
@@ -76,6 +83,12 @@ impl SphConstants {
     /// Joubert eq. (4) inverted (wall and marker densities).
     pub fn density(&self, p: f64) -> f64 {
         self.rho0 * (1.0 + p / self.tait_b()).max(MIN_TAIT_BASE).powf(1.0 / self.gamma)
+    }
+
+    /// The per-step gradient pass ([`crate::joubert2020_gradients`]) runs: it feeds
+    /// the gradient correction and particle shifting.
+    pub fn gradient_pass(&self) -> bool {
+        self.gradient_correction || self.shifting_beta > 0.0
     }
 
     /// Support radius, m.
@@ -109,6 +122,8 @@ impl SphConstants {
              const ALPHA: f32 = {alpha:e};\n\
              const NO_SLIP_WALLS: bool = {no_slip};\n\
              const VISCOUS_ETA2: f32 = {eta2:e};\n\
+             const GRADIENT_CORRECTION: bool = {correction};\n\
+             const SHIFTING_BETA: f32 = {beta:e};\n\
              // ---- end of SPH constants ----\n",
             quintic = k.kind == KernelKind::Quintic,
             h = k.h,
@@ -131,6 +146,8 @@ impl SphConstants {
             alpha = self.alpha,
             no_slip = self.no_slip_walls,
             eta2 = VISCOUS_ETA2_H2 * k.h * k.h,
+            correction = self.gradient_correction,
+            beta = self.shifting_beta,
         )
     }
 }

@@ -14,28 +14,48 @@ use crate::sph_kernel::{particle_binding as pb, Access, SphKernel, PARAMS, PARTI
 
 pub const FLUID_RATES_WGSL: &str = include_str!("../shaders/fluid_rates.wgsl");
 
+const BINDINGS: &[(u32, Access)] = &[
+    (pb::POS, Access::Read),
+    (pb::VEL, Access::Read),
+    (pb::RHO, Access::Read),
+    (pb::PRESS, Access::Read),
+    (pb::ID, Access::Read),
+    (pb::DRHO, Access::ReadWrite),
+    (pb::DVEL, Access::ReadWrite),
+];
+const CORRECTED_BINDINGS: &[(u32, Access)] = &[
+    (pb::POS, Access::Read),
+    (pb::VEL, Access::Read),
+    (pb::RHO, Access::Read),
+    (pb::PRESS, Access::Read),
+    (pb::ID, Access::Read),
+    (pb::DRHO, Access::ReadWrite),
+    (pb::DVEL, Access::ReadWrite),
+    (pb::BMAT, Access::Read),
+];
+
+/// `b_matrix(i)`: B_i from the gradient pass's buffer, bound only with the correction on.
+const B_MATRIX_WGSL: &str = "@group(0) @binding(9) var<storage, read> bmat: array<vec4<f32>>;
+fn b_matrix(i: u32) -> mat3x3<f32> {
+    return mat3x3<f32>(bmat[3u * i].xyz, bmat[3u * i + 1u].xyz, bmat[3u * i + 2u].xyz);
+}
+";
+/// Without the correction no B buffer exists; the identity keeps the shader's one
+/// code path valid (the corrected branch is compiled out by `GRADIENT_CORRECTION`).
+const NO_B_MATRIX_WGSL: &str = "fn b_matrix(i: u32) -> mat3x3<f32> {
+    return mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+}
+";
+
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
+    let (b, bindings) = if c.gradient_correction { (B_MATRIX_WGSL, CORRECTED_BINDINGS) } else { (NO_B_MATRIX_WGSL, BINDINGS) };
     SphKernel::new(
         gpu,
         "sph: fluid_rates",
-        &[&consts, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), CONTINUITY_WGSL, MOMENTUM_WGSL, FLUID_RATES_WGSL],
+        &[&consts, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), CONTINUITY_WGSL, MOMENTUM_WGSL, b, FLUID_RATES_WGSL],
         "fluid_rates",
-        &[
-            (
-                PARTICLES,
-                &[
-                    (pb::POS, Access::Read),
-                    (pb::VEL, Access::Read),
-                    (pb::RHO, Access::Read),
-                    (pb::PRESS, Access::Read),
-                    (pb::ID, Access::Read),
-                    (pb::DRHO, Access::ReadWrite),
-                    (pb::DVEL, Access::ReadWrite),
-                ],
-            ),
-            (PARAMS, &[(0, Access::Uniform)]),
-        ],
+        &[(PARTICLES, bindings), (PARAMS, &[(0, Access::Uniform)])],
         Some(grid_layout),
     )
 }

@@ -5,11 +5,15 @@
 //! `        − Σ_j m_j Π_ij ∇W_ij` (Monaghan 1992, α = `effects.artificial_viscosity`, only if > 0)
 //! `        + g` (only with `gravity.on_fluid`).
 //!
+//! With `effects.gradient_correction` the pressure part is Joubert eq. (13)'s
+//! `−(1/ρ_i) Σ_j V_j (p_j − p_i) B_i ∇W_ij` (`V_j = m/ρ_j`); the viscous terms stay Morris's.
+//!
 //! Free-slip walls do not enter the viscous sums; no-slip walls enter them with zero
 //! velocity; markers (body surfaces) always enter them with the body's velocity.
 //! WGSL: `shaders/momentum.wgsl` (pair terms); the pair loop is [`crate::fluid_rates`].
 
 use crate::constants::SphConstants;
+use crate::joubert2020_gradients::{b_matrix_cpu, mat_vec};
 use crate::particles::{dot, sub, Kind, ParticleSet};
 
 pub const MOMENTUM_WGSL: &str = include_str!("../shaders/momentum.wgsl");
@@ -19,14 +23,17 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
     let mut acc = [0.0; 3];
     let (rho_i, p_i) = (set.rho[i], set.press[i]);
     let eta2 = crate::constants::VISCOUS_ETA2_H2 * c.kernel.h * c.kernel.h;
+    let b = c.gradient_correction.then(|| b_matrix_cpu(c, set, i).0);
     for j in set.neighbours(i, c.support_radius()) {
         let r_ij = sub(set.pos[i], set.pos[j]);
         let r2 = dot(r_ij, r_ij);
         let g = c.kernel.grad(r_ij);
         let (rho_j, p_j) = (set.rho[j], set.press[j]);
         let u_ij = sub(set.vel[i], set.vel[j]);
-        let fp = -c.mass * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j));
-        let mut add = [fp * g[0], fp * g[1], fp * g[2]];
+        let mut add = match &b {
+            Some(b) => mat_vec(b, g).map(|x| -c.mass / (rho_i * rho_j) * (p_j - p_i) * x),
+            None => g.map(|x| -c.mass * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j)) * x),
+        };
         let viscous = c.no_slip_walls || set.kinds.kind(set.id[j]) != Kind::Wall;
         if c.laminar && viscous {
             // Morris, Fox & Zhu (1997) eq. (8).

@@ -23,6 +23,8 @@ pub const GRAVITY: &str = "gravity";
 pub const INTEGRATE: &str = "joubert2020_predictor_corrector";
 pub const BODY_LOADS: &str = "joubert2020_body_loads";
 pub const BLOWUP_CHECK: &str = "blowup_check";
+pub const GRADIENTS: &str = "joubert2020_gradients";
+pub const PARTICLE_SHIFTING: &str = "particle_shifting";
 
 /// The stages of one fluid step for `scene`, in execution order. Effects that are off
 /// are absent. Continuity, the pressure gradient, the viscous terms and gravity are one
@@ -42,6 +44,16 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
             reach = crate::neighbour_grid::GRID_REACH
         ),
     );
+    let correction = scene.effects.gradient_correction;
+    let beta = scene.effects.particle_shifting;
+    if correction || beta > 0.0 {
+        let why = match (correction, beta > 0.0) {
+            (true, true) => "effects.gradient_correction and effects.particle_shifting",
+            (true, false) => "effects.gradient_correction",
+            _ => "effects.particle_shifting (its Taylor terms use the corrected ∇u, ∇p)",
+        };
+        push(GRADIENTS, format!("{why}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p once per step after the sort"));
+    }
     let resolved = scene.has_resolved_bodies();
     if resolved {
         push(MARKER_UPDATE, "resolved bodies: markers placed from the DEM's coupling points, extrapolated x += v·τ inside the window".into());
@@ -59,8 +71,13 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
             if resolved { ", body markers" } else { "" }
         ),
     );
-    push(CONTINUITY, "weakly compressible density (standard form of Joubert eq. 12, no gradient correction)".into());
-    push(MOMENTUM_PRESSURE, "symmetric pressure gradient −Σ m (p_i/ρ_i² + p_j/ρ_j²) ∇W".into());
+    if correction {
+        push(CONTINUITY, "Joubert eq. (12): −ρ_i Σ V_j (u_j − u_i)·B_i∇W_ij".into());
+        push(MOMENTUM_PRESSURE, "Joubert eq. (13): −(1/ρ_i) Σ V_j (p_j − p_i) B_i∇W_ij".into());
+    } else {
+        push(CONTINUITY, "weakly compressible density (standard form of Joubert eq. 12, no gradient correction)".into());
+        push(MOMENTUM_PRESSURE, "symmetric pressure gradient −Σ m (p_i/ρ_i² + p_j/ρ_j²) ∇W".into());
+    }
     if scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0 {
         push(MORRIS1997_VISCOSITY, format!("effects.viscosity = laminar, ν = {:e} m²/s", f.kinematic_viscosity));
     }
@@ -74,6 +91,9 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(GRAVITY, format!("gravity.on_fluid = true, g = {:?} m/s²", scene.gravity.vector));
     }
     push(INTEGRATE, "Joubert eqs. (20)–(23): predictor, corrector, average; positions once per step".into());
+    if beta > 0.0 {
+        push(PARTICLE_SHIFTING, format!("effects.particle_shifting β = {beta}: Joubert eqs. (17)–(19) after the corrector"));
+    }
     if resolved {
         push(BODY_LOADS, "resolved bodies: Joubert eqs. (31)–(32) over the markers, averaged over the window, tree-reduced per body".into());
     }

@@ -6,8 +6,9 @@
 //! passes:
 //!
 //! ```text
-//! marker_update?  grid sort  │ boundary pressure  fluid_rates  marker_loads?  predict
-//!                            │ boundary pressure  fluid_rates  marker_loads?  correct   advance_clock?
+//! marker_update?  grid sort  gradients? │ boundary pressure  fluid_rates  marker_loads?  predict
+//!                                       │ boundary pressure  fluid_rates  marker_loads?  correct
+//!                                       │ shift?  advance_clock?
 //! ```
 //!
 //! and, once per window, `reduce_body_loads?` and the blow-up check. Stages switched off
@@ -16,9 +17,10 @@
 //! read back inside a step. Positions live on the GPU relative to the domain centre
 //! (DESIGN.md, "Numbers on the GPU").
 //!
-//! A later stage for the gradient correction (Joubert eq. 10) slots in after the grid
-//! sort as one more pair pass writing a B matrix per particle, which the pair terms of
-//! `continuity`, `momentum`, the boundary pressure and the body loads then multiply.
+//! `gradients` (Joubert eq. 10 and the corrected ∇u, ∇p; [`crate::joubert2020_gradients`])
+//! runs with the gradient correction or particle shifting; its B matrix enters the
+//! continuity and pressure terms of `fluid_rates` (eqs. 12–13). The Adami boundary
+//! pressure and the marker loads still use the uncorrected kernel gradient.
 
 use crate::constants::{SphConstants, StepParams};
 use crate::gpu::Gpu;
@@ -31,7 +33,7 @@ use crate::sph_kernel::{body_binding as bb, param_binding as qb, particle_bindin
 use crate::timing::{self, StageTimer};
 use crate::{
     adami2012_boundary_pressure, blowup_check, body_load_reduce, fluid_rates, integrate, joubert2020_body_loads,
-    marker_update, neighbour_count, plan, tait_eos,
+    joubert2020_gradients, marker_update, neighbour_count, particle_shifting, plan, tait_eos,
 };
 use couplet_protocol::{BodyLoad, BodyState, CouplingPoint, ParticleRecord, Scene};
 use wgpu::util::DeviceExt;
@@ -63,6 +65,10 @@ pub enum Op {
     Correct,
     AdvanceClock,
     ReduceBodyLoads,
+    /// The gradient pass (absent without correction and shifting).
+    Gradients,
+    /// Particle shifting (absent without it).
+    Shift,
 }
 
 /// Kernels of the marker coupling (compiled only for scenes with resolved bodies, or at
@@ -84,6 +90,8 @@ pub struct SphPipelines {
     find_bad: SphKernel,
     capture_bad: SphKernel,
     neighbour_count: SphKernel,
+    gradients: Option<SphKernel>,
+    shift: Option<SphKernel>,
     markers: Option<MarkerPipelines>,
 }
 
@@ -98,6 +106,8 @@ impl SphPipelines {
             find_bad: blowup_check::find_kernel(gpu, c),
             capture_bad: blowup_check::capture_kernel(gpu, c),
             neighbour_count: neighbour_count::kernel(gpu, c, grid_layout),
+            gradients: c.gradient_pass().then(|| joubert2020_gradients::kernel(gpu, c, grid_layout)),
+            shift: (c.shifting_beta > 0.0).then(|| particle_shifting::kernel(gpu, c)),
             markers: with_markers.then(|| MarkerPipelines::new(gpu, c, grid_layout)),
         }
     }
@@ -142,6 +152,8 @@ struct Bound {
     correct: BoundKernel,
     find_bad: BoundKernel,
     capture_bad: BoundKernel,
+    gradients: Option<BoundKernel>,
+    shift: Option<BoundKernel>,
     markers: Option<BoundMarkers>,
 }
 
@@ -168,7 +180,21 @@ pub struct SphData {
     pub bad_values: wgpu::Buffer,
     pub grid: NeighbourGrid,
     pub bodies: Option<BodyBuffers>,
+    /// The gradient pass's outputs (see [`crate::joubert2020_gradients`]); only with
+    /// the gradient correction or particle shifting.
+    pub gradients: Option<GradientBuffers>,
     bound: Bound,
+}
+
+/// Buffers of the gradient pass (not permuted: written after every sort).
+pub struct GradientBuffers {
+    /// Three vec4 columns of B_i per particle.
+    pub bmat: wgpu::Buffer,
+    /// ⟨∇u_x⟩ᶜ, ⟨∇u_y⟩ᶜ, ⟨∇u_z⟩ᶜ, ⟨∇p⟩ᶜ, s_i: five vec4 per particle.
+    pub grads: wgpu::Buffer,
+    /// [max fluid speed of the step (f32 bits), near-singular particle-steps in the
+    /// window, 0, 0].
+    pub diag: wgpu::Buffer,
 }
 
 const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
@@ -252,6 +278,11 @@ impl SphData {
         grid.register(gpu, &press, 4)?;
         grid.register_ids(gpu, &id)?;
 
+        let gradients = pipelines.gradients.is_some().then(|| GradientBuffers {
+            bmat: storage_init(gpu, "sph: B matrix", &vec![0u8; n * 48]),
+            grads: storage_init(gpu, "sph: corrected gradients", &vec![0u8; n * 80]),
+            diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16]),
+        });
         let bodies = (set.kinds.n_markers > 0).then(|| {
             let m = set.kinds.n_markers;
             let cap = body_capacity.max(1);
@@ -279,6 +310,8 @@ impl SphData {
                     pb::DVEL => &dvel,
                     pb::RHO_N => &rho_n,
                     pb::VEL_N => &vel_n,
+                    pb::BMAT => &gradients.as_ref()?.bmat,
+                    pb::GRADS => &gradients.as_ref()?.grads,
                     _ => return None,
                 })
             };
@@ -302,6 +335,7 @@ impl SphData {
                         qb::PARAMS => Some(&params),
                         qb::STATUS => Some(&status),
                         qb::BAD_VALUES => Some(&bad_values),
+                        qb::DIAG => gradients.as_ref().map(|g| &g.diag),
                         _ => None,
                     },
                     _ => None,
@@ -326,6 +360,14 @@ impl SphData {
                 correct: p.correct.bind(gpu, resolve, None).ok_or_else(|| missing("correct"))?,
                 find_bad: p.find_bad.bind(gpu, resolve, None).ok_or_else(|| missing("find_bad"))?,
                 capture_bad: p.capture_bad.bind(gpu, resolve, None).ok_or_else(|| missing("capture_bad"))?,
+                gradients: match &p.gradients {
+                    Some(k) => Some(k.bind(gpu, resolve, g).ok_or_else(|| missing("gradients"))?),
+                    None => None,
+                },
+                shift: match &p.shift {
+                    Some(k) => Some(k.bind(gpu, resolve, None).ok_or_else(|| missing("particle_shifting"))?),
+                    None => None,
+                },
                 markers,
             }
         };
@@ -346,6 +388,7 @@ impl SphData {
             bad_values,
             grid,
             bodies,
+            gradients,
             bound,
         })
     }
@@ -365,6 +408,18 @@ impl SphData {
             Op::BoundaryPressure => (&b.boundary_pressure, "sph: adami2012_boundary_pressure"),
             Op::FluidRates => (&b.fluid_rates, "sph: fluid_rates"),
             Op::Predict => (&b.predict, "sph: predict"),
+            Op::Gradients => match (&b.gradients, &self.gradients) {
+                (Some(k), Some(g)) => {
+                    // ‖u‖max is the step's own: reset before the pass.
+                    encoder.clear_buffer(&g.diag, 0, Some(4));
+                    (k, "sph: joubert2020_gradients")
+                }
+                _ => return,
+            },
+            Op::Shift => match &b.shift {
+                Some(k) => (k, "sph: particle_shifting"),
+                None => return,
+            },
             Op::Correct => (&b.correct, "sph: correct"),
             Op::MarkerUpdate => match m {
                 Some(m) => (&m.marker_update, "sph: marker_update"),
@@ -424,6 +479,30 @@ impl SphData {
         ))
     }
 
+    /// Reads the gradient pass's outputs (buffer order): `B_i` as rows, `[∇u_x, ∇u_y,
+    /// ∇u_z, ∇p, s]`, and the diagnostics word (max speed of the last step, near-singular
+    /// particle-steps of the window). `None` without the pass.
+    pub fn read_gradients(&self, gpu: &Gpu) -> Result<Option<GradientReadback>, FluidError> {
+        let Some(g) = &self.gradients else { return Ok(None) };
+        let n = u64::from(self.n_total);
+        let b: Vec<[f32; 4]> = gpu.read_buffer(&g.bmat, 0, 3 * n)?;
+        let f: Vec<[f32; 4]> = gpu.read_buffer(&g.grads, 0, 5 * n)?;
+        let v3 = |v: [f32; 4]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+        Ok(Some(GradientReadback {
+            // Columns on the GPU, rows here.
+            b: (0..n as usize).map(|i| std::array::from_fn(|r| std::array::from_fn(|c| f64::from(b[3 * i + c][r])))).collect(),
+            fields: (0..n as usize).map(|i| std::array::from_fn(|k| v3(f[5 * i + k]))).collect(),
+            diag: self.read_diag(gpu)?.unwrap_or_default(),
+        }))
+    }
+
+    /// The gradient pass's diagnostics word, `None` without the pass.
+    pub fn read_diag(&self, gpu: &Gpu) -> Result<Option<[u32; 4]>, FluidError> {
+        let Some(g) = &self.gradients else { return Ok(None) };
+        let d: Vec<u32> = gpu.read_buffer(&g.diag, 0, 4)?;
+        Ok(Some([d[0], d[1], d[2], d[3]]))
+    }
+
     /// Reads the per-marker window sums (force, moment) in marker (DEM) order.
     pub fn read_marker_loads(&self, gpu: &Gpu) -> Result<Vec<MarkerLoad>, FluidError> {
         let Some(b) = &self.bodies else { return Ok(Vec::new()) };
@@ -433,6 +512,17 @@ impl SphData {
         let v = |k: usize| std::array::from_fn(|a| f64::from(s[k][a]) - f64::from(c[k][a]));
         Ok((0..m as usize).map(|k| (v(2 * k), v(2 * k + 1))).collect())
     }
+}
+
+/// The gradient pass's outputs read back (tests).
+#[derive(Debug, Clone, Default)]
+pub struct GradientReadback {
+    /// `B_i`, row-major.
+    pub b: Vec<[[f64; 3]; 3]>,
+    /// `[∇u_x, ∇u_y, ∇u_z, ∇p, s]` per particle.
+    pub fields: Vec<[[f64; 3]; 5]>,
+    /// [max fluid speed (f32 bits), near-singular count, 0, 0].
+    pub diag: [u32; 4],
 }
 
 /// The fluid solver of a scene; see the module doc.
@@ -454,6 +544,9 @@ pub struct FluidSolver {
     time: f64,
     steps: u64,
     loads_ready: bool,
+    /// Particle-steps of the last window whose truncation matrix was near-singular
+    /// (kept the uncorrected gradient); 0 without the gradient pass.
+    near_singular: u32,
 }
 
 impl FluidSolver {
@@ -511,6 +604,7 @@ impl FluidSolver {
             time: 0.0,
             steps: 0,
             loads_ready: false,
+            near_singular: 0,
         };
         // Fluid pressures from the initial densities (Joubert eq. 4).
         solver.write_params(gpu);
@@ -545,6 +639,13 @@ impl FluidSolver {
     /// The buffers (tests and benchmarks).
     pub fn data(&self) -> &SphData {
         &self.data
+    }
+
+    /// Particle-steps of the last window that kept the uncorrected gradient because
+    /// their truncation matrix was near-singular (`det M < B_DET_MIN`, see
+    /// [`crate::joubert2020_gradients::B_DET_MIN`]).
+    pub fn near_singular(&self) -> u32 {
+        self.near_singular
     }
 
     pub fn time(&self) -> f64 {
@@ -674,17 +775,22 @@ impl FluidSolver {
         let d = &self.data;
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerUpdate);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Sort);
+        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Gradients);
         for update in [Op::Predict, Op::Correct] {
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::BoundaryPressure);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::FluidRates);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerLoads);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), update);
         }
+        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Shift);
         d.queue_op(gpu, encoder, timer, Op::AdvanceClock);
     }
 
     /// Resets the window accumulators (clock, marker load sums) in `encoder`.
     fn queue_window_start(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        if let Some(g) = &self.data.gradients {
+            encoder.clear_buffer(&g.diag, 0, None);
+        }
         if let Some(b) = &self.data.bodies {
             gpu.queue.write_buffer(&b.clock, 0, bytemuck::bytes_of(&Clock::default()));
             encoder.clear_buffer(&b.marker_load, 0, None);
@@ -745,6 +851,7 @@ impl FluidSolver {
         self.steps += u64::from(substeps);
         self.loads_ready = self.data.bodies.is_some();
         self.check(gpu)?;
+        self.near_singular = self.data.read_diag(gpu)?.map_or(0, |d| d[1]);
         Ok(substeps)
     }
 

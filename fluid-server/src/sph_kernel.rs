@@ -39,6 +39,10 @@ pub mod particle_binding {
     pub const DVEL: u32 = 6;
     pub const RHO_N: u32 = 7;
     pub const VEL_N: u32 = 8;
+    /// B matrix of Joubert eq. (10), three vec4 columns per particle (gradient pass).
+    pub const BMAT: u32 = 9;
+    /// Corrected ∇u_x, ∇u_y, ∇u_z, ∇p and the raw shift, five vec4 per particle.
+    pub const GRADS: u32 = 10;
 }
 
 /// Bodies and markers, group 2.
@@ -58,6 +62,9 @@ pub mod param_binding {
     pub const STATUS: u32 = 1;
     pub const BAD_VALUES: u32 = 2;
     pub const COUNTS: u32 = 3;
+    /// Per-step diagnostics of the gradient pass: [0] max fluid speed (f32 bits),
+    /// [1] particles with a near-singular truncation matrix.
+    pub const DIAG: u32 = 4;
 }
 
 /// The WGSL part before this line is a function library other modules may include;

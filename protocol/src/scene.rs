@@ -229,6 +229,22 @@ pub struct EffectsSpec {
     /// Default 0: the papers' cases are resolved with physical viscosity.
     #[serde(default)]
     pub artificial_viscosity: f64,
+    /// Kernel-gradient correction of Joubert eq. (10): every fluid gradient (continuity,
+    /// pressure gradient, the Taylor terms of particle shifting) is multiplied by the
+    /// inverse B of the particle's truncation matrix, which makes the gradient of a
+    /// linear field exact next to walls and free surfaces. With it the continuity and
+    /// pressure terms take Joubert's difference form (eqs. 12–13). A particle whose
+    /// matrix is near-singular (det < `couplet_fluid` `B_DET_MIN`: isolated or nearly so)
+    /// keeps the uncorrected gradient and is counted in the run log. Default false: the
+    /// standard scheme is the cheaper one and the foundation's tests are written for it.
+    #[serde(default)]
+    pub gradient_correction: bool,
+    /// Particle shifting of Joubert eqs. (17)–(19) (Xu et al. 2009): the decrowding
+    /// factor β; 0 switches it off. Joubert gives 0.001 ≤ β ≤ 0.1, and values outside
+    /// that range are refused. Default 0 (off): shifting changes the particle
+    /// distribution, which a scene asks for.
+    #[serde(default)]
+    pub particle_shifting: f64,
 }
 
 fn default_viscosity() -> ViscosityModel {
@@ -237,7 +253,7 @@ fn default_viscosity() -> ViscosityModel {
 
 impl Default for EffectsSpec {
     fn default() -> Self {
-        Self { viscosity: default_viscosity(), artificial_viscosity: 0.0 }
+        Self { viscosity: default_viscosity(), artificial_viscosity: 0.0, gradient_correction: false, particle_shifting: 0.0 }
     }
 }
 
@@ -556,6 +572,14 @@ impl Scene {
         }
         if self.effects.artificial_viscosity < 0.0 {
             return bad("effects.artificial_viscosity".into(), self.effects.artificial_viscosity.to_string(), "must be ≥ 0");
+        }
+        let beta = self.effects.particle_shifting;
+        if beta != 0.0 && !(0.001..=0.1).contains(&beta) {
+            return bad(
+                "effects.particle_shifting".into(),
+                beta.to_string(),
+                "must be 0 (off) or within Joubert's 0.001 ≤ β ≤ 0.1 (§2.3.3)",
+            );
         }
         for (i, b) in self.bodies.iter().enumerate() {
             pos(&format!("bodies[{i}].density"), b.density)?;

@@ -1,0 +1,161 @@
+//! The per-step gradient pass: the kernel-gradient correction matrix of Joubert eq. (10),
+//! the corrected gradients of velocity and pressure (eqs. 7, 9–10) and the shift
+//! direction of particle shifting (eq. 17). It runs once per step after the grid sort,
+//! only when the scene switches on `effects.gradient_correction` or
+//! `effects.particle_shifting` ([`SphConstants::gradient_pass`]).
+//!
+//! For a fluid particle i, over its support (every kind of neighbour, `V_j = m/ρ_j`):
+//!
+//! - `M_i = −Σ_j V_j ∇W_ij ⊗ r_ij`, so that the SPH gradient of a linear field is
+//!   `⟨∇f⟩_i = M_i ∇f` (Joubert eq. 9; the paper writes the transpose, B⁻¹ of eq. 10,
+//!   with the other contraction convention). A full support gives `M ≈ I`.
+//! - `B_i = M_i⁻¹` when `det M_i ≥` [`B_DET_MIN`]; otherwise `B_i = I` and the particle
+//!   is counted (see [`B_DET_MIN`]): the count is reported per window, never hidden.
+//! - `⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij` for `f = u_x, u_y, u_z, p`.
+//! - `s_i = r̄_i² Σ_j e_ij / r_ij²` with `r̄_i` the mean neighbour distance: eq. (17)
+//!   without its factor `β ‖u‖max Δt`, which [`crate::particle_shifting`] applies.
+//! - the largest fluid speed of the step, `‖u‖max` of eq. (17).
+//!
+//! WGSL: `shaders/joubert2020_gradients.wgsl`.
+
+use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::gpu::Gpu;
+use crate::kernel::kernel_library;
+use crate::neighbour_grid::GRID_COMMON_WGSL;
+use crate::particles::{dot, sub, Kind, ParticleSet};
+use crate::sph_kernel::{param_binding as qb, particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+
+pub const GRADIENTS_WGSL: &str = include_str!("../shaders/joubert2020_gradients.wgsl");
+
+/// Smallest determinant of the truncation matrix `M_i` that is inverted. A particle with
+/// a full support has `det M ≈ 1`; one at a flat free surface or wall without boundary
+/// particles ≈ 0.5, at a free-surface corner ≈ 0.1–0.2. Below 0.05 the support holds
+/// only a few particles on one side (an isolated droplet or a splash), where the
+/// inverse amplifies round-off and noise by more than 20×: such a particle keeps the
+/// uncorrected gradient (B = I), and the solver reports how many did per window.
+pub const B_DET_MIN: f64 = 0.05;
+
+pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
+    let consts = c.wgsl();
+    let guard = format!("const B_DET_MIN: f32 = {B_DET_MIN:e};\n");
+    SphKernel::new(
+        gpu,
+        "sph: joubert2020_gradients",
+        &[&consts, &guard, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), GRADIENTS_WGSL],
+        "gradients",
+        &[
+            (
+                PARTICLES,
+                &[
+                    (pb::POS, Access::Read),
+                    (pb::VEL, Access::Read),
+                    (pb::RHO, Access::Read),
+                    (pb::PRESS, Access::Read),
+                    (pb::ID, Access::Read),
+                    (pb::BMAT, Access::ReadWrite),
+                    (pb::GRADS, Access::ReadWrite),
+                ],
+            ),
+            (PARAMS, &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::ReadWrite)]),
+        ],
+        Some(grid_layout),
+    )
+}
+
+/// 3×3 matrix, row-major: `m[row][col]`.
+pub type Mat3 = [[f64; 3]; 3];
+
+/// The gradient pass's results for one fluid particle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gradients {
+    /// `B_i` (identity when near-singular).
+    pub b: Mat3,
+    /// `det M_i < B_DET_MIN`.
+    pub singular: bool,
+    /// `grad_u[a]` = corrected gradient of `u_a`.
+    pub grad_u: [[f64; 3]; 3],
+    /// Corrected pressure gradient, Pa/m.
+    pub grad_p: [f64; 3],
+    /// `s_i = r̄_i² Σ e_ij / r_ij²` (dimensionless).
+    pub shift: [f64; 3],
+}
+
+pub fn mat_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|r| dot(m[r], v))
+}
+
+pub fn determinant(m: &Mat3) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+/// `m⁻¹` by the adjugate (`det` must be non-zero).
+pub fn inverse(m: &Mat3) -> Mat3 {
+    let d = determinant(m);
+    let c = |r0: usize, c0: usize, r1: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
+    [
+        [c(1, 1, 2, 2) / d, -c(0, 1, 2, 2) / d, c(0, 1, 1, 2) / d],
+        [-c(1, 0, 2, 2) / d, c(0, 0, 2, 2) / d, -c(0, 0, 1, 2) / d],
+        [c(1, 0, 2, 1) / d, -c(0, 0, 2, 1) / d, c(0, 0, 1, 1) / d],
+    ]
+}
+
+/// The truncation matrix `M_i = −Σ_j V_j ∇W_ij ⊗ r_ij` and `B_i` (see the module doc).
+pub fn b_matrix_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> (Mat3, bool) {
+    let mut m = [[0.0; 3]; 3];
+    for j in set.neighbours(i, c.support_radius()) {
+        let r_ij = sub(set.pos[i], set.pos[j]);
+        let g = c.kernel.grad(r_ij);
+        let v = c.mass / set.rho[j];
+        for (a, row) in m.iter_mut().enumerate() {
+            for (b, x) in row.iter_mut().enumerate() {
+                *x -= v * g[a] * r_ij[b];
+            }
+        }
+    }
+    if determinant(&m) >= B_DET_MIN {
+        (inverse(&m), false)
+    } else {
+        ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], true)
+    }
+}
+
+/// CPU twin of the gradient pass for every entry (`None` for non-fluid entries).
+pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradients>> {
+    (0..set.len())
+        .map(|i| {
+            if set.kinds.kind(set.id[i]) != Kind::Fluid {
+                return None;
+            }
+            let (b, singular) = b_matrix_cpu(c, set, i);
+            let mut raw = [[0.0; 3]; 4];
+            let (mut r_sum, mut count, mut s) = (0.0, 0.0, [0.0; 3]);
+            for j in set.neighbours(i, c.support_radius()) {
+                let r_ij = sub(set.pos[i], set.pos[j]);
+                let r2 = dot(r_ij, r_ij);
+                let g = c.kernel.grad(r_ij);
+                let v = c.mass / set.rho[j];
+                let df = [set.vel[j][0] - set.vel[i][0], set.vel[j][1] - set.vel[i][1], set.vel[j][2] - set.vel[i][2], set.press[j] - set.press[i]];
+                for (f, acc) in raw.iter_mut().enumerate() {
+                    for k in 0..3 {
+                        acc[k] += v * df[f] * g[k];
+                    }
+                }
+                let r = r2.sqrt();
+                r_sum += r;
+                count += 1.0;
+                for k in 0..3 {
+                    s[k] += r_ij[k] / (r2 * r);
+                }
+            }
+            let r_mean = if count > 0.0 { r_sum / count } else { 0.0 };
+            Some(Gradients {
+                b,
+                singular,
+                grad_u: [mat_vec(&b, raw[0]), mat_vec(&b, raw[1]), mat_vec(&b, raw[2])],
+                grad_p: mat_vec(&b, raw[3]),
+                shift: s.map(|x| r_mean * r_mean * x),
+            })
+        })
+        .collect()
+}
