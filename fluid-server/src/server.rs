@@ -150,6 +150,7 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
             wait_us,
             exchange_us,
             dt_limit: limits.dt,
+            near_singular: solver.near_singular(),
             ..Default::default()
         })?;
         wake_orchestrator.wake()?;

@@ -33,7 +33,8 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, 0.3, 0.2] }}]
 }
 
 /// The stage list follows the effects: viscosity and artificial viscosity appear only
-/// when on; markers and loads only with resolved bodies; gravity only on the fluid.
+/// when on; markers and loads only with resolved bodies; gravity only on the fluid; the
+/// gradient pass only with the correction or shifting, the shift only with shifting.
 #[test]
 fn stages_follow_the_scene() {
     let names = |s: &Scene| stages(s).iter().map(|s| s.name).collect::<Vec<_>>();
@@ -41,11 +42,20 @@ fn stages_follow_the_scene() {
     let n = names(&plain);
     assert!(!n.contains(&"morris1997_viscosity") && !n.contains(&"monaghan1992_artificial_viscosity"));
     assert!(!n.contains(&"gravity") && !n.contains(&"marker_update") && !n.contains(&"joubert2020_body_loads"));
+    assert!(!n.contains(&"joubert2020_gradients") && !n.contains(&"particle_shifting"));
     let full = tank(
-        "[effects]\nviscosity = \"laminar\"\nartificial_viscosity = 0.1\n[[bodies]]\nname = \"s\"\nshape.sphere.radius = 0.02\ndensity = 1200.0\nposition = [0.1, 0.2, 0.1]",
+        "[effects]\nviscosity = \"laminar\"\nartificial_viscosity = 0.1\ngradient_correction = true\nparticle_shifting = 0.05\n[[bodies]]\nname = \"s\"\nshape.sphere.radius = 0.02\ndensity = 1200.0\nposition = [0.1, 0.2, 0.1]",
     );
     let n = names(&full);
-    for s in ["morris1997_viscosity", "monaghan1992_artificial_viscosity", "gravity", "marker_update", "joubert2020_body_loads"] {
+    for s in [
+        "morris1997_viscosity",
+        "monaghan1992_artificial_viscosity",
+        "gravity",
+        "marker_update",
+        "joubert2020_body_loads",
+        "joubert2020_gradients",
+        "particle_shifting",
+    ] {
         assert!(n.contains(&s), "{s} missing from {n:?}");
     }
     assert!(stages(&full).iter().all(|s| !s.reason.is_empty()));

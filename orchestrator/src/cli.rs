@@ -138,6 +138,13 @@ fn summary_text(s: &RunSummary) -> String {
         s.exchange_us,
         100.0 * s.exchange_us / s.window_wall_us.max(1e-9)
     );
+    if s.near_singular > 0 {
+        t += &format!(
+            "gradient correction: {} particle-steps had a near-singular truncation matrix (det M < {}) and kept the uncorrected gradient (per window in /run/windows)\n",
+            s.near_singular,
+            couplet_fluid::joubert2020_gradients::B_DET_MIN
+        );
+    }
     if let Some(r) = &s.recording {
         t += &format!("recording: {}\n", r.display());
     }

@@ -52,8 +52,10 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
             f.spacing, f.kernel, f.support, f.smoothing_length(), f.sound_speed, f.kinematic_viscosity);
         let _ = writeln!(w, "  particles: {} fluid, {} wall, {} body markers", set.kinds.n_fluid, set.kinds.n_wall, markers);
         let _ = writeln!(w, "\nGPU stages (in dispatch order):");
-        for s in couplet_fluid::plan::stages(&scene) {
-            let _ = writeln!(w, "  {:<22} {}", s.name, s.reason);
+        let stages = couplet_fluid::plan::stages(&scene);
+        let width = stages.iter().map(|s| s.name.len()).max().unwrap_or(0);
+        for s in stages {
+            let _ = writeln!(w, "  {:<width$}  {}", s.name, s.reason);
         }
         let _ = writeln!(w, "  (an effect that is off dispatches nothing and allocates nothing)");
     }

@@ -7,7 +7,7 @@
 //! | `/bodies/poses` | `foxglove.PosesInFrame` (protobuf), one pose per body, scene order | every window |
 //! | `/bodies/states` | `couplet.BodyStates` (JSON): per body position, orientation `[x,y,z,w]`, velocity, angular velocity, mass | every window |
 //! | `/bodies/loads` | `couplet.BodyLoads` (JSON): per coupled body index, fluid force (N) and moment about the COM (N·m) | every window with resolved bodies |
-//! | `/run/windows` | `couplet.Window` (JSON): step, time, substeps, compute and exchange µs per side | every window |
+//! | `/run/windows` | `couplet.Window` (JSON): step, time, substeps, compute and exchange µs per side, fluid particle-steps with a near-singular truncation matrix | every window |
 //!
 //! Log time = simulation time in ns (the recording starts at t = 0). Frame `world`,
 //! SI units. The scene file is attached (`scene.toml`) and the run described in the
@@ -156,7 +156,7 @@ impl Recorder {
     pub fn window(&self, step: u64, time: f64, window: f64, fluid: Option<&SideReport>, dem: Option<&SideReport>) {
         let side = |r: Option<&SideReport>| {
             r.map(|r| {
-                serde_json::json!({ "substeps": r.substeps, "compute_us": r.compute_us, "wait_us": r.wait_us, "exchange_us": r.exchange_us })
+                serde_json::json!({ "substeps": r.substeps, "compute_us": r.compute_us, "wait_us": r.wait_us, "exchange_us": r.exchange_us, "near_singular": r.near_singular })
             })
         };
         self.log_json(

@@ -74,6 +74,9 @@ pub struct RunSummary {
     pub exchange_us: f64,
     pub window_wall_us: f64,
     pub fluid_substeps: u64,
+    /// Fluid particle-steps that kept the uncorrected gradient (near-singular truncation
+    /// matrix, Joubert eq. 10), over the run.
+    pub near_singular: u64,
     /// Last body states received.
     pub final_states: Vec<BodyState>,
     /// Every window's states of body 0 (time, height, vertical velocity) for validation.
@@ -272,6 +275,7 @@ fn drive(
         }
         if let Some(r) = &fluid_report {
             summary.fluid_substeps += r.substeps as u64;
+            summary.near_singular += u64::from(r.near_singular);
         }
 
         // Drain what crossed this window; record it.

@@ -198,7 +198,10 @@ pub struct SideReport {
     pub role: u32,
     pub step: u64,
     pub substeps: u32,
-    pub _pad: u32,
+    /// Fluid: particle-steps of the window whose truncation matrix (Joubert eq. 10) was
+    /// near-singular, so they kept the uncorrected gradient; 0 without the correction
+    /// and for the DEM.
+    pub near_singular: u32,
     /// Wall time spent computing the window, µs.
     pub compute_us: f64,
     /// Wall time spent waiting for the peer's data, µs.

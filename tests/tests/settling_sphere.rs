@@ -1,7 +1,7 @@
-//! Settling sphere (Joubert 2020 §4.2, scenes/settling-sphere.toml), coarse: the sphere
-//! accelerates, reaches a plateau (the issue asks for a velocity change below 3 % over
-//! the last fifth of its fall; at the CI resolution below this test holds it to 5 %, see
-//! the assertion), lands on the floor and comes to rest there through DEM contact; no NaN.
+//! Settling sphere (Joubert 2020 §4.2, scenes/settling-sphere.toml, with the scene's
+//! gradient correction and particle shifting), coarse: the sphere accelerates, reaches a
+//! plateau (velocity change below 3 % over the last fifth of its fall), lands on the
+//! floor and comes to rest there through DEM contact; no NaN.
 //! The plateau velocity is printed next to the terminal velocity of the drag
 //! correlation of Joubert eqs. (37)–(38).
 //!
@@ -30,7 +30,7 @@ fn sphere_accelerates_plateaus_lands_and_rests() {
             "--set", "domain.max=[0.015, 0.03, 0.015]",
             "--set", "fluid.blocks.0.max=[0.015, 0.03, 0.015]",
             "--set", "bodies.0.position=[0.0075, 0.02, 0.0075]",
-            "--set", "time.end=0.6",
+            "--set", "time.end=0.45",
         ],
     );
     assert!(o.status.success());
@@ -61,10 +61,9 @@ fn sphere_accelerates_plateaus_lands_and_rests() {
          Joubert eqs. (37)–(38): {correlation:.4} m/s",
         100.0 * change
     );
-    // 5 % here, not the 3 % the full case must meet: at this CI resolution (r = 1.25 δ,
-    // 22 markers) the sphere still gains ≈ 3.4 % over the last fifth (measured
-    // 2026-11-22); the 3 % criterion belongs to the full-resolution scene.
-    assert!(change < 0.05, "no plateau: {v_start} → {v_end} m/s");
+    // Measured 1.3 % (2026-11-22). With `effects.particle_shifting = 0` the wake void
+    // (see the scene file) let the sphere gain 3.4 % over the same stretch.
+    assert!(change < 0.03, "no plateau: {v_start} → {v_end} m/s");
     // Lands and rests on the floor through DEM contact.
     let last = s.last().unwrap();
     assert!((last.position[1] - r).abs() < 0.1 * r, "final height {} vs radius {r}", last.position[1]);
