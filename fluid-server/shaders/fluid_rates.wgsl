@@ -1,7 +1,8 @@
 // ---- fluid_rates.wgsl: continuity + momentum in one pair loop (CPU twins:
 // continuity.rs, momentum.rs) ----
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, continuity, momentum,
-// and `b_matrix(i)` (fluid_rates.rs: B_i of the gradient pass, or I without correction).
+// `b_matrix(i)` and `grad_rho(i)` (fluid_rates.rs: from the gradient pass when the scene
+// uses them, else I and 0).
 // One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
@@ -27,6 +28,7 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     let pr_i = press[i];
     let c_i = cell_coord(p_i);
     let b_i = b_matrix(i);
+    let grad_rho_i = grad_rho(i);
     var drho_i = 0.0;
     var acc = vec3<f32>(0.0);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
@@ -48,6 +50,9 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 } else {
                     drho_i += continuity_term(u_ij, grad_w);
                     acc += pressure_term(pr_i, rho_i, press[j], rho_j, grad_w);
+                }
+                if DENSITY_DIFFUSION && is_fluid(id[j]) {
+                    drho_i += antuono2010_diffusion_term(rho_i, rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
                 }
                 // Free-slip walls carry pressure but no shear.
                 let viscous = NO_SLIP_WALLS || !is_wall(id[j]);

@@ -24,10 +24,10 @@ fn shift(@builtin(workgroup_id) wid: vec3<u32>,
     }
     let u_max = bitcast<f32>(diag[0]);
     // Joubert eq. (17).
-    let dr = SHIFTING_BETA * u_max * params.dt * grads[5u * i + 4u].xyz;
+    let dr = SHIFTING_BETA * u_max * params.dt * grads[6u * i + 4u].xyz;
     // Joubert eq. (18).
-    let du = vec3<f32>(dot(grads[5u * i].xyz, dr), dot(grads[5u * i + 1u].xyz, dr), dot(grads[5u * i + 2u].xyz, dr));
-    let dp = dot(grads[5u * i + 3u].xyz, dr);
+    let du = vec3<f32>(dot(grads[6u * i].xyz, dr), dot(grads[6u * i + 1u].xyz, dr), dot(grads[6u * i + 2u].xyz, dr));
+    let dp = dot(grads[6u * i + 3u].xyz, dr);
     // Joubert eq. (19).
     let r = rho[i];
     let r_new = r + pow(RHO0 / r, GAMMA - 1.0) * dp / (SOUND_SPEED * SOUND_SPEED);

@@ -37,6 +37,8 @@ pub struct SphConstants {
     pub gradient_correction: bool,
     /// Particle shifting decrowding factor β (Joubert eq. 17); 0: off.
     pub shifting_beta: f64,
+    /// δ-SPH density diffusion coefficient δ (Antuono et al. 2010); 0: off.
+    pub density_diffusion: f64,
 }
 
 /// `η² = 0.01 h²` in the Morris (1997) and Monaghan (1992) denominators `r² + η²`: keeps
@@ -67,6 +69,7 @@ impl SphConstants {
             no_slip_walls: scene.domain.walls == WallKind::NoSlip,
             gradient_correction: scene.effects.gradient_correction,
             shifting_beta: scene.effects.particle_shifting,
+            density_diffusion: scene.effects.density_diffusion,
         })
     }
 
@@ -88,7 +91,7 @@ impl SphConstants {
     /// The per-step gradient pass ([`crate::joubert2020_gradients`]) runs: it feeds
     /// the gradient correction and particle shifting.
     pub fn gradient_pass(&self) -> bool {
-        self.gradient_correction || self.shifting_beta > 0.0
+        self.gradient_correction || self.shifting_beta > 0.0 || self.density_diffusion > 0.0
     }
 
     /// Support radius, m.
@@ -124,6 +127,8 @@ impl SphConstants {
              const VISCOUS_ETA2: f32 = {eta2:e};\n\
              const GRADIENT_CORRECTION: bool = {correction};\n\
              const SHIFTING_BETA: f32 = {beta:e};\n\
+             const DENSITY_DIFFUSION: bool = {diffusion};\n\
+             const DIFFUSION_DELTA: f32 = {delta:e};\n\
              // ---- end of SPH constants ----\n",
             quintic = k.kind == KernelKind::Quintic,
             h = k.h,
@@ -148,6 +153,8 @@ impl SphConstants {
             eta2 = VISCOUS_ETA2_H2 * k.h * k.h,
             correction = self.gradient_correction,
             beta = self.shifting_beta,
+            diffusion = self.density_diffusion > 0.0,
+            delta = self.density_diffusion,
         )
     }
 }

@@ -6,6 +6,7 @@
 use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
 use crate::continuity::{continuity_cpu, CONTINUITY_WGSL};
 use crate::gpu::Gpu;
+use crate::joubert2020_gradients::gradients_cpu;
 use crate::kernel::kernel_library;
 use crate::momentum::{momentum_cpu, MOMENTUM_WGSL};
 use crate::neighbour_grid::GRID_COMMON_WGSL;
@@ -23,7 +24,7 @@ const BINDINGS: &[(u32, Access)] = &[
     (pb::DRHO, Access::ReadWrite),
     (pb::DVEL, Access::ReadWrite),
 ];
-const CORRECTED_BINDINGS: &[(u32, Access)] = &[
+const WITH_B: &[(u32, Access)] = &[
     (pb::POS, Access::Read),
     (pb::VEL, Access::Read),
     (pb::RHO, Access::Read),
@@ -33,6 +34,39 @@ const CORRECTED_BINDINGS: &[(u32, Access)] = &[
     (pb::DVEL, Access::ReadWrite),
     (pb::BMAT, Access::Read),
 ];
+const WITH_GRADS: &[(u32, Access)] = &[
+    (pb::POS, Access::Read),
+    (pb::VEL, Access::Read),
+    (pb::RHO, Access::Read),
+    (pb::PRESS, Access::Read),
+    (pb::ID, Access::Read),
+    (pb::DRHO, Access::ReadWrite),
+    (pb::DVEL, Access::ReadWrite),
+    (pb::GRADS, Access::Read),
+];
+const WITH_B_AND_GRADS: &[(u32, Access)] = &[
+    (pb::POS, Access::Read),
+    (pb::VEL, Access::Read),
+    (pb::RHO, Access::Read),
+    (pb::PRESS, Access::Read),
+    (pb::ID, Access::Read),
+    (pb::DRHO, Access::ReadWrite),
+    (pb::DVEL, Access::ReadWrite),
+    (pb::BMAT, Access::Read),
+    (pb::GRADS, Access::Read),
+];
+
+/// `grad_rho(i)`: ⟨∇ρ⟩ᶜ_i from the gradient pass, bound only with density diffusion.
+const GRAD_RHO_WGSL: &str = "@group(0) @binding(10) var<storage, read> grads: array<vec4<f32>>;
+fn grad_rho(i: u32) -> vec3<f32> {
+    return grads[6u * i + 5u].xyz;
+}
+";
+/// Without density diffusion no gradient buffer is bound (the term is compiled out).
+const NO_GRAD_RHO_WGSL: &str = "fn grad_rho(i: u32) -> vec3<f32> {
+    return vec3<f32>(0.0);
+}
+";
 
 /// `b_matrix(i)`: B_i from the gradient pass's buffer, bound only with the correction on.
 const B_MATRIX_WGSL: &str = "@group(0) @binding(9) var<storage, read> bmat: array<vec4<f32>>;
@@ -49,11 +83,19 @@ const NO_B_MATRIX_WGSL: &str = "fn b_matrix(i: u32) -> mat3x3<f32> {
 
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
-    let (b, bindings) = if c.gradient_correction { (B_MATRIX_WGSL, CORRECTED_BINDINGS) } else { (NO_B_MATRIX_WGSL, BINDINGS) };
+    let diffusion = c.density_diffusion > 0.0;
+    let bindings = match (c.gradient_correction, diffusion) {
+        (false, false) => BINDINGS,
+        (true, false) => WITH_B,
+        (false, true) => WITH_GRADS,
+        (true, true) => WITH_B_AND_GRADS,
+    };
+    let b = if c.gradient_correction { B_MATRIX_WGSL } else { NO_B_MATRIX_WGSL };
+    let g = if diffusion { GRAD_RHO_WGSL } else { NO_GRAD_RHO_WGSL };
     SphKernel::new(
         gpu,
         "sph: fluid_rates",
-        &[&consts, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), CONTINUITY_WGSL, MOMENTUM_WGSL, b, FLUID_RATES_WGSL],
+        &[&consts, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), CONTINUITY_WGSL, MOMENTUM_WGSL, b, g, FLUID_RATES_WGSL],
         "fluid_rates",
         &[(PARTICLES, bindings), (PARAMS, &[(0, Access::Uniform)])],
         Some(grid_layout),
@@ -62,9 +104,14 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
 
 /// CPU twin: (dρ/dt, du/dt) of every fluid entry; `None` for other particles.
 pub fn fluid_rates_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<(f64, [f64; 3])>> {
+    let grad_rho: Vec<[f64; 3]> = if c.density_diffusion > 0.0 {
+        gradients_cpu(c, set).iter().map(|g| g.map_or([0.0; 3], |g| g.grad_rho)).collect()
+    } else {
+        Vec::new()
+    };
     (0..set.len())
         .map(|i| {
-            (set.kinds.kind(set.id[i]) == Kind::Fluid).then(|| (continuity_cpu(c, set, i), momentum_cpu(c, set, i)))
+            (set.kinds.kind(set.id[i]) == Kind::Fluid).then(|| (continuity_cpu(c, set, i, &grad_rho), momentum_cpu(c, set, i)))
         })
         .collect()
 }

@@ -11,7 +11,8 @@
 //!   with the other contraction convention). A full support gives `M ≈ I`.
 //! - `B_i = M_i⁻¹` when `det M_i ≥` [`B_DET_MIN`]; otherwise `B_i = I` and the particle
 //!   is counted (see [`B_DET_MIN`]): the count is reported per window, never hidden.
-//! - `⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij` for `f = u_x, u_y, u_z, p`.
+//! - `⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij` for `f = u_x, u_y, u_z, p, ρ` (ρ: the
+//!   renormalised density gradient of δ-SPH, Antuono et al. 2010).
 //! - `s_i = r̄_i² Σ_j e_ij / r_ij²` with `r̄_i` the mean neighbour distance: eq. (17)
 //!   without its factor `β ‖u‖max Δt`, which [`crate::particle_shifting`] applies.
 //! - the largest fluid speed of the step, `‖u‖max` of eq. (17).
@@ -78,6 +79,8 @@ pub struct Gradients {
     pub grad_p: [f64; 3],
     /// `s_i = r̄_i² Σ e_ij / r_ij²` (dimensionless).
     pub shift: [f64; 3],
+    /// Corrected density gradient, kg/m⁴.
+    pub grad_rho: [f64; 3],
 }
 
 pub fn mat_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
@@ -128,14 +131,14 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
                 return None;
             }
             let (b, singular) = b_matrix_cpu(c, set, i);
-            let mut raw = [[0.0; 3]; 4];
+            let mut raw = [[0.0; 3]; 5];
             let (mut r_sum, mut count, mut s) = (0.0, 0.0, [0.0; 3]);
             for j in set.neighbours(i, c.support_radius()) {
                 let r_ij = sub(set.pos[i], set.pos[j]);
                 let r2 = dot(r_ij, r_ij);
                 let g = c.kernel.grad(r_ij);
                 let v = c.mass / set.rho[j];
-                let df = [set.vel[j][0] - set.vel[i][0], set.vel[j][1] - set.vel[i][1], set.vel[j][2] - set.vel[i][2], set.press[j] - set.press[i]];
+                let df = [set.vel[j][0] - set.vel[i][0], set.vel[j][1] - set.vel[i][1], set.vel[j][2] - set.vel[i][2], set.press[j] - set.press[i], set.rho[j] - set.rho[i]];
                 for (f, acc) in raw.iter_mut().enumerate() {
                     for k in 0..3 {
                         acc[k] += v * df[f] * g[k];
@@ -155,6 +158,7 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
                 grad_u: [mat_vec(&b, raw[0]), mat_vec(&b, raw[1]), mat_vec(&b, raw[2])],
                 grad_p: mat_vec(&b, raw[3]),
                 shift: s.map(|x| r_mean * r_mean * x),
+                grad_rho: mat_vec(&b, raw[4]),
             })
         })
         .collect()

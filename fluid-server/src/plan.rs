@@ -25,6 +25,7 @@ pub const BODY_LOADS: &str = "joubert2020_body_loads";
 pub const BLOWUP_CHECK: &str = "blowup_check";
 pub const GRADIENTS: &str = "joubert2020_gradients";
 pub const PARTICLE_SHIFTING: &str = "particle_shifting";
+pub const DENSITY_DIFFUSION: &str = "antuono2010_density_diffusion";
 
 /// The stages of one fluid step for `scene`, in execution order. Effects that are off
 /// are absent. Continuity, the pressure gradient, the viscous terms and gravity are one
@@ -46,13 +47,20 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     );
     let correction = scene.effects.gradient_correction;
     let beta = scene.effects.particle_shifting;
-    if correction || beta > 0.0 {
-        let why = match (correction, beta > 0.0) {
-            (true, true) => "effects.gradient_correction and effects.particle_shifting",
-            (true, false) => "effects.gradient_correction",
-            _ => "effects.particle_shifting (its Taylor terms use the corrected ∇u, ∇p)",
-        };
-        push(GRADIENTS, format!("{why}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p once per step after the sort"));
+    let delta = scene.effects.density_diffusion;
+    if correction || beta > 0.0 || delta > 0.0 {
+        let users: Vec<&str> = [
+            (correction, "effects.gradient_correction"),
+            (beta > 0.0, "effects.particle_shifting (Taylor terms)"),
+            (delta > 0.0, "effects.density_diffusion (renormalised ∇ρ)"),
+        ]
+        .iter()
+        .filter_map(|(on, name)| on.then_some(*name))
+        .collect();
+        push(
+            GRADIENTS,
+            format!("{}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p, ∇ρ once per step after the sort", users.join(", ")),
+        );
     }
     let resolved = scene.has_resolved_bodies();
     if resolved {
@@ -73,10 +81,13 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     );
     if correction {
         push(CONTINUITY, "Joubert eq. (12): −ρ_i Σ V_j (u_j − u_i)·B_i∇W_ij".into());
-        push(MOMENTUM_PRESSURE, "Joubert eq. (13): −(1/ρ_i) Σ V_j (p_j − p_i) B_i∇W_ij".into());
+            push(MOMENTUM_PRESSURE, "Joubert eq. (13): −(1/ρ_i) Σ V_j (p_j − p_i) B_i∇W_ij".into());
     } else {
         push(CONTINUITY, "weakly compressible density (standard form of Joubert eq. 12, no gradient correction)".into());
         push(MOMENTUM_PRESSURE, "symmetric pressure gradient −Σ m (p_i/ρ_i² + p_j/ρ_j²) ∇W".into());
+    }
+    if delta > 0.0 {
+        push(DENSITY_DIFFUSION, format!("effects.density_diffusion δ = {delta}: δ-SPH (Antuono et al. 2010) in the continuity pair loop"));
     }
     if scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0 {
         push(MORRIS1997_VISCOSITY, format!("effects.viscosity = laminar, ν = {:e} m²/s", f.kinematic_viscosity));

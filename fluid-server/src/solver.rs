@@ -190,7 +190,7 @@ pub struct SphData {
 pub struct GradientBuffers {
     /// Three vec4 columns of B_i per particle.
     pub bmat: wgpu::Buffer,
-    /// ⟨∇u_x⟩ᶜ, ⟨∇u_y⟩ᶜ, ⟨∇u_z⟩ᶜ, ⟨∇p⟩ᶜ, s_i: five vec4 per particle.
+    /// ⟨∇u_x⟩ᶜ, ⟨∇u_y⟩ᶜ, ⟨∇u_z⟩ᶜ, ⟨∇p⟩ᶜ, s_i, ⟨∇ρ⟩ᶜ: six vec4 per particle.
     pub grads: wgpu::Buffer,
     /// [max fluid speed of the step (f32 bits), near-singular particle-steps in the
     /// window, 0, 0].
@@ -280,7 +280,7 @@ impl SphData {
 
         let gradients = pipelines.gradients.is_some().then(|| GradientBuffers {
             bmat: storage_init(gpu, "sph: B matrix", &vec![0u8; n * 48]),
-            grads: storage_init(gpu, "sph: corrected gradients", &vec![0u8; n * 80]),
+            grads: storage_init(gpu, "sph: corrected gradients", &vec![0u8; n * 96]),
             diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16]),
         });
         let bodies = (set.kinds.n_markers > 0).then(|| {
@@ -480,18 +480,18 @@ impl SphData {
     }
 
     /// Reads the gradient pass's outputs (buffer order): `B_i` as rows, `[∇u_x, ∇u_y,
-    /// ∇u_z, ∇p, s]`, and the diagnostics word (max speed of the last step, near-singular
+    /// ∇u_z, ∇p, s, ∇ρ]`, and the diagnostics word (max speed of the last step, near-singular
     /// particle-steps of the window). `None` without the pass.
     pub fn read_gradients(&self, gpu: &Gpu) -> Result<Option<GradientReadback>, FluidError> {
         let Some(g) = &self.gradients else { return Ok(None) };
         let n = u64::from(self.n_total);
         let b: Vec<[f32; 4]> = gpu.read_buffer(&g.bmat, 0, 3 * n)?;
-        let f: Vec<[f32; 4]> = gpu.read_buffer(&g.grads, 0, 5 * n)?;
+        let f: Vec<[f32; 4]> = gpu.read_buffer(&g.grads, 0, 6 * n)?;
         let v3 = |v: [f32; 4]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
         Ok(Some(GradientReadback {
             // Columns on the GPU, rows here.
             b: (0..n as usize).map(|i| std::array::from_fn(|r| std::array::from_fn(|c| f64::from(b[3 * i + c][r])))).collect(),
-            fields: (0..n as usize).map(|i| std::array::from_fn(|k| v3(f[5 * i + k]))).collect(),
+            fields: (0..n as usize).map(|i| std::array::from_fn(|k| v3(f[6 * i + k]))).collect(),
             diag: self.read_diag(gpu)?.unwrap_or_default(),
         }))
     }
@@ -519,8 +519,8 @@ impl SphData {
 pub struct GradientReadback {
     /// `B_i`, row-major.
     pub b: Vec<[[f64; 3]; 3]>,
-    /// `[∇u_x, ∇u_y, ∇u_z, ∇p, s]` per particle.
-    pub fields: Vec<[[f64; 3]; 5]>,
+    /// `[∇u_x, ∇u_y, ∇u_z, ∇p, s, ∇ρ]` per particle.
+    pub fields: Vec<[[f64; 3]; 6]>,
     /// [max fluid speed (f32 bits), near-singular count, 0, 0].
     pub diag: [u32; 4],
 }

@@ -12,7 +12,7 @@ use couplet_fluid::{FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConsta
 
 const EFFECTS: &str = "[effects]\ngradient_correction = true\nparticle_shifting = 0.1";
 
-/// B_i, ⟨∇u⟩ᶜ, ⟨∇p⟩ᶜ and s_i of 2744 jittered lattice particles (30 % walls) against the
+/// B_i, ⟨∇u⟩ᶜ, ⟨∇p⟩ᶜ, ⟨∇ρ⟩ᶜ and s_i of 2744 jittered lattice particles (30 % walls) against the
 /// twin: each within 2e-4 of its largest magnitude (f32 sums of ~100 terms, then a 3×3
 /// inverse of condition ≲ 3); the near-singular count and ‖u‖max exactly / to f32.
 #[test]
@@ -40,6 +40,7 @@ fn gradients_match_cpu_twin() {
         }
         check("grad p", fluid.iter().flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][3][k], w.grad_p[k]))).collect());
         check("shift s", fluid.iter().flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][4][k], w.shift[k]))).collect());
+        check("grad rho", fluid.iter().flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][5][k], w.grad_rho[k]))).collect());
         let singular = fluid.iter().filter(|(_, w)| w.singular).count() as u32;
         assert_eq!(g.diag[1], singular, "{kernel}: near-singular count");
         let u_max = fluid.iter().map(|(i, _)| got.vel[*i].iter().map(|x| x * x).sum::<f64>().sqrt()).fold(0.0, f64::max);

@@ -13,7 +13,7 @@ use std::time::Instant;
 /// support 2δ so that the test stays under a minute on lavapipe, c_s = 17.5 m/s ≈
 /// 10 √(gH)), initialised hydrostatically, damped by Monaghan artificial viscosity (no physical viscosity:
 /// ν ≈ 0 for water at this resolution) α = 0.2, settled SETTLE_S seconds.
-fn tank(settle: f64) -> Scene {
+fn tank(settle: f64, extra_effects: &str) -> Scene {
     let text = format!(
         r#"
 [meta]
@@ -38,6 +38,7 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, 0.3, 0.2] }}]
 [effects]
 viscosity = "none"
 artificial_viscosity = 0.2
+{extra_effects}
 "#
     );
     Scene::parse(&text, Path::new("tank.toml")).unwrap()
@@ -75,8 +76,25 @@ const AVERAGE_S: f64 = 0.1;
 /// conserved exactly.
 #[test]
 fn hydrostatic_tank_settles_to_rho_g_h() {
+    let worst = settle("standard", "");
+    assert!(worst < 0.02, "worst |p − ρ g h| / (ρ g H) = {worst}");
+}
+
+/// The same tank with δ-SPH density diffusion (Antuono et al. 2010, δ = 0.1, renormalised
+/// density gradient): within 1 % of ρ0 g H (issue 3's bound; measured 0.71 % on
+/// 2026-11-22 against 1.6 % without it). Reference: hydrostatics.
+#[test]
+fn hydrostatic_tank_with_density_diffusion_settles_within_one_percent() {
+    let worst = settle("δ-SPH", "density_diffusion = 0.1");
+    assert!(worst < 0.01, "worst |p − ρ g h| / (ρ g H) = {worst}");
+}
+
+/// Settles the tank with `extra_effects` (TOML lines of `[effects]`), checks that the
+/// fluid mass is conserved exactly, and returns the worst time-averaged interior pressure
+/// error as a fraction of ρ0 g H.
+fn settle(label: &str, extra_effects: &str) -> f64 {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let scene = tank(SETTLE_S);
+    let scene = tank(SETTLE_S, extra_effects);
     let mut solver = FluidSolver::new(&gpu, &scene).unwrap();
     let counts = solver.counts();
     assert_eq!(counts.fluid, 10 * 15 * 10);
@@ -123,7 +141,7 @@ fn hydrostatic_tank_settles_to_rho_g_h() {
     let (worst, n, _) = worst_error(&mean, solver.constants().support_radius());
     let (worst_last, _, max_speed) = worst_error(&snap, solver.constants().support_radius());
     println!(
-        "hydrostatic: {substeps} steps ({} in all) in {wall:.1} s, {neighbours:.1} neighbours/fluid particle, \
+        "hydrostatic ({label}): {substeps} steps ({} in all) in {wall:.1} s, {neighbours:.1} neighbours/fluid particle, \
          {n} interior particles, worst |p̄ − ρgh| = {:.3} % of ρgH over the last {AVERAGE_S} s \
          ({:.3} % in the last snapshot), max speed {max_speed:.2e} m/s",
         solver.steps(),
@@ -131,5 +149,5 @@ fn hydrostatic_tank_settles_to_rho_g_h() {
         100.0 * worst_last
     );
     assert!(n > 0);
-    assert!(worst < 0.02, "worst |p − ρ g h| / (ρ g H) = {worst}");
+    worst
 }

@@ -107,6 +107,14 @@ fn rates_match_cpu_twin_gradient_corrected() {
     check_rates("[effects]\nviscosity = \"laminar\"\ngradient_correction = true", "", 6);
 }
 
+/// δ-SPH density diffusion (Antuono et al. 2010, δ = 0.1) with the renormalised density
+/// gradient, standard and gradient-corrected: rel 1e-4 of the max.
+#[test]
+fn rates_match_cpu_twin_density_diffusion() {
+    check_rates("[effects]\nviscosity = \"none\"\ndensity_diffusion = 0.1", "", 7);
+    check_rates("[effects]\nviscosity = \"laminar\"\ngradient_correction = true\ndensity_diffusion = 0.1", "", 8);
+}
+
 /// Same with free-slip walls (walls leave the viscous sums) and the quintic kernel:
 /// rel 1e-4 of the max.
 #[test]

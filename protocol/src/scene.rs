@@ -248,6 +248,12 @@ pub struct EffectsSpec {
     /// distribution, which a scene asks for.
     #[serde(default)]
     pub particle_shifting: f64,
+    /// δ-SPH density diffusion (Antuono, Colagrossi, Marrone & Molteni 2010) with the
+    /// renormalised density gradient: the coefficient δ; 0 switches it off. Antuono et
+    /// al. use δ = 0.1; values outside (0, 1] are refused. Default 0 (off): it is the
+    /// free-surface stabiliser a scene picks instead of, or with, the correction.
+    #[serde(default)]
+    pub density_diffusion: f64,
 }
 
 fn default_viscosity() -> ViscosityModel {
@@ -256,7 +262,7 @@ fn default_viscosity() -> ViscosityModel {
 
 impl Default for EffectsSpec {
     fn default() -> Self {
-        Self { viscosity: default_viscosity(), artificial_viscosity: 0.0, gradient_correction: false, particle_shifting: 0.0 }
+        Self { viscosity: default_viscosity(), artificial_viscosity: 0.0, gradient_correction: false, particle_shifting: 0.0, density_diffusion: 0.0 }
     }
 }
 
@@ -583,6 +589,10 @@ impl Scene {
         }
         if self.effects.artificial_viscosity < 0.0 {
             return bad("effects.artificial_viscosity".into(), self.effects.artificial_viscosity.to_string(), "must be ≥ 0");
+        }
+        let delta = self.effects.density_diffusion;
+        if !(0.0..=1.0).contains(&delta) {
+            return bad("effects.density_diffusion".into(), delta.to_string(), "must be 0 (off) or within (0, 1] (Antuono et al. 2010 use 0.1)");
         }
         let beta = self.effects.particle_shifting;
         if beta != 0.0 && !(0.001..=0.1).contains(&beta) {

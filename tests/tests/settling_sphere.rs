@@ -30,7 +30,7 @@ fn sphere_accelerates_plateaus_lands_and_rests() {
             "--set", "domain.max=[0.015, 0.03, 0.015]",
             "--set", "fluid.blocks.0.max=[0.015, 0.03, 0.015]",
             "--set", "bodies.0.position=[0.0075, 0.02, 0.0075]",
-            "--set", "time.end=0.45",
+            "--set", "time.end=0.6",
         ],
     );
     assert!(o.status.success());
@@ -69,10 +69,17 @@ fn sphere_accelerates_plateaus_lands_and_rests() {
     assert!((last.position[1] - r).abs() < 0.1 * r, "final height {} vs radius {r}", last.position[1]);
     // At rest on the floor: no vertical motion, and at most a slow roll. The fluid keeps
     // recirculating after the impact and can roll the sphere along the floor at a few
-    // percent of its fall speed (1.7 mm/s measured in one CI run, 1e-5 m/s in another:
-    // the GPU's sort order within a cell is not fixed, so runs differ in round-off).
+    // percent of its fall speed (1–4 mm/s measured 0.05–0.25 s after landing; the GPU's
+    // sort order within a cell is not fixed, so runs differ in round-off).
+    // The roll is judged on its mean over the last 0.1 s, which the recirculation's
+    // window-to-window jitter does not reach.
     let vertical = last.velocity[1].abs();
-    let speed = last.velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let tail: Vec<f64> = s
+        .iter()
+        .filter(|b| b.time >= last.time - 0.1)
+        .map(|b| b.velocity.iter().map(|v| v * v).sum::<f64>().sqrt())
+        .collect();
+    let speed = mean(&tail);
     assert!(vertical < 1e-3, "still moving vertically at {vertical} m/s");
-    assert!(speed < 0.05 * plateau, "still moving at {speed} m/s (plateau {plateau} m/s)");
+    assert!(speed < 0.05 * plateau, "still moving at {speed} m/s over the last 0.1 s (plateau {plateau} m/s)");
 }
