@@ -26,16 +26,28 @@ pub enum DemError {
     UnknownEngine { name: String, valid: String },
     /// An error about one scene body, with the body named.
     #[error("bodies[{index}] \"{name}\": {source}")]
-    Body { index: usize, name: String, source: Box<DemError> },
+    Body {
+        index: usize,
+        name: String,
+        source: Box<DemError>,
+    },
     /// A shape that cannot be built (degenerate hull, …).
     #[error("shape {what} = {value}: {why}")]
-    Shape { what: String, value: String, why: String },
+    Shape {
+        what: String,
+        value: String,
+        why: String,
+    },
     /// Two parts of a compound overlap: their volumes and surfaces would be counted twice.
     #[error(
         "shape.compound parts {first} and {second} overlap by {depth:e} m (separating-axis depth); \
          parts must only touch, so that the volume (Joubert eq. 28) and the outer surface are not counted twice"
     )]
-    OverlappingParts { first: usize, second: usize, depth: f64 },
+    OverlappingParts {
+        first: usize,
+        second: usize,
+        depth: f64,
+    },
     /// The marker spacing is not a positive finite length.
     #[error("marker spacing {value} m: must be a positive finite length (the fluid spacing δ)")]
     Spacing { value: f64 },
@@ -44,31 +56,69 @@ pub enum DemError {
         "surface area {area:e} m² at spacing {spacing:e} m needs about {estimated:e} markers; \
          at most {limit} per body are allowed (coarsen fluid.spacing or shrink the body)"
     )]
-    TooManyMarkers { area: f64, spacing: f64, estimated: f64, limit: usize },
+    TooManyMarkers {
+        area: f64,
+        spacing: f64,
+        estimated: f64,
+        limit: usize,
+    },
     /// A fluid load names a body the scene does not have.
-    #[error("fluid load #{entry} names body {body}; the scene has {count} bodies (valid 0..{count})")]
-    LoadBody { entry: usize, body: u32, count: usize },
+    #[error(
+        "fluid load #{entry} names body {body}; the scene has {count} bodies (valid 0..{count})"
+    )]
+    LoadBody {
+        entry: usize,
+        body: u32,
+        count: usize,
+    },
     /// Two fluid loads name the same body.
-    #[error("fluid loads #{first} and #{second} both name body {body} \"{name}\"; send one load per body")]
-    DuplicateLoad { first: usize, second: usize, body: u32, name: String },
+    #[error(
+        "fluid loads #{first} and #{second} both name body {body} \"{name}\"; send one load per body"
+    )]
+    DuplicateLoad {
+        first: usize,
+        second: usize,
+        body: u32,
+        name: String,
+    },
     /// A fluid load with NaN or infinity.
-    #[error("fluid load on body {body} \"{name}\" is not finite: force {force:?} N, moment {moment:?} N·m")]
-    NonFiniteLoad { body: u32, name: String, force: [f64; 3], moment: [f64; 3] },
+    #[error(
+        "fluid load on body {body} \"{name}\" is not finite: force {force:?} N, moment {moment:?} N·m"
+    )]
+    NonFiniteLoad {
+        body: u32,
+        name: String,
+        force: [f64; 3],
+        moment: [f64; 3],
+    },
     /// A step length that is not positive and finite.
-    #[error("DEM step dt = {dt} s: must be a positive finite time (at most stable_dt = {max_dt} s)")]
+    #[error(
+        "DEM step dt = {dt} s: must be a positive finite time (at most stable_dt = {max_dt} s)"
+    )]
     InvalidStep { dt: f64, max_dt: f64 },
     /// A body whose state became NaN/infinite during a step.
     #[error(
         "body {body} \"{name}\" became non-finite in DEM step {step} (t = {time} s): \
          position {position:?} m, velocity {velocity:?} m/s"
     )]
-    NonFiniteState { body: usize, name: String, step: u64, time: f64, position: [f64; 3], velocity: [f64; 3] },
+    NonFiniteState {
+        body: usize,
+        name: String,
+        step: u64,
+        time: f64,
+        position: [f64; 3],
+        velocity: [f64; 3],
+    },
 }
 
 impl DemError {
     /// Wraps an error about the shape or state of scene body `index` so that the message names it.
     pub fn in_body(self, index: usize, name: &str) -> Self {
-        Self::Body { index, name: name.to_owned(), source: Box::new(self) }
+        Self::Body {
+            index,
+            name: name.to_owned(),
+            source: Box::new(self),
+        }
     }
 }
 

@@ -56,10 +56,30 @@ impl Polyhedron {
             })
             .collect();
         // Counter-clockwise about the outward normal: +x, -x, +y, -y, +z, -z.
-        let loops: [[usize; 4]; 6] =
-            [[1, 3, 7, 5], [0, 4, 6, 2], [2, 6, 7, 3], [0, 1, 5, 4], [4, 5, 7, 6], [0, 2, 3, 1]];
-        let normals = [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]];
-        let faces = loops.iter().zip(normals).map(|(l, normal)| Face { vertices: l.to_vec(), normal }).collect();
+        let loops: [[usize; 4]; 6] = [
+            [1, 3, 7, 5],
+            [0, 4, 6, 2],
+            [2, 6, 7, 3],
+            [0, 1, 5, 4],
+            [4, 5, 7, 6],
+            [0, 2, 3, 1],
+        ];
+        let normals = [
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ];
+        let faces = loops
+            .iter()
+            .zip(normals)
+            .map(|(l, normal)| Face {
+                vertices: l.to_vec(),
+                normal,
+            })
+            .collect();
         Self { vertices, faces }
     }
 
@@ -69,7 +89,11 @@ impl Polyhedron {
     pub fn convex_hull(points: &[[f64; 3]]) -> Result<Self, DemError> {
         let fail = |why: &str| DemError::Shape {
             what: "convex hull vertices".into(),
-            value: format!("{} points {:?}", points.len(), points.iter().take(8).collect::<Vec<_>>()),
+            value: format!(
+                "{} points {:?}",
+                points.len(),
+                points.iter().take(8).collect::<Vec<_>>()
+            ),
             why: why.into(),
         };
         if points.len() < 4 || points.iter().flatten().any(|c| !c.is_finite()) {
@@ -79,10 +103,15 @@ impl Polyhedron {
         if !(size > 0.0) {
             return Err(fail("all points coincide"));
         }
-        let pts32: Vec<parry3d::math::Vector> =
-            points.iter().map(|p| parry3d::math::Vector::new(p[0] as f32, p[1] as f32, p[2] as f32)).collect();
-        let (hull_pts, tris) = parry3d::transformation::try_convex_hull(&pts32)
-            .map_err(|e| fail(&format!("parry cannot build the hull ({e:?}); the points must span a volume")))?;
+        let pts32: Vec<parry3d::math::Vector> = points
+            .iter()
+            .map(|p| parry3d::math::Vector::new(p[0] as f32, p[1] as f32, p[2] as f32))
+            .collect();
+        let (hull_pts, tris) = parry3d::transformation::try_convex_hull(&pts32).map_err(|e| {
+            fail(&format!(
+                "parry cannot build the hull ({e:?}); the points must span a volume"
+            ))
+        })?;
         // Map parry's copies back to the input points (exact copies of the f32 casts).
         let to_input: Vec<usize> = hull_pts
             .iter()
@@ -121,13 +150,17 @@ impl Polyhedron {
                 n = -n;
             }
             let d = n.dot(&pa);
-            match planes.iter_mut().find(|(m, e, _)| (m - n).norm() < COPLANAR_TOL && (e - d).abs() < COPLANAR_TOL * size) {
+            match planes.iter_mut().find(|(m, e, _)| {
+                (m - n).norm() < COPLANAR_TOL && (e - d).abs() < COPLANAR_TOL * size
+            }) {
                 Some((_, _, ids)) => ids.extend([a, b, c]),
                 None => planes.push((n, d, vec![a, b, c])),
             }
         }
         if planes.len() < 4 {
-            return Err(fail("the points are (nearly) coplanar: the hull has no volume"));
+            return Err(fail(
+                "the points are (nearly) coplanar: the hull has no volume",
+            ));
         }
 
         // Keep only vertices used by some face; renumber.
@@ -151,7 +184,10 @@ impl Polyhedron {
                     index_of[i]
                 })
                 .collect();
-            faces.push(Face { vertices: loop_ids, normal: [n.x, n.y, n.z] });
+            faces.push(Face {
+                vertices: loop_ids,
+                normal: [n.x, n.y, n.z],
+            });
         }
         let hull = Self { vertices, faces };
         if !(hull.volume() > tol * size * size) {
@@ -195,7 +231,10 @@ impl Polyhedron {
 
     /// Surface area, m².
     pub fn area(&self) -> f64 {
-        self.faces.iter().map(|f| polygon_area(&self.face_points(f))).sum()
+        self.faces
+            .iter()
+            .map(|f| polygon_area(&self.face_points(f)))
+            .sum()
     }
 
     /// Largest signed distance of `p` beyond the face planes: ≤ 0 inside or on the
@@ -238,17 +277,24 @@ impl Polyhedron {
     }
 
     fn project(&self, axis: &V3) -> (f64, f64) {
-        self.vertices.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            let s = axis.dot(&v3(*p));
-            (lo.min(s), hi.max(s))
-        })
+        self.vertices
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                let s = axis.dot(&v3(*p));
+                (lo.min(s), hi.max(s))
+            })
     }
 }
 
 /// Penetration depth of two convex polyhedra by the separating-axis test (face
 /// normals and edge × edge axes): ≤ 0 when they are apart or only touch.
 pub fn overlap_depth(a: &Polyhedron, b: &Polyhedron) -> f64 {
-    let mut axes: Vec<V3> = a.faces.iter().chain(&b.faces).map(|f| v3(f.normal)).collect();
+    let mut axes: Vec<V3> = a
+        .faces
+        .iter()
+        .chain(&b.faces)
+        .map(|f| v3(f.normal))
+        .collect();
     let (ea, eb) = (a.edges(), b.edges());
     for u in &ea {
         for w in &eb {
@@ -291,11 +337,14 @@ fn order_polygon(points: &[[f64; 3]], ids: &[usize], n: &V3, tol: f64) -> Vec<us
             return ring;
         }
         let drop = (0..m).find(|&k| {
-            let (p, q, r) = (v3(points[ring[(k + m - 1) % m]]), v3(points[ring[k]]), v3(points[ring[(k + 1) % m]]));
+            let (p, q, r) = (
+                v3(points[ring[(k + m - 1) % m]]),
+                v3(points[ring[k]]),
+                v3(points[ring[(k + 1) % m]]),
+            );
             // Twice the triangle area against the base length: the corner's distance off the line.
             let base = (r - p).norm();
-            base > 0.0 && (q - p).cross(&(r - p)).norm() / base <= tol
-                || (q - p).norm() <= tol
+            base > 0.0 && (q - p).cross(&(r - p)).norm() / base <= tol || (q - p).norm() <= tol
         });
         match drop {
             Some(k) => {
@@ -351,7 +400,11 @@ impl BodyGeometry {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(DemError::Shape { what: what.into(), value: v.to_string(), why: "must be a positive finite length".into() })
+                Err(DemError::Shape {
+                    what: what.into(),
+                    value: v.to_string(),
+                    why: "must be a positive finite length".into(),
+                })
             }
         };
         Ok(match shape {
@@ -363,23 +416,35 @@ impl BodyGeometry {
                 for h in half_extents {
                     positive("box.half_extents", *h)?;
                 }
-                Self::Box { half_extents: *half_extents }
+                Self::Box {
+                    half_extents: *half_extents,
+                }
             }
-            Shape::Cylinder { radius, half_height } => {
+            Shape::Cylinder {
+                radius,
+                half_height,
+            } => {
                 positive("cylinder.radius", *radius)?;
                 positive("cylinder.half_height", *half_height)?;
-                Self::Cylinder { radius: *radius, half_height: *half_height }
+                Self::Cylinder {
+                    radius: *radius,
+                    half_height: *half_height,
+                }
             }
-            Shape::Convex { vertices } => Self::Polyhedra(recentre(vec![Polyhedron::convex_hull(vertices)?])),
+            Shape::Convex { vertices } => {
+                Self::Polyhedra(recentre(vec![Polyhedron::convex_hull(vertices)?]))
+            }
             Shape::Compound { parts } => {
                 let hulls = parts
                     .iter()
                     .enumerate()
                     .map(|(i, p)| {
                         Polyhedron::convex_hull(p).map_err(|e| match e {
-                            DemError::Shape { value, why, .. } => {
-                                DemError::Shape { what: format!("compound.parts[{i}]"), value, why }
-                            }
+                            DemError::Shape { value, why, .. } => DemError::Shape {
+                                what: format!("compound.parts[{i}]"),
+                                value,
+                                why,
+                            },
                             other => other,
                         })
                     })
@@ -389,7 +454,11 @@ impl BodyGeometry {
                     for j in i + 1..hulls.len() {
                         let depth = overlap_depth(&hulls[i], &hulls[j]);
                         if depth > GEOMETRY_REL_TOL * size {
-                            return Err(DemError::OverlappingParts { first: i, second: j, depth });
+                            return Err(DemError::OverlappingParts {
+                                first: i,
+                                second: j,
+                                depth,
+                            });
                         }
                     }
                 }
@@ -404,8 +473,13 @@ impl BodyGeometry {
         use std::f64::consts::PI;
         match self {
             Self::Sphere { radius } => 4.0 / 3.0 * PI * radius.powi(3),
-            Self::Box { half_extents: [a, b, c] } => 8.0 * a * b * c,
-            Self::Cylinder { radius, half_height } => PI * radius * radius * 2.0 * half_height,
+            Self::Box {
+                half_extents: [a, b, c],
+            } => 8.0 * a * b * c,
+            Self::Cylinder {
+                radius,
+                half_height,
+            } => PI * radius * radius * 2.0 * half_height,
             Self::Polyhedra(parts) => parts.iter().map(Polyhedron::volume).sum(),
         }
     }
@@ -414,10 +488,18 @@ impl BodyGeometry {
     pub fn size(&self) -> f64 {
         match self {
             Self::Sphere { radius } => 2.0 * 3f64.sqrt() * radius,
-            Self::Box { half_extents: [a, b, c] } => 2.0 * (a * a + b * b + c * c).sqrt(),
-            Self::Cylinder { radius, half_height } => 2.0 * (2.0 * radius * radius + half_height * half_height).sqrt(),
+            Self::Box {
+                half_extents: [a, b, c],
+            } => 2.0 * (a * a + b * b + c * c).sqrt(),
+            Self::Cylinder {
+                radius,
+                half_height,
+            } => 2.0 * (2.0 * radius * radius + half_height * half_height).sqrt(),
             Self::Polyhedra(parts) => {
-                let all: Vec<[f64; 3]> = parts.iter().flat_map(|p| p.vertices.iter().copied()).collect();
+                let all: Vec<[f64; 3]> = parts
+                    .iter()
+                    .flat_map(|p| p.vertices.iter().copied())
+                    .collect();
                 bbox_diagonal(&all)
             }
         }
@@ -474,10 +556,26 @@ mod tests {
     /// Touching cubes pass the overlap test, overlapping ones are refused with the depth.
     #[test]
     fn compound_overlap_is_detected() {
-        let cube = |x0: f64| vec![[x0, 0.0, 0.0], [x0 + 1.0, 0.0, 0.0], [x0, 1.0, 0.0], [x0 + 1.0, 1.0, 0.0], [x0, 0.0, 1.0], [x0 + 1.0, 0.0, 1.0], [x0, 1.0, 1.0], [x0 + 1.0, 1.0, 1.0]];
-        let ok = BodyGeometry::from_shape(&Shape::Compound { parts: vec![cube(0.0), cube(1.0)] }).unwrap();
+        let cube = |x0: f64| {
+            vec![
+                [x0, 0.0, 0.0],
+                [x0 + 1.0, 0.0, 0.0],
+                [x0, 1.0, 0.0],
+                [x0 + 1.0, 1.0, 0.0],
+                [x0, 0.0, 1.0],
+                [x0 + 1.0, 0.0, 1.0],
+                [x0, 1.0, 1.0],
+                [x0 + 1.0, 1.0, 1.0],
+            ]
+        };
+        let ok = BodyGeometry::from_shape(&Shape::Compound {
+            parts: vec![cube(0.0), cube(1.0)],
+        })
+        .unwrap();
         assert!((ok.volume() - 2.0).abs() < 1e-12);
-        match BodyGeometry::from_shape(&Shape::Compound { parts: vec![cube(0.0), cube(0.75)] }) {
+        match BodyGeometry::from_shape(&Shape::Compound {
+            parts: vec![cube(0.0), cube(0.75)],
+        }) {
             Err(DemError::OverlappingParts { depth, .. }) => assert!((depth - 0.25).abs() < 1e-12),
             other => panic!("{other:?}"),
         }

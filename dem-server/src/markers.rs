@@ -51,14 +51,26 @@ pub fn markers_of(geometry: &BodyGeometry, spacing: f64) -> Result<Vec<LocalMark
     let estimated = area / (spacing * spacing);
     // Rounding up the counts per direction at most doubles them in each direction.
     if !(estimated * 4.0 < MAX_MARKERS_PER_BODY as f64) {
-        return Err(DemError::TooManyMarkers { area, spacing, estimated, limit: MAX_MARKERS_PER_BODY });
+        return Err(DemError::TooManyMarkers {
+            area,
+            spacing,
+            estimated,
+            limit: MAX_MARKERS_PER_BODY,
+        });
     }
     let mut out = Vec::with_capacity(estimated as usize + 16);
     match geometry {
         BodyGeometry::Sphere { radius } => sphere(*radius, spacing, &mut out),
-        BodyGeometry::Box { half_extents } => polyhedron(&Polyhedron::cuboid(*half_extents), spacing, &mut out),
-        BodyGeometry::Cylinder { radius, half_height } => cylinder(*radius, *half_height, spacing, &mut out),
-        BodyGeometry::Polyhedra(parts) if parts.len() == 1 => polyhedron(&parts[0], spacing, &mut out),
+        BodyGeometry::Box { half_extents } => {
+            polyhedron(&Polyhedron::cuboid(*half_extents), spacing, &mut out)
+        }
+        BodyGeometry::Cylinder {
+            radius,
+            half_height,
+        } => cylinder(*radius, *half_height, spacing, &mut out),
+        BodyGeometry::Polyhedra(parts) if parts.len() == 1 => {
+            polyhedron(&parts[0], spacing, &mut out)
+        }
         BodyGeometry::Polyhedra(parts) => {
             // Joubert §2.6: only the outer surface of a non-convex particle is meshed.
             let tol = GEOMETRY_REL_TOL * geometry.size();
@@ -66,7 +78,10 @@ pub fn markers_of(geometry: &BodyGeometry, spacing: f64) -> Result<Vec<LocalMark
                 let mut own = Vec::new();
                 polyhedron(part, spacing, &mut own);
                 out.extend(own.into_iter().filter(|m| {
-                    parts.iter().enumerate().all(|(j, other)| j == i || other.outside_distance(m.position) > tol)
+                    parts
+                        .iter()
+                        .enumerate()
+                        .all(|(j, other)| j == i || other.outside_distance(m.position) > tol)
                 }));
             }
         }
@@ -78,8 +93,13 @@ pub fn markers_of(geometry: &BodyGeometry, spacing: f64) -> Result<Vec<LocalMark
 fn surface_area_bound(g: &BodyGeometry) -> f64 {
     match g {
         BodyGeometry::Sphere { radius } => 4.0 * PI * radius * radius,
-        BodyGeometry::Box { half_extents: [a, b, c] } => 8.0 * (a * b + b * c + c * a),
-        BodyGeometry::Cylinder { radius, half_height } => 2.0 * PI * radius * (2.0 * half_height + radius),
+        BodyGeometry::Box {
+            half_extents: [a, b, c],
+        } => 8.0 * (a * b + b * c + c * a),
+        BodyGeometry::Cylinder {
+            radius,
+            half_height,
+        } => 2.0 * PI * radius * (2.0 * half_height + radius),
         BodyGeometry::Polyhedra(parts) => parts.iter().map(Polyhedron::area).sum(),
     }
 }
@@ -107,7 +127,11 @@ fn sphere(r: f64, spacing: f64, out: &mut Vec<LocalMarker>) {
         for k in 0..n_phi {
             let phi = (k as f64 + phi0) * d_phi;
             let n = [s_mid * phi.cos(), c_mid, s_mid * phi.sin()];
-            out.push(LocalMarker { position: n.map(|x| r * x), normal: n, area });
+            out.push(LocalMarker {
+                position: n.map(|x| r * x),
+                normal: n,
+                area,
+            });
         }
     }
 }
@@ -125,7 +149,11 @@ fn cylinder(r: f64, h: f64, spacing: f64, out: &mut Vec<LocalMarker>) {
         for k in 0..n_phi {
             let phi = (k as f64 + phi0) * d_phi;
             let n = [phi.cos(), 0.0, phi.sin()];
-            out.push(LocalMarker { position: [r * n[0], y, r * n[2]], normal: n, area: side_area });
+            out.push(LocalMarker {
+                position: [r * n[0], y, r * n[2]],
+                normal: n,
+                area: side_area,
+            });
         }
     }
     let n_r = divisions(r, spacing);
@@ -184,14 +212,25 @@ fn rectangle(p: &[[f64; 3]], tol: f64) -> Option<([f64; 3], [f64; 3], [f64; 3])>
     (norm(sub(far, p[2])) <= tol && right).then_some((p[0], e1, e2))
 }
 
-fn rectangle_cells(o: [f64; 3], e1: [f64; 3], e2: [f64; 3], f: &Face, spacing: f64, out: &mut Vec<LocalMarker>) {
+fn rectangle_cells(
+    o: [f64; 3],
+    e1: [f64; 3],
+    e2: [f64; 3],
+    f: &Face,
+    spacing: f64,
+    out: &mut Vec<LocalMarker>,
+) {
     let (nx, ny) = (divisions(norm(e1), spacing), divisions(norm(e2), spacing));
     let area = norm(e1) * norm(e2) / (nx * ny) as f64;
     for i in 0..nx {
         for j in 0..ny {
             let (s, t) = ((i as f64 + 0.5) / nx as f64, (j as f64 + 0.5) / ny as f64);
             let position = add(o, add(scale(e1, s), scale(e2, t)));
-            out.push(LocalMarker { position, normal: f.normal, area });
+            out.push(LocalMarker {
+                position,
+                normal: f.normal,
+                area,
+            });
         }
     }
 }
@@ -206,9 +245,17 @@ fn triangle_cells(t: [[f64; 3]; 3], f: &Face, spacing: f64, out: &mut Vec<LocalM
     let at = |i: f64, j: f64| add(t[0], add(scale(eb, i / n as f64), scale(ec, j / n as f64)));
     for i in 0..n {
         for j in 0..n - i {
-            out.push(LocalMarker { position: at(i as f64 + 1.0 / 3.0, j as f64 + 1.0 / 3.0), normal: f.normal, area });
+            out.push(LocalMarker {
+                position: at(i as f64 + 1.0 / 3.0, j as f64 + 1.0 / 3.0),
+                normal: f.normal,
+                area,
+            });
             if i + j + 2 <= n {
-                out.push(LocalMarker { position: at(i as f64 + 2.0 / 3.0, j as f64 + 2.0 / 3.0), normal: f.normal, area });
+                out.push(LocalMarker {
+                    position: at(i as f64 + 2.0 / 3.0, j as f64 + 2.0 / 3.0),
+                    normal: f.normal,
+                    area,
+                });
             }
         }
     }
@@ -227,13 +274,20 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 fn norm(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }
 fn centroid_of(p: &[[f64; 3]]) -> [f64; 3] {
-    scale(p.iter().fold([0.0; 3], |s, q| add(s, *q)), 1.0 / p.len() as f64)
+    scale(
+        p.iter().fold([0.0; 3], |s, q| add(s, *q)),
+        1.0 / p.len() as f64,
+    )
 }
 
 /// Rotates `v` by the unit quaternion `q = [x, y, z, w]`.
@@ -256,12 +310,15 @@ impl MarkerSet {
     /// fluid has none.
     pub fn from_scene(scene: &Scene) -> Result<Self, DemError> {
         let mut set = Self::default();
-        let Some(fluid) = &scene.fluid else { return Ok(set) };
+        let Some(fluid) = &scene.fluid else {
+            return Ok(set);
+        };
         for (index, body) in scene.bodies.iter().enumerate() {
             if !scene.is_marker_coupled(body) {
                 continue;
             }
-            let own = generate_markers(&body.shape, fluid.spacing).map_err(|e| e.in_body(index, &body.name))?;
+            let own = generate_markers(&body.shape, fluid.spacing)
+                .map_err(|e| e.in_body(index, &body.name))?;
             let start = set.markers.len();
             set.markers.extend(own);
             set.ranges.push((index as u32, start..set.markers.len()));

@@ -5,7 +5,8 @@ use crate::engine::{ContactModel, DemEngine, DemError};
 use crate::geometry::BodyGeometry;
 use couplet_protocol::{BodyLoad, BodyState, CouplingMode, Motion, Scene};
 use rapier3d::prelude::{
-    CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Pose, Real, RigidBodyBuilder, RigidBodyHandle, Vector,
+    CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Pose, Real, RigidBodyBuilder,
+    RigidBodyHandle, Vector,
 };
 use std::collections::HashMap;
 
@@ -45,7 +46,10 @@ struct Kinematic {
 impl Kinematic {
     fn pose(&self, t: f64) -> ([f64; 3], [f64; 4]) {
         let x = [0, 1, 2].map(|k| self.x0[k] + self.v[k] * t);
-        (x, quat_mul(quat_from_scaled_axis(self.w.map(|c| c * t)), self.q0))
+        (
+            x,
+            quat_mul(quat_from_scaled_axis(self.w.map(|c| c * t)), self.q0),
+        )
     }
 }
 
@@ -123,10 +127,10 @@ impl RapierEngine {
             .map(|(i, b)| BodyGeometry::from_shape(&b.shape).map_err(|e| e.in_body(i, &b.name)))
             .collect::<Result<Vec<_>, _>>()?;
         let extent = [0, 1, 2].map(|k| d.max[k] - d.min[k]);
-        let length_unit = geometries
-            .iter()
-            .map(|g| g.volume().cbrt())
-            .fold(extent.iter().copied().fold(f64::INFINITY, f64::min), f64::min);
+        let length_unit = geometries.iter().map(|g| g.volume().cbrt()).fold(
+            extent.iter().copied().fold(f64::INFINITY, f64::min),
+            f64::min,
+        );
 
         let mut world = PhysicsWorld::new();
         world.gravity = vec3(scene.gravity.vector);
@@ -154,7 +158,9 @@ impl RapierEngine {
                 .translation(vec3(sub(spec.position, origin)))
                 .rotation(vec3(spec.rotation));
             if spec.motion != Motion::Fixed {
-                builder = builder.linvel(vec3(spec.velocity)).angvel(vec3(spec.angular_velocity));
+                builder = builder
+                    .linvel(vec3(spec.velocity))
+                    .angvel(vec3(spec.angular_velocity));
             }
             if spec.motion == Motion::Dynamic {
                 builder = builder.gravity_scale(gravity_scale(scene, i) as Real);
@@ -162,11 +168,19 @@ impl RapierEngine {
             let handle = world.insert_body(builder);
             let colliders = match geometry {
                 BodyGeometry::Sphere { radius } => vec![ColliderBuilder::ball(*radius as Real)],
-                BodyGeometry::Box { half_extents: [a, b, c] } => {
+                BodyGeometry::Box {
+                    half_extents: [a, b, c],
+                } => {
                     vec![ColliderBuilder::cuboid(*a as Real, *b as Real, *c as Real)]
                 }
-                BodyGeometry::Cylinder { radius, half_height } => {
-                    vec![ColliderBuilder::cylinder(*half_height as Real, *radius as Real)]
+                BodyGeometry::Cylinder {
+                    radius,
+                    half_height,
+                } => {
+                    vec![ColliderBuilder::cylinder(
+                        *half_height as Real,
+                        *radius as Real,
+                    )]
                 }
                 BodyGeometry::Polyhedra(parts) => parts
                     .iter()
@@ -177,7 +191,9 @@ impl RapierEngine {
                             DemError::Shape {
                                 what: format!("part {k} vertices"),
                                 value: format!("{:?}", part.vertices),
-                                why: "rapier cannot build a convex hull of them (degenerate in f32)".into(),
+                                why:
+                                    "rapier cannot build a convex hull of them (degenerate in f32)"
+                                        .into(),
                             }
                             .in_body(i, &spec.name)
                         })
@@ -199,10 +215,25 @@ impl RapierEngine {
                 v: spec.velocity,
                 w: spec.angular_velocity,
             });
-            bodies.push(Body { handle, name: spec.name.clone(), motion: spec.motion, mass, volume, kinematic });
+            bodies.push(Body {
+                handle,
+                name: spec.name.clone(),
+                motion: spec.motion,
+                mass,
+                volume,
+                kinematic,
+            });
         }
         add_walls(&mut world, scene, origin);
-        Ok(Self { world, bodies, index_of, origin, max_dt: scene.dem.max_dt, time: 0.0, steps: 0 })
+        Ok(Self {
+            world,
+            bodies,
+            index_of,
+            origin,
+            max_dt: scene.dem.max_dt,
+            time: 0.0,
+            steps: 0,
+        })
     }
 
     /// Mass properties rapier integrates body `index` with.
@@ -213,7 +244,11 @@ impl RapierEngine {
         let col = [i.x_axis, i.y_axis, i.z_axis];
         Some(MassProperties {
             mass: m.mass() as f64,
-            local_com: [m.local_com.x as f64, m.local_com.y as f64, m.local_com.z as f64],
+            local_com: [
+                m.local_com.x as f64,
+                m.local_com.y as f64,
+                m.local_com.z as f64,
+            ],
             inertia: [0, 1, 2].map(|r| [0, 1, 2].map(|c| col[c][r] as f64)),
         })
     }
@@ -239,7 +274,11 @@ impl RapierEngine {
         };
         if let Some(rb) = self.world.bodies.get(b.handle) {
             let t = rb.translation();
-            s.position = [t.x as f64 + self.origin[0], t.y as f64 + self.origin[1], t.z as f64 + self.origin[2]];
+            s.position = [
+                t.x as f64 + self.origin[0],
+                t.y as f64 + self.origin[1],
+                t.z as f64 + self.origin[2],
+            ];
             let q = rb.rotation();
             let q = [q.x as f64, q.y as f64, q.z as f64, q.w as f64];
             // Renormalised in f64 so that R·p keeps marker distances to the COM.
@@ -263,7 +302,9 @@ fn gravity_scale(scene: &Scene, i: usize) -> f64 {
     let b = &scene.bodies[i];
     match &scene.fluid {
         // Joubert eq. (28); with gravity on the fluid, its pressure carries the buoyancy instead.
-        Some(f) if !scene.gravity.on_fluid && b.coupling == CouplingMode::Resolved => 1.0 - f.density / b.density,
+        Some(f) if !scene.gravity.on_fluid && b.coupling == CouplingMode::Resolved => {
+            1.0 - f.density / b.density
+        }
         _ => 1.0,
     }
 }
@@ -322,7 +363,12 @@ impl DemEngine for RapierEngine {
 
     fn states(&self, out: &mut Vec<BodyState>) {
         out.clear();
-        out.extend(self.bodies.iter().enumerate().map(|(i, b)| self.state_of(i, b)));
+        out.extend(
+            self.bodies
+                .iter()
+                .enumerate()
+                .map(|(i, b)| self.state_of(i, b)),
+        );
     }
 
     fn set_fluid_loads(&mut self, loads: &[BodyLoad]) -> Result<(), DemError> {
@@ -331,14 +377,28 @@ impl DemEngine for RapierEngine {
         for (entry, l) in loads.iter().enumerate() {
             let b = l.body as usize;
             let Some(body) = self.bodies.get(b) else {
-                return Err(DemError::LoadBody { entry, body: l.body, count: self.bodies.len() });
+                return Err(DemError::LoadBody {
+                    entry,
+                    body: l.body,
+                    count: self.bodies.len(),
+                });
             };
             if seen[b] != usize::MAX {
-                return Err(DemError::DuplicateLoad { first: seen[b], second: entry, body: l.body, name: body.name.clone() });
+                return Err(DemError::DuplicateLoad {
+                    first: seen[b],
+                    second: entry,
+                    body: l.body,
+                    name: body.name.clone(),
+                });
             }
             seen[b] = entry;
             if l.force.iter().chain(&l.moment).any(|x| !x.is_finite()) {
-                return Err(DemError::NonFiniteLoad { body: l.body, name: body.name.clone(), force: l.force, moment: l.moment });
+                return Err(DemError::NonFiniteLoad {
+                    body: l.body,
+                    name: body.name.clone(),
+                    force: l.force,
+                    moment: l.moment,
+                });
             }
         }
         for b in &self.bodies {
@@ -348,7 +408,11 @@ impl DemEngine for RapierEngine {
             }
         }
         for l in loads {
-            if let Some(rb) = self.bodies.get(l.body as usize).and_then(|b| self.world.bodies.get_mut(b.handle)) {
+            if let Some(rb) = self
+                .bodies
+                .get(l.body as usize)
+                .and_then(|b| self.world.bodies.get_mut(b.handle))
+            {
                 // User forces persist across steps until reset (rapier `add_force`): the
                 // load is held over the whole window. Ignored by fixed/kinematic bodies.
                 rb.add_force(vec3(l.force), true);
@@ -360,7 +424,10 @@ impl DemEngine for RapierEngine {
 
     fn step(&mut self, dt: f64) -> Result<(), DemError> {
         if !(dt.is_finite() && dt > 0.0) {
-            return Err(DemError::InvalidStep { dt, max_dt: self.max_dt });
+            return Err(DemError::InvalidStep {
+                dt,
+                max_dt: self.max_dt,
+            });
         }
         self.world.integration_parameters.dt = dt as Real;
         self.world.step();
@@ -369,18 +436,37 @@ impl DemEngine for RapierEngine {
         for b in &self.bodies {
             if let (Some(k), Some(rb)) = (&b.kinematic, self.world.bodies.get_mut(b.handle)) {
                 let (x, q) = k.pose(self.time);
-                let rotation = rapier3d::math::Rotation::from_xyzw(q[0] as Real, q[1] as Real, q[2] as Real, q[3] as Real);
-                rb.set_position(Pose::from_parts(vec3(sub(x, self.origin)), rotation.normalize()), false);
+                let rotation = rapier3d::math::Rotation::from_xyzw(
+                    q[0] as Real,
+                    q[1] as Real,
+                    q[2] as Real,
+                    q[3] as Real,
+                );
+                rb.set_position(
+                    Pose::from_parts(vec3(sub(x, self.origin)), rotation.normalize()),
+                    false,
+                );
             }
         }
         // rapier quarantines (disables, restores) bodies that went non-finite; report the first.
-        let bad = self.world.quarantine().bodies().iter().find_map(|h| self.index_of.get(h).copied()).or_else(|| {
-            self.bodies.iter().enumerate().find_map(|(i, b)| {
-                let s = self.state_of(i, b);
-                let finite = s.position.iter().chain(&s.linear_velocity).chain(&s.angular_velocity).all(|x| x.is_finite());
-                (!finite).then_some(i)
-            })
-        });
+        let bad = self
+            .world
+            .quarantine()
+            .bodies()
+            .iter()
+            .find_map(|h| self.index_of.get(h).copied())
+            .or_else(|| {
+                self.bodies.iter().enumerate().find_map(|(i, b)| {
+                    let s = self.state_of(i, b);
+                    let finite = s
+                        .position
+                        .iter()
+                        .chain(&s.linear_velocity)
+                        .chain(&s.angular_velocity)
+                        .all(|x| x.is_finite());
+                    (!finite).then_some(i)
+                })
+            });
         if let Some(i) = bad {
             let s = self.state_of(i, &self.bodies[i]);
             return Err(DemError::NonFiniteState {

@@ -14,6 +14,9 @@ pub fn engine_names() -> &'static [&'static str] {
 pub fn create_engine(scene: &Scene) -> Result<Box<dyn DemEngine>, DemError> {
     match scene.dem.engine.as_str() {
         RapierEngine::NAME => Ok(Box::new(RapierEngine::new(scene)?)),
-        other => Err(DemError::UnknownEngine { name: other.to_owned(), valid: engine_names().join(", ") }),
+        other => Err(DemError::UnknownEngine {
+            name: other.to_owned(),
+            valid: engine_names().join(", "),
+        }),
     }
 }

@@ -8,10 +8,10 @@
 use crate::engine::{DemEngine, DemError};
 use crate::markers::MarkerSet;
 use crate::registry::create_engine;
-use couplet_protocol::transport::{parent_alive, Control, Endpoint, TransportError};
+use couplet_protocol::transport::{Control, Endpoint, TransportError, parent_alive};
 use couplet_protocol::{
-    monotonic_ns, validate_loads, BodyLoad, BodyState, CommandKind, CouplingPoint, Hello, Role,
-    Scene, ServiceLeaf, SideReport, WindowHeader, PROTOCOL_VERSION,
+    BodyLoad, BodyState, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, Role, Scene,
+    ServiceLeaf, SideReport, WindowHeader, monotonic_ns, validate_loads,
 };
 use std::time::Instant;
 
@@ -21,12 +21,18 @@ pub enum ServerError {
     Dem(#[from] DemError),
     #[error(transparent)]
     Transport(#[from] TransportError),
-    #[error("command for window {step} speaks protocol {got}, this dem-server speaks {PROTOCOL_VERSION}")]
+    #[error(
+        "command for window {step} speaks protocol {got}, this dem-server speaks {PROTOCOL_VERSION}"
+    )]
     Version { step: u64, got: u32 },
     #[error("unknown command kind {0}")]
     UnknownCommand(u32),
     #[error("window {step}: fluid sent {got} loads for {expected} coupled bodies")]
-    LoadCount { step: u64, got: usize, expected: usize },
+    LoadCount {
+        step: u64,
+        got: usize,
+        expected: usize,
+    },
 }
 
 /// Runs the DEM side of run `run_id` until the orchestrator says shutdown or goes away.
@@ -69,7 +75,10 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     loop {
         let cmd = wake.wait_for(|| commands.try_next(), alive)?;
         if cmd.protocol_version != PROTOCOL_VERSION {
-            return Err(ServerError::Version { step: cmd.step, got: cmd.protocol_version });
+            return Err(ServerError::Version {
+                step: cmd.step,
+                got: cmd.protocol_version,
+            });
         }
         match cmd.kind() {
             Some(CommandKind::Shutdown) => return Ok(()),
@@ -79,7 +88,17 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
         let (step, window) = (cmd.step, cmd.window);
         let mut exchange_us = 0.0;
         if published != Some(step) {
-            exchange_us += publish(&*engine, &markers, step, cmd.time, window, &mut states, &mut points, &bodies_tx, &points_tx)?;
+            exchange_us += publish(
+                &*engine,
+                &markers,
+                step,
+                cmd.time,
+                window,
+                &mut states,
+                &mut points,
+                &bodies_tx,
+                &points_tx,
+            )?;
             wake_fluid.wake()?;
         }
 
@@ -92,12 +111,23 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
             wait_us = wait_start.elapsed().as_secs_f64() * 1e6;
             let t = Instant::now();
             // From the later of send and the start of the wait (see the fluid server's hop_us).
-            let hop_us = monotonic_ns().saturating_sub(sample.user_header().sent_ns.max(wait_start_ns)) as f64 * 1e-3;
-            validate_loads(sample.payload(), n_bodies)
-                .map_err(|source| TransportError::Invalid { service: loads_rx.service.clone(), source })?;
+            let hop_us = monotonic_ns()
+                .saturating_sub(sample.user_header().sent_ns.max(wait_start_ns))
+                as f64
+                * 1e-3;
+            validate_loads(sample.payload(), n_bodies).map_err(|source| {
+                TransportError::Invalid {
+                    service: loads_rx.service.clone(),
+                    source,
+                }
+            })?;
             loads.extend_from_slice(sample.payload());
             if loads.len() != markers.body_count() {
-                return Err(ServerError::LoadCount { step, got: loads.len(), expected: markers.body_count() });
+                return Err(ServerError::LoadCount {
+                    step,
+                    got: loads.len(),
+                    expected: markers.body_count(),
+                });
             }
             exchange_us += hop_us + t.elapsed().as_secs_f64() * 1e6;
         }
@@ -112,7 +142,17 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
         }
         let compute_us = compute.elapsed().as_secs_f64() * 1e6;
 
-        exchange_us += publish(&*engine, &markers, step + 1, cmd.time + window, window, &mut states, &mut points, &bodies_tx, &points_tx)?;
+        exchange_us += publish(
+            &*engine,
+            &markers,
+            step + 1,
+            cmd.time + window,
+            window,
+            &mut states,
+            &mut points,
+            &bodies_tx,
+            &points_tx,
+        )?;
         published = Some(step + 1);
         report.send(SideReport {
             protocol_version: PROTOCOL_VERSION,

@@ -4,8 +4,8 @@
 
 mod common;
 
-use common::{scene, sphere, WATER};
-use couplet_dem::{generate_markers, DemError, LocalMarker, MarkerSet};
+use common::{WATER, scene, sphere};
+use couplet_dem::{DemError, LocalMarker, MarkerSet, generate_markers};
 use couplet_protocol::{BodyState, Shape};
 use std::f64::consts::PI;
 
@@ -39,7 +39,10 @@ fn mean_nearest(m: &[LocalMarker]) -> f64 {
 fn assert_outward_unit(m: &[LocalMarker]) {
     for k in m {
         let n = k.normal;
-        assert!(((n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() - 1.0).abs() < 1e-12, "{k:?}");
+        assert!(
+            ((n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() - 1.0).abs() < 1e-12,
+            "{k:?}"
+        );
         let outward = (0..3).map(|i| n[i] * k.position[i]).sum::<f64>();
         assert!(outward > 0.0, "inward normal {k:?}");
     }
@@ -47,13 +50,27 @@ fn assert_outward_unit(m: &[LocalMarker]) {
 
 fn tetrahedron(a: f64) -> Shape {
     // Edge 2√2 a, area √3 (2√2 a)² = 8√3 a², centroid at the origin.
-    Shape::Convex { vertices: vec![[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]] }
+    Shape::Convex {
+        vertices: vec![[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]],
+    }
 }
 
 fn octahedron(a: f64) -> Shape {
     // Edge √2 a, area 2√3 (√2 a)² = 4√3 a²; offset by (1, 2, 3) to exercise recentring.
-    let v = [[a, 0.0, 0.0], [-a, 0.0, 0.0], [0.0, a, 0.0], [0.0, -a, 0.0], [0.0, 0.0, a], [0.0, 0.0, -a]];
-    Shape::Convex { vertices: v.iter().map(|p| [p[0] + 1.0, p[1] + 2.0, p[2] + 3.0]).collect() }
+    let v = [
+        [a, 0.0, 0.0],
+        [-a, 0.0, 0.0],
+        [0.0, a, 0.0],
+        [0.0, -a, 0.0],
+        [0.0, 0.0, a],
+        [0.0, 0.0, -a],
+    ];
+    Shape::Convex {
+        vertices: v
+            .iter()
+            .map(|p| [p[0] + 1.0, p[1] + 2.0, p[2] + 3.0])
+            .collect(),
+    }
 }
 
 fn cube_at(x0: f64, a: f64) -> Vec<[f64; 3]> {
@@ -70,9 +87,16 @@ fn cube_at(x0: f64, a: f64) -> Vec<[f64; 3]> {
 fn sphere_area_is_exact() {
     let (r, d) = (0.1, 0.0073);
     let m = generate_markers(&Shape::Sphere { radius: r }, d).unwrap();
-    assert!(rel(total_area(&m), 4.0 * PI * r * r) < 1e-9, "{}", total_area(&m));
+    assert!(
+        rel(total_area(&m), 4.0 * PI * r * r) < 1e-9,
+        "{}",
+        total_area(&m)
+    );
     assert_outward_unit(&m);
-    assert!(m.iter().all(|k| ((0..3).map(|i| k.position[i].powi(2)).sum::<f64>().sqrt() - r).abs() < 1e-12));
+    assert!(
+        m.iter()
+            .all(|k| ((0..3).map(|i| k.position[i].powi(2)).sum::<f64>().sqrt() - r).abs() < 1e-12)
+    );
 }
 
 /// Box: the areas sum to 8(ab + bc + ca) (rel 1e-12: bilinear cells tile each face).
@@ -81,7 +105,11 @@ fn box_area_is_exact() {
     let h = [0.1, 0.2, 0.3];
     let m = generate_markers(&Shape::Box { half_extents: h }, 0.013).unwrap();
     let exact = 8.0 * (h[0] * h[1] + h[1] * h[2] + h[2] * h[0]);
-    assert!(rel(total_area(&m), exact) < 1e-12, "{} vs {exact}", total_area(&m));
+    assert!(
+        rel(total_area(&m), exact) < 1e-12,
+        "{} vs {exact}",
+        total_area(&m)
+    );
     assert_outward_unit(&m);
 }
 
@@ -90,9 +118,20 @@ fn box_area_is_exact() {
 #[test]
 fn cylinder_area_is_exact() {
     let (r, h) = (0.1, 0.15);
-    let m = generate_markers(&Shape::Cylinder { radius: r, half_height: h }, 0.0091).unwrap();
+    let m = generate_markers(
+        &Shape::Cylinder {
+            radius: r,
+            half_height: h,
+        },
+        0.0091,
+    )
+    .unwrap();
     let exact = 2.0 * PI * r * 2.0 * h + 2.0 * PI * r * r;
-    assert!(rel(total_area(&m), exact) < 1e-12, "{} vs {exact}", total_area(&m));
+    assert!(
+        rel(total_area(&m), exact) < 1e-12,
+        "{} vs {exact}",
+        total_area(&m)
+    );
     assert_outward_unit(&m);
 }
 
@@ -102,10 +141,18 @@ fn cylinder_area_is_exact() {
 fn hull_areas_are_exact() {
     let a = 0.1;
     let m = generate_markers(&tetrahedron(a), 0.01).unwrap();
-    assert!(rel(total_area(&m), 8.0 * 3f64.sqrt() * a * a) < 1e-9, "{}", total_area(&m));
+    assert!(
+        rel(total_area(&m), 8.0 * 3f64.sqrt() * a * a) < 1e-9,
+        "{}",
+        total_area(&m)
+    );
     assert_outward_unit(&m);
     let m = generate_markers(&octahedron(a), 0.01).unwrap();
-    assert!(rel(total_area(&m), 4.0 * 3f64.sqrt() * a * a) < 1e-9, "{}", total_area(&m));
+    assert!(
+        rel(total_area(&m), 4.0 * 3f64.sqrt() * a * a) < 1e-9,
+        "{}",
+        total_area(&m)
+    );
     // Recentred on the centroid: outward normals are tested about the origin.
     assert_outward_unit(&m);
 }
@@ -114,10 +161,19 @@ fn hull_areas_are_exact() {
 /// gets the same bilinear cells as the box shape.
 #[test]
 fn hull_rectangles_are_meshed_bilinearly() {
-    let mut v = cube_at(-0.1, 0.2).iter().map(|p| [p[0], p[1] - 0.1, p[2] - 0.1]).collect::<Vec<_>>();
+    let mut v = cube_at(-0.1, 0.2)
+        .iter()
+        .map(|p| [p[0], p[1] - 0.1, p[2] - 0.1])
+        .collect::<Vec<_>>();
     v.push([0.01, 0.02, -0.03]);
     let hull = generate_markers(&Shape::Convex { vertices: v }, 0.02).unwrap();
-    let cube = generate_markers(&Shape::Box { half_extents: [0.1; 3] }, 0.02).unwrap();
+    let cube = generate_markers(
+        &Shape::Box {
+            half_extents: [0.1; 3],
+        },
+        0.02,
+    )
+    .unwrap();
     assert_eq!(hull.len(), cube.len());
     assert_eq!(hull.len(), 6 * 10 * 10);
     assert!(rel(total_area(&hull), 6.0 * 0.04) < 1e-12);
@@ -128,20 +184,55 @@ fn hull_rectangles_are_meshed_bilinearly() {
 #[test]
 fn compound_keeps_outer_surface_only() {
     let (a, d) = (0.1, 0.01);
-    let m = generate_markers(&Shape::Compound { parts: vec![cube_at(0.0, a), cube_at(a, a)] }, d).unwrap();
-    assert!(rel(total_area(&m), 10.0 * a * a) < 1e-12, "{}", total_area(&m));
+    let m = generate_markers(
+        &Shape::Compound {
+            parts: vec![cube_at(0.0, a), cube_at(a, a)],
+        },
+        d,
+    )
+    .unwrap();
+    assert!(
+        rel(total_area(&m), 10.0 * a * a) < 1e-12,
+        "{}",
+        total_area(&m)
+    );
     // 10 faces of 10 × 10 cells; recentred, the shared face is the plane x = 0.
     assert_eq!(m.len(), 1000);
-    assert!(m.iter().all(|k| k.position[0].abs() > 1e-3 || k.normal[0] == 0.0));
-    assert!(m.iter().all(|k| k.position.iter().all(|x| x.abs() <= a + 1e-12)));
+    assert!(
+        m.iter()
+            .all(|k| k.position[0].abs() > 1e-3 || k.normal[0] == 0.0)
+    );
+    assert!(
+        m.iter()
+            .all(|k| k.position.iter().all(|x| x.abs() <= a + 1e-12))
+    );
 }
 
 /// Overlapping compound parts are refused: their volume would count twice in eq. (28).
 #[test]
 fn overlapping_compound_is_refused() {
-    let e = generate_markers(&Shape::Compound { parts: vec![cube_at(0.0, 0.1), cube_at(0.05, 0.1)] }, 0.01).unwrap_err();
-    assert!(matches!(e, DemError::OverlappingParts { first: 0, second: 1, .. }), "{e}");
-    assert!(matches!(e, DemError::OverlappingParts { depth, .. } if (depth - 0.05).abs() < 1e-12), "{e}");
+    let e = generate_markers(
+        &Shape::Compound {
+            parts: vec![cube_at(0.0, 0.1), cube_at(0.05, 0.1)],
+        },
+        0.01,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            DemError::OverlappingParts {
+                first: 0,
+                second: 1,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(
+        matches!(e, DemError::OverlappingParts { depth, .. } if (depth - 0.05).abs() < 1e-12),
+        "{e}"
+    );
 }
 
 /// Marker spacing ≈ δ: mean nearest-neighbour distance within 30 % of δ on every shape.
@@ -150,15 +241,23 @@ fn spacing_is_close_to_delta() {
     let d = 0.01;
     let shapes = [
         Shape::Sphere { radius: 0.1 },
-        Shape::Box { half_extents: [0.1, 0.05, 0.08] },
-        Shape::Cylinder { radius: 0.07, half_height: 0.1 },
+        Shape::Box {
+            half_extents: [0.1, 0.05, 0.08],
+        },
+        Shape::Cylinder {
+            radius: 0.07,
+            half_height: 0.1,
+        },
         tetrahedron(0.08),
         octahedron(0.1),
     ];
     for s in &shapes {
         let m = generate_markers(s, d).unwrap();
         let nn = mean_nearest(&m);
-        assert!((nn / d - 1.0).abs() < 0.3, "{s:?}: mean nearest neighbour {nn} for δ = {d}");
+        assert!(
+            (nn / d - 1.0).abs() < 0.3,
+            "{s:?}: mean nearest neighbour {nn} for δ = {d}"
+        );
         // Each marker stands for about δ² of surface.
         let per = total_area(&m) / m.len() as f64 / (d * d);
         assert!((per - 1.0).abs() < 0.3, "{s:?}: {per} δ² per marker");
@@ -171,7 +270,14 @@ fn spacing_is_close_to_delta() {
 /// gets 9 and then 19 sub-triangle edges: 4.46).
 #[test]
 fn count_scales_with_inverse_square_spacing() {
-    for s in [Shape::Sphere { radius: 0.1 }, Shape::Cylinder { radius: 0.1, half_height: 0.1 }, octahedron(0.1)] {
+    for s in [
+        Shape::Sphere { radius: 0.1 },
+        Shape::Cylinder {
+            radius: 0.1,
+            half_height: 0.1,
+        },
+        octahedron(0.1),
+    ] {
         let n1 = generate_markers(&s, 0.01).unwrap().len() as f64;
         let n2 = generate_markers(&s, 0.005).unwrap().len() as f64;
         assert!((n2 / n1 / 4.0 - 1.0).abs() < 0.15, "{s:?}: {n1} → {n2}");
@@ -181,7 +287,9 @@ fn count_scales_with_inverse_square_spacing() {
 /// Invalid spacings and absurd marker counts are refused with the value named.
 #[test]
 fn bad_spacing_is_refused() {
-    let e = generate_markers(&Shape::Sphere { radius: 1.0 }, 0.0).unwrap_err().to_string();
+    let e = generate_markers(&Shape::Sphere { radius: 1.0 }, 0.0)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("spacing 0"), "{e}");
     let e = generate_markers(&Shape::Sphere { radius: 1.0 }, 1e-5).unwrap_err();
     assert!(matches!(e, DemError::TooManyMarkers { .. }), "{e}");

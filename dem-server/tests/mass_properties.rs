@@ -23,7 +23,11 @@ fn sphere_mass_and_inertia() {
     let m = rho * 4.0 / 3.0 * PI * r.powi(3);
     assert!(rel(mp.mass, m) < 1e-4, "{} vs {m}", mp.mass);
     for k in 0..3 {
-        assert!(rel(mp.inertia[k][k], 0.4 * m * r * r) < 1e-4, "{:?}", mp.inertia);
+        assert!(
+            rel(mp.inertia[k][k], 0.4 * m * r * r) < 1e-4,
+            "{:?}",
+            mp.inertia
+        );
     }
     let mut st = Vec::<BodyState>::new();
     e.states(&mut st);
@@ -39,9 +43,18 @@ fn box_inertia() {
     let [a, b, c] = h.map(|x| 2.0 * x);
     let m = rho * a * b * c;
     assert!(rel(mp.mass, m) < 1e-4);
-    let expected = [m * (b * b + c * c) / 12.0, m * (a * a + c * c) / 12.0, m * (a * a + b * b) / 12.0];
+    let expected = [
+        m * (b * b + c * c) / 12.0,
+        m * (a * a + c * c) / 12.0,
+        m * (a * a + b * b) / 12.0,
+    ];
     for k in 0..3 {
-        assert!(rel(mp.inertia[k][k], expected[k]) < 1e-4, "I[{k}] = {} vs {}", mp.inertia[k][k], expected[k]);
+        assert!(
+            rel(mp.inertia[k][k], expected[k]) < 1e-4,
+            "I[{k}] = {} vs {}",
+            mp.inertia[k][k],
+            expected[k]
+        );
         assert!(mp.inertia[k][(k + 1) % 3].abs() < 1e-6 * expected[k]);
     }
 }
@@ -51,7 +64,9 @@ fn box_inertia() {
 #[test]
 fn cylinder_inertia() {
     let (r, hh, rho) = (0.05, 0.08, 1000.0);
-    let body = format!("[[bodies]]\nname = \"c\"\nshape.cylinder = {{ radius = {r}, half_height = {hh} }}\ndensity = {rho}\nposition = [0.5, 0.5, 0.5]\n");
+    let body = format!(
+        "[[bodies]]\nname = \"c\"\nshape.cylinder = {{ radius = {r}, half_height = {hh} }}\ndensity = {rho}\nposition = [0.5, 0.5, 0.5]\n"
+    );
     let e = RapierEngine::new(&scene(&body)).unwrap();
     let mp = e.mass_properties(0).unwrap();
     let m = rho * PI * r * r * 2.0 * hh;
@@ -68,15 +83,20 @@ fn cylinder_inertia() {
 fn hull_and_compound_recentred_on_com() {
     let a = 0.1;
     let cube = |x0: f64| {
-        (0..8).map(|i| {
-            let b = |k: usize| if i >> k & 1 == 1 { a } else { 0.0 };
-            format!("[{}, {}, {}]", x0 + b(0), 1.0 + b(1), 2.0 + b(2))
-        }).collect::<Vec<_>>().join(", ")
+        (0..8)
+            .map(|i| {
+                let b = |k: usize| if i >> k & 1 == 1 { a } else { 0.0 };
+                format!("[{}, {}, {}]", x0 + b(0), 1.0 + b(1), 2.0 + b(2))
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
     };
     let bodies = format!(
         "[[bodies]]\nname = \"hull\"\nshape.convex.vertices = [{}]\ndensity = 500.0\nposition = [0.3, 0.5, 0.5]\n\
          [[bodies]]\nname = \"pair\"\nshape.compound.parts = [[{}], [{}]]\ndensity = 500.0\nposition = [0.7, 0.5, 0.5]\n",
-        cube(1.0), cube(1.0), cube(1.0 + a)
+        cube(1.0),
+        cube(1.0),
+        cube(1.0 + a)
     );
     let e = RapierEngine::new(&scene(&bodies)).unwrap();
     // The f64 volumes (outward face loops, divergence theorem) that eq. (28) uses.
@@ -86,11 +106,19 @@ fn hull_and_compound_recentred_on_com() {
     assert!(rel(st[1].mass, 1000.0 * a * a * a) < 1e-12);
     let hull = e.mass_properties(0).unwrap();
     assert!(rel(hull.mass, 500.0 * a * a * a) < 1e-4);
-    assert!(hull.local_com.iter().all(|c| c.abs() < 1e-5 * a), "{:?}", hull.local_com);
+    assert!(
+        hull.local_com.iter().all(|c| c.abs() < 1e-5 * a),
+        "{:?}",
+        hull.local_com
+    );
     let pair = e.mass_properties(1).unwrap();
     let m = 1000.0 * a * a * a;
     assert!(rel(pair.mass, m) < 1e-4);
-    assert!(pair.local_com.iter().all(|c| c.abs() < 1e-5 * a), "{:?}", pair.local_com);
+    assert!(
+        pair.local_com.iter().all(|c| c.abs() < 1e-5 * a),
+        "{:?}",
+        pair.local_com
+    );
     assert!(rel(pair.inertia[0][0], m * (a * a + a * a) / 12.0) < 1e-4);
     assert!(rel(pair.inertia[1][1], m * (4.0 * a * a + a * a) / 12.0) < 1e-4);
 }
@@ -100,6 +128,12 @@ fn hull_and_compound_recentred_on_com() {
 fn degenerate_hull_is_refused_with_body_named() {
     let bodies = "[[bodies]]\nname = \"flat\"\nshape.convex.vertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]\n\
                   density = 500.0\nposition = [0.5, 0.5, 0.5]\n";
-    let msg = RapierEngine::new(&scene(bodies)).err().map(|e| e.to_string()).unwrap_or_default();
-    assert!(msg.contains("bodies[0] \"flat\"") && msg.contains("convex hull"), "{msg}");
+    let msg = RapierEngine::new(&scene(bodies))
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        msg.contains("bodies[0] \"flat\"") && msg.contains("convex hull"),
+        "{msg}"
+    );
 }

@@ -1,8 +1,8 @@
 //! Per-stage GPU times of the hydrostatic tank: `cargo run --release -p couplet-fluid --example stage_times [SPACING] [STEPS]`.
 
+use couplet_fluid::FluidSolver;
 use couplet_fluid::gpu::Gpu;
 use couplet_fluid::timing::StageTimer;
-use couplet_fluid::FluidSolver;
 use couplet_protocol::Scene;
 use std::path::Path;
 use std::time::Instant;
@@ -46,18 +46,30 @@ artificial_viscosity = 0.05
     solver.advance(&gpu, dt * f64::from(steps), Some(&mut timer))?;
     let mut total = 0.0;
     for (label, s, n) in timer.totals_with_counts() {
-        println!("{label:40} {:8.3} ms/step  ({n} passes)", 1e3 * s / f64::from(steps));
+        println!(
+            "{label:40} {:8.3} ms/step  ({n} passes)",
+            1e3 * s / f64::from(steps)
+        );
         total += s;
     }
     println!("sum {:.3} ms/step", 1e3 * total / f64::from(steps));
     let t = Instant::now();
     solver.advance(&gpu, dt * f64::from(steps), None)?;
-    println!("untimed: {:.3} ms/step", 1e3 * t.elapsed().as_secs_f64() / f64::from(steps));
-    println!("neighbours/fluid particle: {:.1}", solver.neighbour_stats(&gpu)?);
+    println!(
+        "untimed: {:.3} ms/step",
+        1e3 * t.elapsed().as_secs_f64() / f64::from(steps)
+    );
+    println!(
+        "neighbours/fluid particle: {:.1}",
+        solver.neighbour_stats(&gpu)?
+    );
     let t = Instant::now();
     for _ in 0..10 {
         solver.neighbour_stats(&gpu)?;
     }
-    println!("neighbour_stats (sort + count + readback): {:.3} ms", 1e2 * t.elapsed().as_secs_f64());
+    println!(
+        "neighbour_stats (sort + count + readback): {:.3} ms",
+        1e2 * t.elapsed().as_secs_f64()
+    );
     Ok(())
 }

@@ -9,27 +9,40 @@
 //! accelerations yet). ρ_w from the inverted Tait equation; no fluid neighbour: p = 0,
 //! ρ = ρ0. WGSL: `shaders/adami2012_boundary_pressure.wgsl`.
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::kernel::kernel_library;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
-use crate::particles::{dot, sub, Kind, ParticleSet};
-use crate::sph_kernel::{library, particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, library, particle_binding as pb};
 use crate::tait_eos::TAIT_EOS_WGSL;
 
-pub const BOUNDARY_PRESSURE_WGSL: &str = include_str!("../shaders/adami2012_boundary_pressure.wgsl");
+pub const BOUNDARY_PRESSURE_WGSL: &str =
+    include_str!("../shaders/adami2012_boundary_pressure.wgsl");
 
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
     SphKernel::new(
         gpu,
         "sph: adami2012_boundary_pressure",
-        &[&consts, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), library(TAIT_EOS_WGSL), BOUNDARY_PRESSURE_WGSL],
+        &[
+            &consts,
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            kernel_library(),
+            library(TAIT_EOS_WGSL),
+            BOUNDARY_PRESSURE_WGSL,
+        ],
         "adami2012_boundary_pressure",
         &[
             (
                 PARTICLES,
-                &[(pb::POS, Access::Read), (pb::RHO, Access::ReadWrite), (pb::PRESS, Access::ReadWrite), (pb::ID, Access::Read)],
+                &[
+                    (pb::POS, Access::Read),
+                    (pb::RHO, Access::ReadWrite),
+                    (pb::PRESS, Access::ReadWrite),
+                    (pb::ID, Access::Read),
+                ],
             ),
             (PARAMS, &[(0, Access::Uniform)]),
         ],

@@ -4,9 +4,11 @@
 //! values. Two small passes and a 48-byte readback per window.
 //! WGSL: `shaders/blowup_check.wgsl` (`find_bad`, `capture_bad`).
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
-use crate::sph_kernel::{param_binding as qb, particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+use crate::sph_kernel::{
+    Access, PARAMS, PARTICLES, SphKernel, param_binding as qb, particle_binding as pb,
+};
 
 pub const BLOWUP_CHECK_WGSL: &str = include_str!("../shaders/blowup_check.wgsl");
 
@@ -17,8 +19,13 @@ pub const BLOWUP_DENSITY_DEVIATION: f64 = 0.5;
 /// Status word meaning "no bad particle".
 pub const NO_BAD_ID: u32 = u32::MAX;
 
-const BINDINGS: &[(u32, Access)] =
-    &[(pb::POS, Access::Read), (pb::VEL, Access::Read), (pb::RHO, Access::Read), (pb::PRESS, Access::Read), (pb::ID, Access::Read)];
+const BINDINGS: &[(u32, Access)] = &[
+    (pb::POS, Access::Read),
+    (pb::VEL, Access::Read),
+    (pb::RHO, Access::Read),
+    (pb::PRESS, Access::Read),
+    (pb::ID, Access::Read),
+];
 
 fn build(gpu: &Gpu, c: &SphConstants, label: &'static str, entry: &str) -> SphKernel {
     let consts = c.wgsl();
@@ -30,7 +37,14 @@ fn build(gpu: &Gpu, c: &SphConstants, label: &'static str, entry: &str) -> SphKe
         entry,
         &[
             (PARTICLES, BINDINGS),
-            (PARAMS, &[(0, Access::Uniform), (qb::STATUS, Access::ReadWrite), (qb::BAD_VALUES, Access::ReadWrite)]),
+            (
+                PARAMS,
+                &[
+                    (0, Access::Uniform),
+                    (qb::STATUS, Access::ReadWrite),
+                    (qb::BAD_VALUES, Access::ReadWrite),
+                ],
+            ),
         ],
         None,
     )

@@ -3,9 +3,9 @@
 //! (no serial f32 accumulation over the whole range). Reads back only
 //! 2 × n_bodies vec4 per window. WGSL: `shaders/body_load_reduce.wgsl`.
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
-use crate::sph_kernel::{body_binding as bb, Access, SphKernel, BODIES, PARAMS};
+use crate::sph_kernel::{Access, BODIES, PARAMS, SphKernel, body_binding as bb};
 
 pub const BODY_LOAD_REDUCE_WGSL: &str = include_str!("../shaders/body_load_reduce.wgsl");
 

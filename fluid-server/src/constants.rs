@@ -54,7 +54,11 @@ impl SphConstants {
     pub fn from_scene(scene: &Scene) -> Result<Self, FluidError> {
         let f = scene.fluid.as_ref().ok_or(FluidError::NoFluid)?;
         let kernel = SmoothingKernel::new(f.kernel, f.smoothing_length());
-        let g = if scene.gravity.on_fluid { scene.gravity.vector } else { [0.0; 3] };
+        let g = if scene.gravity.on_fluid {
+            scene.gravity.vector
+        } else {
+            [0.0; 3]
+        };
         Ok(Self {
             kernel,
             spacing: f.spacing,
@@ -64,7 +68,8 @@ impl SphConstants {
             nu: f.kinematic_viscosity,
             mass: f.density * f.spacing.powi(3),
             gravity_fluid: g,
-            laminar: scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0,
+            laminar: scene.effects.viscosity == ViscosityModel::Laminar
+                && f.kinematic_viscosity > 0.0,
             alpha: scene.effects.artificial_viscosity,
             no_slip_walls: scene.domain.walls == WallKind::NoSlip,
             gradient_correction: scene.effects.gradient_correction,
@@ -85,7 +90,10 @@ impl SphConstants {
 
     /// Joubert eq. (4) inverted (wall and marker densities).
     pub fn density(&self, p: f64) -> f64 {
-        self.rho0 * (1.0 + p / self.tait_b()).max(MIN_TAIT_BASE).powf(1.0 / self.gamma)
+        self.rho0
+            * (1.0 + p / self.tait_b())
+                .max(MIN_TAIT_BASE)
+                .powf(1.0 / self.gamma)
     }
 
     /// The per-step gradient pass ([`crate::joubert2020_gradients`]) runs: it feeds

@@ -13,7 +13,7 @@
 
 use crate::constants::SphConstants;
 use crate::joubert2020_gradients::{b_matrix_cpu, mat_vec};
-use crate::particles::{dot, sub, Kind, ParticleSet};
+use crate::particles::{Kind, ParticleSet, dot, sub};
 
 pub const CONTINUITY_WGSL: &str = include_str!("../shaders/continuity.wgsl");
 
@@ -33,8 +33,13 @@ pub fn continuity_cpu(c: &SphConstants, set: &ParticleSet, i: usize, grad_rho: &
             let r_ij = sub(set.pos[i], set.pos[j]);
             let (rho_i, rho_j) = (set.rho[i], set.rho[j]);
             let f = -2.0 * (rho_j - rho_i) / dot(r_ij, r_ij);
-            let psi: [f64; 3] = std::array::from_fn(|k| f * r_ij[k] - (grad_rho[i][k] + grad_rho[j][k]));
-            d += c.density_diffusion * c.kernel.h * c.sound_speed * (c.mass / rho_j) * dot(psi, grad_w);
+            let psi: [f64; 3] =
+                std::array::from_fn(|k| f * r_ij[k] - (grad_rho[i][k] + grad_rho[j][k]));
+            d += c.density_diffusion
+                * c.kernel.h
+                * c.sound_speed
+                * (c.mass / rho_j)
+                * dot(psi, grad_w);
         }
     }
     d

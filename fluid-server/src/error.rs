@@ -14,19 +14,47 @@ pub enum FluidError {
     #[error("fluid.blocks fill no particle: spacing {spacing} m is larger than every block")]
     NoParticles { spacing: f64 },
     #[error("{what} needs {needed} bytes in one GPU buffer, the adapter allows {limit}")]
-    TooLarge { what: String, needed: u64, limit: u64 },
-    #[error("set_bodies: {got} coupling points, but the marker capacity fixed at the first call is {capacity}")]
+    TooLarge {
+        what: String,
+        needed: u64,
+        limit: u64,
+    },
+    #[error(
+        "set_bodies: {got} coupling points, but the marker capacity fixed at the first call is {capacity}"
+    )]
     MarkerCount { got: usize, capacity: usize },
-    #[error("set_bodies: coupling point {index} names body {body}, but only {n_bodies} body states were given")]
-    MarkerBody { index: usize, body: u32, n_bodies: usize },
-    #[error("set_bodies: coupling points are not contiguous per body: point {index} returns to body {body}")]
+    #[error(
+        "set_bodies: coupling point {index} names body {body}, but only {n_bodies} body states were given"
+    )]
+    MarkerBody {
+        index: usize,
+        body: u32,
+        n_bodies: usize,
+    },
+    #[error(
+        "set_bodies: coupling points are not contiguous per body: point {index} returns to body {body}"
+    )]
     MarkerOrder { index: usize, body: u32 },
     #[error("set_bodies: {what} of {item} is not finite: {value}")]
-    NonFiniteInput { what: &'static str, item: String, value: String },
-    #[error("set_bodies: body state {index} names body {body}, beyond the {capacity} bodies the solver was set up for")]
-    BodyIndex { index: usize, body: u32, capacity: usize },
+    NonFiniteInput {
+        what: &'static str,
+        item: String,
+        value: String,
+    },
+    #[error(
+        "set_bodies: body state {index} names body {body}, beyond the {capacity} bodies the solver was set up for"
+    )]
+    BodyIndex {
+        index: usize,
+        body: u32,
+        capacity: usize,
+    },
     #[error("particle set: {what} has {got} entries, expected {expected}")]
-    BadParticleSet { what: &'static str, got: usize, expected: usize },
+    BadParticleSet {
+        what: &'static str,
+        got: usize,
+        expected: usize,
+    },
     #[error("advance: window {window} s must be a positive finite number")]
     BadWindow { window: f64 },
     #[error(

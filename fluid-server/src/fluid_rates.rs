@@ -3,15 +3,15 @@
 //! particle, no atomics. WGSL: `shaders/fluid_rates.wgsl`. Switched-off effects are
 //! compiled out (constants generated from the scene), so they cost nothing.
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
-use crate::continuity::{continuity_cpu, CONTINUITY_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
+use crate::continuity::{CONTINUITY_WGSL, continuity_cpu};
 use crate::gpu::Gpu;
 use crate::joubert2020_gradients::gradients_cpu;
 use crate::kernel::kernel_library;
-use crate::momentum::{momentum_cpu, MOMENTUM_WGSL};
+use crate::momentum::{MOMENTUM_WGSL, momentum_cpu};
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet};
-use crate::sph_kernel::{particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 
 pub const FLUID_RATES_WGSL: &str = include_str!("../shaders/fluid_rates.wgsl");
 
@@ -90,12 +90,30 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
         (false, true) => WITH_GRADS,
         (true, true) => WITH_B_AND_GRADS,
     };
-    let b = if c.gradient_correction { B_MATRIX_WGSL } else { NO_B_MATRIX_WGSL };
-    let g = if diffusion { GRAD_RHO_WGSL } else { NO_GRAD_RHO_WGSL };
+    let b = if c.gradient_correction {
+        B_MATRIX_WGSL
+    } else {
+        NO_B_MATRIX_WGSL
+    };
+    let g = if diffusion {
+        GRAD_RHO_WGSL
+    } else {
+        NO_GRAD_RHO_WGSL
+    };
     SphKernel::new(
         gpu,
         "sph: fluid_rates",
-        &[&consts, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), CONTINUITY_WGSL, MOMENTUM_WGSL, b, g, FLUID_RATES_WGSL],
+        &[
+            &consts,
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            kernel_library(),
+            CONTINUITY_WGSL,
+            MOMENTUM_WGSL,
+            b,
+            g,
+            FLUID_RATES_WGSL,
+        ],
         "fluid_rates",
         &[(PARTICLES, bindings), (PARAMS, &[(0, Access::Uniform)])],
         Some(grid_layout),
@@ -105,13 +123,21 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
 /// CPU twin: (dρ/dt, du/dt) of every fluid entry; `None` for other particles.
 pub fn fluid_rates_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<(f64, [f64; 3])>> {
     let grad_rho: Vec<[f64; 3]> = if c.density_diffusion > 0.0 {
-        gradients_cpu(c, set).iter().map(|g| g.map_or([0.0; 3], |g| g.grad_rho)).collect()
+        gradients_cpu(c, set)
+            .iter()
+            .map(|g| g.map_or([0.0; 3], |g| g.grad_rho))
+            .collect()
     } else {
         Vec::new()
     };
     (0..set.len())
         .map(|i| {
-            (set.kinds.kind(set.id[i]) == Kind::Fluid).then(|| (continuity_cpu(c, set, i, &grad_rho), momentum_cpu(c, set, i)))
+            (set.kinds.kind(set.id[i]) == Kind::Fluid).then(|| {
+                (
+                    continuity_cpu(c, set, i, &grad_rho),
+                    momentum_cpu(c, set, i),
+                )
+            })
         })
         .collect()
 }

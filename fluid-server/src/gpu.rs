@@ -70,7 +70,9 @@ impl Gpu {
         let mut adapters = instance.enumerate_adapters(backends).await;
         adapters.sort_by_key(|a| preference(a.get_info().device_type));
         let Some(adapter) = adapters.into_iter().next() else {
-            return Err(GpuError::NoAdapter { tried: format!("{backends:?}") });
+            return Err(GpuError::NoAdapter {
+                tried: format!("{backends:?}"),
+            });
         };
         let adapter_info = adapter.get_info();
         let limits = adapter.limits();
@@ -100,7 +102,12 @@ impl Gpu {
             })
             .await
             .map_err(|e| GpuError::Device(e.to_string()))?;
-        Ok(Gpu { device, queue, adapter_info, timestamps })
+        Ok(Gpu {
+            device,
+            queue,
+            adapter_info,
+            timestamps,
+        })
     }
 
     /// One line for logs and `couplet plan`: name, driver, backend, timestamps.
@@ -149,7 +156,9 @@ impl Gpu {
         });
         let mut encoder = self
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("readback"),
+            });
         encoder.copy_buffer_to_buffer(buffer, first * elem, &staging, 0, padded);
         self.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
@@ -160,13 +169,26 @@ impl Gpu {
         let name = format!("{:?}", buffer);
         match rx.recv() {
             Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(GpuError::Readback { buffer: name, reason: e.to_string() }),
-            Err(e) => return Err(GpuError::Readback { buffer: name, reason: e.to_string() }),
+            Ok(Err(e)) => {
+                return Err(GpuError::Readback {
+                    buffer: name,
+                    reason: e.to_string(),
+                });
+            }
+            Err(e) => {
+                return Err(GpuError::Readback {
+                    buffer: name,
+                    reason: e.to_string(),
+                });
+            }
         }
         let out = {
             let view = staging
                 .get_mapped_range(..)
-                .map_err(|e| GpuError::Readback { buffer: name, reason: e.to_string() })?;
+                .map_err(|e| GpuError::Readback {
+                    buffer: name,
+                    reason: e.to_string(),
+                })?;
             bytemuck::pod_collect_to_vec::<u8, T>(&view[..bytes as usize])
         };
         staging.unmap();

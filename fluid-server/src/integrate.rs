@@ -4,9 +4,9 @@
 //! `r^{n+1} = rⁿ + Δt u^{n+1}`. Fluid only: walls never move, markers are placed by
 //! [`crate::marker_update`]. WGSL: `shaders/integrate.wgsl` (`predict`, `correct`).
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
-use crate::sph_kernel::{library, particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, library, particle_binding as pb};
 use crate::tait_eos::TAIT_EOS_WGSL;
 
 pub const INTEGRATE_WGSL: &str = include_str!("../shaders/integrate.wgsl");
@@ -38,7 +38,12 @@ fn build(gpu: &Gpu, c: &SphConstants, label: &'static str, entry: &str) -> SphKe
     SphKernel::new(
         gpu,
         label,
-        &[&consts, STEP_PARAMS_WGSL, library(TAIT_EOS_WGSL), INTEGRATE_WGSL],
+        &[
+            &consts,
+            STEP_PARAMS_WGSL,
+            library(TAIT_EOS_WGSL),
+            INTEGRATE_WGSL,
+        ],
         entry,
         &[(PARTICLES, BINDINGS), (PARAMS, &[(0, Access::Uniform)])],
         None,
@@ -69,5 +74,9 @@ pub fn predictor_corrector_cpu(
     let (drho_s, dvel_s) = rates(&star);
     let rho = 0.5 * (star.rho + s.rho + dt * drho_s);
     let vel: [f64; 3] = std::array::from_fn(|k| 0.5 * (star.vel[k] + s.vel[k] + dt * dvel_s[k]));
-    FluidState { pos: std::array::from_fn(|k| s.pos[k] + dt * vel[k]), vel, rho }
+    FluidState {
+        pos: std::array::from_fn(|k| s.pos[k] + dt * vel[k]),
+        vel,
+        rho,
+    }
 }

@@ -12,13 +12,16 @@
 //! then reduces each body's contiguous range.
 //! WGSL: `shaders/joubert2020_body_loads.wgsl`.
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::kernel::kernel_library;
 use crate::marker_update::MARKER_UPDATE_WGSL;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
-use crate::particles::{dot, sub, Kind, ParticleSet};
-use crate::sph_kernel::{body_binding as bb, library, particle_binding as pb, Access, SphKernel, BODIES, PARAMS, PARTICLES};
+use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::sph_kernel::{
+    Access, BODIES, PARAMS, PARTICLES, SphKernel, body_binding as bb, library,
+    particle_binding as pb,
+};
 
 pub const BODY_LOADS_WGSL: &str = include_str!("../shaders/joubert2020_body_loads.wgsl");
 
@@ -27,7 +30,14 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     SphKernel::new(
         gpu,
         "sph: joubert2020_marker_loads",
-        &[&consts, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), library(MARKER_UPDATE_WGSL), BODY_LOADS_WGSL],
+        &[
+            &consts,
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            kernel_library(),
+            library(MARKER_UPDATE_WGSL),
+            BODY_LOADS_WGSL,
+        ],
         "marker_loads",
         &[
             (
@@ -66,7 +76,12 @@ pub struct MarkerGeometry {
 }
 
 /// CPU twin: (traction t_i, moment M_i) of the marker at entry `i`.
-pub fn marker_load_cpu(c: &SphConstants, set: &ParticleSet, i: usize, m: &MarkerGeometry) -> ([f64; 3], [f64; 3]) {
+pub fn marker_load_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    i: usize,
+    m: &MarkerGeometry,
+) -> ([f64; 3], [f64; 3]) {
     let n = m.normal;
     let mut t = n.map(|x| -set.press[i] * x);
     if c.nu > 0.0 {
@@ -93,7 +108,11 @@ pub fn marker_load_cpu(c: &SphConstants, set: &ParticleSet, i: usize, m: &Marker
     }
     let t = t.map(|x| x * m.area);
     let arm = sub(set.pos[i], m.cg);
-    let moment = [arm[1] * t[2] - arm[2] * t[1], arm[2] * t[0] - arm[0] * t[2], arm[0] * t[1] - arm[1] * t[0]];
+    let moment = [
+        arm[1] * t[2] - arm[2] * t[1],
+        arm[2] * t[0] - arm[0] * t[2],
+        arm[0] * t[1] - arm[1] * t[0],
+    ];
     let _ = dot;
     (t, moment)
 }

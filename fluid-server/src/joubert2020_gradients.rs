@@ -19,12 +19,14 @@
 //!
 //! WGSL: `shaders/joubert2020_gradients.wgsl`.
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::kernel::kernel_library;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
-use crate::particles::{dot, sub, Kind, ParticleSet};
-use crate::sph_kernel::{param_binding as qb, particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::sph_kernel::{
+    Access, PARAMS, PARTICLES, SphKernel, param_binding as qb, particle_binding as pb,
+};
 
 pub const GRADIENTS_WGSL: &str = include_str!("../shaders/joubert2020_gradients.wgsl");
 
@@ -42,7 +44,14 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     SphKernel::new(
         gpu,
         "sph: joubert2020_gradients",
-        &[&consts, &guard, STEP_PARAMS_WGSL, GRID_COMMON_WGSL, kernel_library(), GRADIENTS_WGSL],
+        &[
+            &consts,
+            &guard,
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            kernel_library(),
+            GRADIENTS_WGSL,
+        ],
         "gradients",
         &[
             (
@@ -57,7 +66,10 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
                     (pb::GRADS, Access::ReadWrite),
                 ],
             ),
-            (PARAMS, &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::ReadWrite)]),
+            (
+                PARAMS,
+                &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::ReadWrite)],
+            ),
         ],
         Some(grid_layout),
     )
@@ -88,14 +100,16 @@ pub fn mat_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
 }
 
 pub fn determinant(m: &Mat3) -> f64 {
-    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }
 
 /// `m⁻¹` by the adjugate (`det` must be non-zero).
 pub fn inverse(m: &Mat3) -> Mat3 {
     let d = determinant(m);
-    let c = |r0: usize, c0: usize, r1: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
+    let c =
+        |r0: usize, c0: usize, r1: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
     [
         [c(1, 1, 2, 2) / d, -c(0, 1, 2, 2) / d, c(0, 1, 1, 2) / d],
         [-c(1, 0, 2, 2) / d, c(0, 0, 2, 2) / d, -c(0, 0, 1, 2) / d],
@@ -138,7 +152,13 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
                 let r2 = dot(r_ij, r_ij);
                 let g = c.kernel.grad(r_ij);
                 let v = c.mass / set.rho[j];
-                let df = [set.vel[j][0] - set.vel[i][0], set.vel[j][1] - set.vel[i][1], set.vel[j][2] - set.vel[i][2], set.press[j] - set.press[i], set.rho[j] - set.rho[i]];
+                let df = [
+                    set.vel[j][0] - set.vel[i][0],
+                    set.vel[j][1] - set.vel[i][1],
+                    set.vel[j][2] - set.vel[i][2],
+                    set.press[j] - set.press[i],
+                    set.rho[j] - set.rho[i],
+                ];
                 for (f, acc) in raw.iter_mut().enumerate() {
                     for k in 0..3 {
                         acc[k] += v * df[f] * g[k];
@@ -155,7 +175,11 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
             Some(Gradients {
                 b,
                 singular,
-                grad_u: [mat_vec(&b, raw[0]), mat_vec(&b, raw[1]), mat_vec(&b, raw[2])],
+                grad_u: [
+                    mat_vec(&b, raw[0]),
+                    mat_vec(&b, raw[1]),
+                    mat_vec(&b, raw[2]),
+                ],
                 grad_p: mat_vec(&b, raw[3]),
                 shift: s.map(|x| r_mean * r_mean * x),
                 grad_rho: mat_vec(&b, raw[4]),

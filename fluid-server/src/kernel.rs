@@ -42,7 +42,11 @@ impl SmoothingKernel {
             KernelKind::WendlandC2 => WENDLAND_C2_SIGMA_H3,
             KernelKind::Quintic => QUINTIC_SIGMA_H3,
         };
-        Self { kind, h, sigma: sigma_h3 / (h * h * h) }
+        Self {
+            kind,
+            h,
+            sigma: sigma_h3 / (h * h * h),
+        }
     }
 
     /// Support radius, m: 2h (Wendland C2) or 3h (quintic).
@@ -129,8 +133,11 @@ pub fn kernel_library() -> &'static str {
 
 /// Compiles `kernel_eval` (W and F for a list of distances; the kernel's twin test).
 /// Group 0: binding 0 = distances (`f32`), binding 1 = output (`vec2<f32>`: W, F).
-pub fn eval_kernel(gpu: &crate::gpu::Gpu, c: &crate::constants::SphConstants) -> crate::sph_kernel::SphKernel {
-    use crate::sph_kernel::{Access, SphKernel, PARTICLES};
+pub fn eval_kernel(
+    gpu: &crate::gpu::Gpu,
+    c: &crate::constants::SphConstants,
+) -> crate::sph_kernel::SphKernel {
+    use crate::sph_kernel::{Access, PARTICLES, SphKernel};
     let consts = c.wgsl();
     SphKernel::new(
         gpu,

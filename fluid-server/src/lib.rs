@@ -5,8 +5,8 @@ pub use constants::{SphConstants, StepParams};
 pub use error::FluidError;
 pub use kernel::SmoothingKernel;
 pub use limits::FluidLimits;
-pub use particles::{initial_particles, Kind, ParticleKinds, ParticleSet};
-pub use plan::{stages, Stage};
+pub use particles::{Kind, ParticleKinds, ParticleSet, initial_particles};
+pub use plan::{Stage, stages};
 pub use solver::{FluidSolver, GradientReadback, Op, ParticleCounts};
 
 pub mod gpu;

@@ -45,6 +45,10 @@ impl FluidLimits {
         } else {
             f64::INFINITY
         };
-        Ok(Self { dt_acoustic, dt_viscous, dt: dt_acoustic.min(dt_viscous) })
+        Ok(Self {
+            dt_acoustic,
+            dt_viscous,
+            dt: dt_acoustic.min(dt_viscous),
+        })
     }
 }

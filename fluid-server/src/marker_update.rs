@@ -8,9 +8,11 @@
 //! inside a window is neglected (an error of order ω Δt_w in the marker velocity
 //! direction). WGSL: `shaders/marker_update.wgsl` (`marker_update`, `advance_clock`).
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
-use crate::sph_kernel::{body_binding as bb, particle_binding as pb, Access, SphKernel, BODIES, PARAMS, PARTICLES};
+use crate::sph_kernel::{
+    Access, BODIES, PARAMS, PARTICLES, SphKernel, body_binding as bb, particle_binding as pb,
+};
 use couplet_protocol::CouplingPoint;
 
 pub const MARKER_UPDATE_WGSL: &str = include_str!("../shaders/marker_update.wgsl");
@@ -60,7 +62,12 @@ impl GpuMarker {
         let rel = |k: usize| (f64::from(p.position[k]) - origin[k]) as f32;
         GpuMarker {
             pos_area: [rel(0), rel(1), rel(2), p.measure],
-            vel_body: [p.velocity[0], p.velocity[1], p.velocity[2], f32::from_bits(p.body)],
+            vel_body: [
+                p.velocity[0],
+                p.velocity[1],
+                p.velocity[2],
+                f32::from_bits(p.body),
+            ],
             normal: [p.normal[0], p.normal[1], p.normal[2], 0.0],
         }
     }
@@ -74,8 +81,21 @@ pub fn marker_update_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
         &[&consts, STEP_PARAMS_WGSL, MARKER_UPDATE_WGSL],
         "marker_update",
         &[
-            (PARTICLES, &[(pb::POS, Access::ReadWrite), (pb::VEL, Access::ReadWrite), (pb::ID, Access::Read)]),
-            (BODIES, &[(bb::MARKERS_IN, Access::Read), (bb::CLOCK, Access::ReadWrite)]),
+            (
+                PARTICLES,
+                &[
+                    (pb::POS, Access::ReadWrite),
+                    (pb::VEL, Access::ReadWrite),
+                    (pb::ID, Access::Read),
+                ],
+            ),
+            (
+                BODIES,
+                &[
+                    (bb::MARKERS_IN, Access::Read),
+                    (bb::CLOCK, Access::ReadWrite),
+                ],
+            ),
             (PARAMS, &[(0, Access::Uniform)]),
         ],
         None,
@@ -89,7 +109,10 @@ pub fn advance_clock_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
         "sph: advance_clock",
         &[&consts, STEP_PARAMS_WGSL, MARKER_UPDATE_WGSL],
         "advance_clock",
-        &[(BODIES, &[(bb::CLOCK, Access::ReadWrite)]), (PARAMS, &[(0, Access::Uniform)])],
+        &[
+            (BODIES, &[(bb::CLOCK, Access::ReadWrite)]),
+            (PARAMS, &[(0, Access::Uniform)]),
+        ],
         None,
     )
 }
@@ -97,5 +120,8 @@ pub fn advance_clock_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
 /// CPU twin: position and velocity of marker `k` at time τ into the window.
 pub fn marker_at(p: &CouplingPoint, tau: f64) -> ([f64; 3], [f64; 3]) {
     let v = p.velocity.map(f64::from);
-    (std::array::from_fn(|k| f64::from(p.position[k]) + tau * v[k]), v)
+    (
+        std::array::from_fn(|k| f64::from(p.position[k]) + tau * v[k]),
+        v,
+    )
 }

@@ -14,7 +14,7 @@
 
 use crate::constants::SphConstants;
 use crate::joubert2020_gradients::{b_matrix_cpu, mat_vec};
-use crate::particles::{dot, sub, Kind, ParticleSet};
+use crate::particles::{Kind, ParticleSet, dot, sub};
 
 pub const MOMENTUM_WGSL: &str = include_str!("../shaders/momentum.wgsl");
 

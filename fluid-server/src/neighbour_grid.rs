@@ -94,9 +94,13 @@ const _: () = {
 /// Why a grid cannot be built, a buffer registered, or a sort is invalid.
 #[derive(Debug, thiserror::Error)]
 pub enum GridError {
-    #[error("grid box min {min:?} / max {max:?} is invalid: need finite values with min < max on every axis")]
+    #[error(
+        "grid box min {min:?} / max {max:?} is invalid: need finite values with min < max on every axis"
+    )]
     InvalidBox { min: [f64; 3], max: [f64; 3] },
-    #[error("grid support radius {support_radius} is invalid: need a finite value > 0 (the kernel support radius)")]
+    #[error(
+        "grid support radius {support_radius} is invalid: need a finite value > 0 (the kernel support radius)"
+    )]
     InvalidSupport { support_radius: f64 },
     #[error("a neighbour grid needs at least one particle (n = 0)")]
     NoParticles,
@@ -104,7 +108,11 @@ pub enum GridError {
         "grid of {dims:?} cells ({n_cells} in all) is too large: the adapter binds at most \
          {max} cells (max storage buffer binding size); use a larger cell size or a smaller box"
     )]
-    TooManyCells { dims: [u64; 3], n_cells: u64, max: u64 },
+    TooManyCells {
+        dims: [u64; 3],
+        n_cells: u64,
+        max: u64,
+    },
     #[error(
         "{n} particles need {bytes} bytes of scratch, more than the adapter's max storage \
          buffer binding size of {max} bytes"
@@ -205,7 +213,10 @@ fn bind(
 ) -> wgpu::BindGroup {
     let entries: Vec<wgpu::BindGroupEntry> = entries
         .iter()
-        .map(|(binding, resource)| wgpu::BindGroupEntry { binding: *binding, resource: resource.clone() })
+        .map(|(binding, resource)| wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: resource.clone(),
+        })
         .collect();
     gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
@@ -241,28 +252,45 @@ impl NeighbourGrid {
         let dims64: [u64; 3] =
             std::array::from_fn(|a| ((max[a] - min[a] + 2.0 * pad) / cell_size).floor() as u64 + 1);
         let n_cells64 = dims64.iter().product::<u64>();
-        let max_cells = (max_binding / 4).saturating_sub(1).min(u64::from(u32::MAX) - 1);
+        let max_cells = (max_binding / 4)
+            .saturating_sub(1)
+            .min(u64::from(u32::MAX) - 1);
         if n_cells64 > max_cells {
-            return Err(GridError::TooManyCells { dims: dims64, n_cells: n_cells64, max: max_cells });
+            return Err(GridError::TooManyCells {
+                dims: dims64,
+                n_cells: n_cells64,
+                max: max_cells,
+            });
         }
         let scratch_bytes = u64::from(n) * 16;
         if scratch_bytes > max_binding {
-            return Err(GridError::TooManyParticles { n, bytes: scratch_bytes, max: max_binding });
+            return Err(GridError::TooManyParticles {
+                n,
+                bytes: scratch_bytes,
+                max: max_binding,
+            });
         }
         let n_cells = n_cells64 as u32;
         let params = GridParams {
-            origin: [(min[0] - pad) as f32, (min[1] - pad) as f32, (min[2] - pad) as f32, 0.0],
+            origin: [
+                (min[0] - pad) as f32,
+                (min[1] - pad) as f32,
+                (min[2] - pad) as f32,
+                0.0,
+            ],
             cell_size: cell_size as f32,
             inv_cell_size: (1.0 / cell_size) as f32,
             n_particles: n,
             n_cells,
             dims: [dims64[0] as u32, dims64[1] as u32, dims64[2] as u32, 0],
         };
-        let params_buffer = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("grid: params"),
-            contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
+        let params_buffer = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("grid: params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            });
         let cell_start = storage_buffer(gpu, "grid: cell_start", (u64::from(n_cells) + 1) * 4);
         let error_flag = storage_buffer(gpu, "grid: error record", 32);
         let cell_of = storage_buffer(gpu, "grid: cell of particle", u64::from(n) * 4);
@@ -273,19 +301,30 @@ impl NeighbourGrid {
         let prefix_sum = PrefixSum::new(gpu, &cell_start, n_cells + 1)?;
 
         let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
-            gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some(label),
-                entries,
-            })
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries,
+                })
         };
         use shaders::{storage_entry as st, uniform_entry as un};
         let grid_layout = layout("grid (group 1)", &[un(0), st(1, true)]);
         let params_layout = layout("grid params (group 1)", &[un(0)]);
         let count_layout = layout(
             "grid: count",
-            &[st(0, true), st(1, false), st(2, false), st(3, false), st(4, false), st(5, true)],
+            &[
+                st(0, true),
+                st(1, false),
+                st(2, false),
+                st(3, false),
+                st(4, false),
+                st(5, true),
+            ],
         );
-        let scatter_layout = layout("grid: scatter", &[st(10, true), st(11, true), st(12, false)]);
+        let scatter_layout = layout(
+            "grid: scatter",
+            &[st(10, true), st(11, true), st(12, false)],
+        );
         let reorder_layout = layout("grid: reorder", &[st(0, true), st(1, true), st(2, false)]);
 
         let cells_bytes = (u64::from(n_cells) + 1) * 4;
@@ -293,10 +332,17 @@ impl NeighbourGrid {
             gpu,
             "grid (group 1)",
             &grid_layout,
-            &[(0, params_buffer.as_entire_binding()), (1, sized(&cell_start, cells_bytes))],
+            &[
+                (0, params_buffer.as_entire_binding()),
+                (1, sized(&cell_start, cells_bytes)),
+            ],
         );
-        let params_bind_group =
-            bind(gpu, "grid params (group 1)", &params_layout, &[(0, params_buffer.as_entire_binding())]);
+        let params_bind_group = bind(
+            gpu,
+            "grid params (group 1)",
+            &params_layout,
+            &[(0, params_buffer.as_entire_binding())],
+        );
         let n_bytes = u64::from(n) * 4;
         let scatter_bind_group = bind(
             gpu,
@@ -327,8 +373,11 @@ impl NeighbourGrid {
         );
         let gather_pipeline = |elem: &str| {
             let alias = format!("alias Elem = {elem};\n");
-            let module =
-                shaders::module(gpu, "grid: reorder", &[&alias, GRID_COMMON_WGSL, REORDER_WGSL]);
+            let module = shaders::module(
+                gpu,
+                "grid: reorder",
+                &[&alias, GRID_COMMON_WGSL, REORDER_WGSL],
+            );
             shaders::compute_pipeline_with_layouts(
                 gpu,
                 "grid: gather",
@@ -398,14 +447,27 @@ impl NeighbourGrid {
     /// bytes, `elem_bytes` 16 for vec4 or 4 for f32/u32) to be permuted by every sort.
     /// After `queue_sort` the caller's buffer holds the sorted data; all registered
     /// buffers share one scratch buffer. `pos` must be registered too.
-    pub fn register(&mut self, gpu: &Gpu, buffer: &wgpu::Buffer, elem_bytes: u32) -> Result<(), GridError> {
-        let bad = |reason: String| GridError::BadBuffer { buffer: format!("{buffer:?}"), reason };
+    pub fn register(
+        &mut self,
+        gpu: &Gpu,
+        buffer: &wgpu::Buffer,
+        elem_bytes: u32,
+    ) -> Result<(), GridError> {
+        let bad = |reason: String| GridError::BadBuffer {
+            buffer: format!("{buffer:?}"),
+            reason,
+        };
         if elem_bytes != 16 && elem_bytes != 4 {
-            return Err(bad(format!("element size {elem_bytes} bytes; valid: 16 (vec4) or 4 (f32/u32)")));
+            return Err(bad(format!(
+                "element size {elem_bytes} bytes; valid: 16 (vec4) or 4 (f32/u32)"
+            )));
         }
         let needs = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         if !buffer.usage().contains(needs) {
-            return Err(bad(format!("usage {:?} lacks STORAGE | COPY_DST", buffer.usage())));
+            return Err(bad(format!(
+                "usage {:?} lacks STORAGE | COPY_DST",
+                buffer.usage()
+            )));
         }
         let bytes = u64::from(self.params.n_particles) * u64::from(elem_bytes);
         if buffer.size() < bytes {
@@ -420,9 +482,18 @@ impl NeighbourGrid {
             gpu,
             "grid: gather",
             &self.reorder_layout,
-            &[(0, sized(&self.src_of, map_bytes)), (1, sized(buffer, bytes)), (2, sized(&self.scratch, bytes))],
+            &[
+                (0, sized(&self.src_of, map_bytes)),
+                (1, sized(buffer, bytes)),
+                (2, sized(&self.scratch, bytes)),
+            ],
         );
-        self.registered.push(Registered { buffer: buffer.clone(), bytes, gather, wide: elem_bytes == 16 });
+        self.registered.push(Registered {
+            buffer: buffer.clone(),
+            bytes,
+            gather,
+            wide: elem_bytes == 16,
+        });
         Ok(())
     }
 
@@ -489,7 +560,11 @@ impl NeighbourGrid {
                 {
                     let mut pass = timing::begin_pass(None, gpu, encoder, "grid: reorder");
                     pass.set_bind_group(1, &self.params_bind_group, &[]);
-                    pass.set_pipeline(if r.wide { &self.gather16 } else { &self.gather4 });
+                    pass.set_pipeline(if r.wide {
+                        &self.gather16
+                    } else {
+                        &self.gather4
+                    });
                     pass.set_bind_group(0, &r.gather, &[]);
                     shaders::dispatch_linear(&mut pass, n);
                 }
@@ -505,7 +580,9 @@ impl NeighbourGrid {
     /// the nearest cell only to keep the permutation whole.
     pub fn check(&self, gpu: &Gpu) -> Result<(), GridError> {
         let rec: Vec<GridErrorRecord> = gpu.read_buffer(&self.error_flag, 0, 1)?;
-        let Some(rec) = rec.first() else { return Ok(()) };
+        let Some(rec) = rec.first() else {
+            return Ok(());
+        };
         if rec.outside_count == 0 {
             return Ok(());
         }
@@ -522,7 +599,11 @@ impl NeighbourGrid {
 
     /// Clears the error record (after reporting it, or before a fresh start).
     pub fn reset_error(&self, gpu: &Gpu) {
-        gpu.queue.write_buffer(&self.error_flag, 0, bytemuck::bytes_of(&GridErrorRecord::default()));
+        gpu.queue.write_buffer(
+            &self.error_flag,
+            0,
+            bytemuck::bytes_of(&GridErrorRecord::default()),
+        );
     }
 
     /// The gather map of the last sort (sorted slot → slot before the sort), for tests.

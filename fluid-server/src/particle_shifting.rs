@@ -11,11 +11,13 @@
 //! moved in the step. Only with `effects.particle_shifting` = β > 0.
 //! WGSL: `shaders/particle_shifting.wgsl`.
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::joubert2020_gradients::Gradients;
 use crate::particles::dot;
-use crate::sph_kernel::{library, param_binding as qb, particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+use crate::sph_kernel::{
+    Access, PARAMS, PARTICLES, SphKernel, library, param_binding as qb, particle_binding as pb,
+};
 use crate::tait_eos::TAIT_EOS_WGSL;
 
 pub const PARTICLE_SHIFTING_WGSL: &str = include_str!("../shaders/particle_shifting.wgsl");
@@ -25,7 +27,12 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
     SphKernel::new(
         gpu,
         "sph: particle_shifting",
-        &[&consts, STEP_PARAMS_WGSL, library(TAIT_EOS_WGSL), PARTICLE_SHIFTING_WGSL],
+        &[
+            &consts,
+            STEP_PARAMS_WGSL,
+            library(TAIT_EOS_WGSL),
+            PARTICLE_SHIFTING_WGSL,
+        ],
         "shift",
         &[
             (
@@ -39,7 +46,10 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
                     (pb::GRADS, Access::Read),
                 ],
             ),
-            (PARAMS, &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::Read)]),
+            (
+                PARAMS,
+                &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::Read)],
+            ),
         ],
         None,
     )

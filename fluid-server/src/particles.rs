@@ -101,7 +101,10 @@ pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// a small closed box). A particle pressed closer than δ/2 to the wall sees at most the
 /// kernel's near-zero tail truncated.
 pub fn wall_layers(scene: &Scene) -> usize {
-    scene.fluid.as_ref().map_or(0, |f| (f.support - 0.5).ceil().max(1.0) as usize)
+    scene
+        .fluid
+        .as_ref()
+        .map_or(0, |f| (f.support - 0.5).ceil().max(1.0) as usize)
 }
 
 /// Lattice coordinates along one axis of `[min, max]`, cell-centred: min + δ/2 + iδ.
@@ -136,7 +139,11 @@ struct Obstacle {
 impl Obstacle {
     /// Depth of `p` inside the box (distance to the nearest face; negative outside).
     fn depth(&self, p: [f64; 3]) -> f64 {
-        let d = [p[0] - self.centre[0], p[1] - self.centre[1], p[2] - self.centre[2]];
+        let d = [
+            p[0] - self.centre[0],
+            p[1] - self.centre[1],
+            p[2] - self.centre[2],
+        ];
         let mut depth = f64::INFINITY;
         for k in 0..3 {
             // Body coordinate k = (Rᵀ d)_k.
@@ -179,16 +186,22 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
         .iter()
         .filter(|b| scene.is_fluid_obstacle(b))
         .filter_map(|b| match &b.shape {
-            Shape::Box { half_extents } => {
-                Some(Obstacle { centre: b.position, rot: rotation(b.rotation), half: *half_extents })
-            }
+            Shape::Box { half_extents } => Some(Obstacle {
+                centre: b.position,
+                rot: rotation(b.rotation),
+                half: *half_extents,
+            }),
             _ => None,
         })
         .collect();
 
     let mut pos = Vec::new();
     for b in &f.blocks {
-        let (xs, ys, zs) = (lattice(b.min[0], b.max[0], delta), lattice(b.min[1], b.max[1], delta), lattice(b.min[2], b.max[2], delta));
+        let (xs, ys, zs) = (
+            lattice(b.min[0], b.max[0], delta),
+            lattice(b.min[1], b.max[1], delta),
+            lattice(b.min[2], b.max[2], delta),
+        );
         for &x in &xs {
             for &y in &ys {
                 for &z in &zs {
@@ -208,7 +221,10 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
     let layers = wall_layers(scene);
     // Per axis: outer layers below, the interior lattice, outer layers above.
     let axis = |k: usize, upper: bool| -> (Vec<f64>, usize) {
-        let mut v: Vec<f64> = (0..layers).rev().map(|l| dom.min[k] - (l as f64 + 0.5) * delta).collect();
+        let mut v: Vec<f64> = (0..layers)
+            .rev()
+            .map(|l| dom.min[k] - (l as f64 + 0.5) * delta)
+            .collect();
         let n_below = v.len();
         v.extend(lattice(dom.min[k], dom.max[k], delta));
         if upper {
@@ -257,7 +273,11 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
     }
     let n_wall = pos.len() - n_fluid;
 
-    let g_y = if scene.gravity.on_fluid { scene.gravity.vector[1] } else { 0.0 };
+    let g_y = if scene.gravity.on_fluid {
+        scene.gravity.vector[1]
+    } else {
+        0.0
+    };
     let mut rho = vec![c.rho0; pos.len()];
     if g_y < 0.0 {
         let g = -g_y;
@@ -265,11 +285,13 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
         let k = c.rho0 * g / c.tait_b();
         let inv_gamma = 1.0 / c.gamma;
         for (p, r) in pos.iter_mut().zip(rho.iter_mut()).take(n_fluid) {
-            let column = f
-                .blocks
-                .iter()
-                .filter(|b| (b.min[0]..=b.max[0]).contains(&p[0]) && (b.min[2]..=b.max[2]).contains(&p[2]));
-            let surface = column.clone().map(|b| b.max[1]).fold(f64::NEG_INFINITY, f64::max);
+            let column = f.blocks.iter().filter(|b| {
+                (b.min[0]..=b.max[0]).contains(&p[0]) && (b.min[2]..=b.max[2]).contains(&p[2])
+            });
+            let surface = column
+                .clone()
+                .map(|b| b.max[1])
+                .fold(f64::NEG_INFINITY, f64::max);
             let bottom = column.map(|b| b.min[1]).fold(f64::INFINITY, f64::min);
             // Mass depth: the lattice holds ρ0 per unit volume, so the weight above the
             // particle is exactly ρ0 g s.
@@ -278,19 +300,29 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
             *r = c.density(p_h);
             // Compress the column towards its bottom so that each particle's volume m/ρ
             // matches its density: compressed depth d(s) = ∫₀ˢ ρ0/ρ ds'.
-            let depth = |s: f64| ((1.0 + k * s).powf(1.0 - inv_gamma) - 1.0) / (k * (1.0 - inv_gamma));
+            let depth =
+                |s: f64| ((1.0 + k * s).powf(1.0 - inv_gamma) - 1.0) / (k * (1.0 - inv_gamma));
             let height = surface - bottom;
             p[1] = bottom + depth(height) - depth(s);
         }
     }
     let n = pos.len();
-    let press = rho.iter().take(n_fluid).map(|r| c.pressure(*r)).chain(std::iter::repeat_n(0.0, n_wall)).collect();
+    let press = rho
+        .iter()
+        .take(n_fluid)
+        .map(|r| c.pressure(*r))
+        .chain(std::iter::repeat_n(0.0, n_wall))
+        .collect();
     Ok(ParticleSet {
         vel: vec![[0.0; 3]; n],
         id: (0..n as u32).collect(),
         pos,
         rho,
         press,
-        kinds: ParticleKinds { n_fluid, n_wall, n_markers: 0 },
+        kinds: ParticleKinds {
+            n_fluid,
+            n_wall,
+            n_markers: 0,
+        },
     })
 }

@@ -59,7 +59,10 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         .collect();
         push(
             GRADIENTS,
-            format!("{}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p, ∇ρ once per step after the sort", users.join(", ")),
+            format!(
+                "{}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p, ∇ρ once per step after the sort",
+                users.join(", ")
+            ),
         );
     }
     let resolved = scene.has_resolved_bodies();
@@ -70,44 +73,96 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         WallKind::NoSlip => "no-slip",
         WallKind::FreeSlip => "free-slip",
     };
-    let obstacles = scene.bodies.iter().filter(|b| scene.is_fluid_obstacle(b)).count();
+    let obstacles = scene
+        .bodies
+        .iter()
+        .filter(|b| scene.is_fluid_obstacle(b))
+        .count();
     push(
         BOUNDARY_PRESSURE,
         format!(
             "{walls} domain walls{}{}: wall pressure extrapolated from the fluid (Adami, Hu & Adams 2012), twice per step",
-            if obstacles > 0 { format!(", {obstacles} fixed box obstacle(s)") } else { String::new() },
+            if obstacles > 0 {
+                format!(", {obstacles} fixed box obstacle(s)")
+            } else {
+                String::new()
+            },
             if resolved { ", body markers" } else { "" }
         ),
     );
     if correction {
-        push(CONTINUITY, "Joubert eq. (12): −ρ_i Σ V_j (u_j − u_i)·B_i∇W_ij".into());
-            push(MOMENTUM_PRESSURE, "Joubert eq. (13): −(1/ρ_i) Σ V_j (p_j − p_i) B_i∇W_ij".into());
+        push(
+            CONTINUITY,
+            "Joubert eq. (12): −ρ_i Σ V_j (u_j − u_i)·B_i∇W_ij".into(),
+        );
+        push(
+            MOMENTUM_PRESSURE,
+            "Joubert eq. (13): −(1/ρ_i) Σ V_j (p_j − p_i) B_i∇W_ij".into(),
+        );
     } else {
-        push(CONTINUITY, "weakly compressible density (standard form of Joubert eq. 12, no gradient correction)".into());
-        push(MOMENTUM_PRESSURE, "symmetric pressure gradient −Σ m (p_i/ρ_i² + p_j/ρ_j²) ∇W".into());
+        push(
+            CONTINUITY,
+            "weakly compressible density (standard form of Joubert eq. 12, no gradient correction)"
+                .into(),
+        );
+        push(
+            MOMENTUM_PRESSURE,
+            "symmetric pressure gradient −Σ m (p_i/ρ_i² + p_j/ρ_j²) ∇W".into(),
+        );
     }
     if delta > 0.0 {
-        push(DENSITY_DIFFUSION, format!("effects.density_diffusion δ = {delta}: δ-SPH (Antuono et al. 2010) in the continuity pair loop"));
+        push(
+            DENSITY_DIFFUSION,
+            format!(
+                "effects.density_diffusion δ = {delta}: δ-SPH (Antuono et al. 2010) in the continuity pair loop"
+            ),
+        );
     }
     if scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0 {
-        push(MORRIS1997_VISCOSITY, format!("effects.viscosity = laminar, ν = {:e} m²/s", f.kinematic_viscosity));
+        push(
+            MORRIS1997_VISCOSITY,
+            format!(
+                "effects.viscosity = laminar, ν = {:e} m²/s",
+                f.kinematic_viscosity
+            ),
+        );
     }
     if scene.effects.artificial_viscosity > 0.0 {
         push(
             MONAGHAN1992_ARTIFICIAL_VISCOSITY,
-            format!("effects.artificial_viscosity α = {}", scene.effects.artificial_viscosity),
+            format!(
+                "effects.artificial_viscosity α = {}",
+                scene.effects.artificial_viscosity
+            ),
         );
     }
     if scene.gravity.on_fluid && scene.gravity.vector.iter().any(|g| *g != 0.0) {
-        push(GRAVITY, format!("gravity.on_fluid = true, g = {:?} m/s²", scene.gravity.vector));
+        push(
+            GRAVITY,
+            format!(
+                "gravity.on_fluid = true, g = {:?} m/s²",
+                scene.gravity.vector
+            ),
+        );
     }
-    push(INTEGRATE, "Joubert eqs. (20)–(23): predictor, corrector, average; positions once per step".into());
+    push(
+        INTEGRATE,
+        "Joubert eqs. (20)–(23): predictor, corrector, average; positions once per step".into(),
+    );
     if beta > 0.0 {
-        push(PARTICLE_SHIFTING, format!("effects.particle_shifting β = {beta}: Joubert eqs. (17)–(19) after the corrector"));
+        push(
+            PARTICLE_SHIFTING,
+            format!(
+                "effects.particle_shifting β = {beta}: Joubert eqs. (17)–(19) after the corrector"
+            ),
+        );
     }
     if resolved {
         push(BODY_LOADS, "resolved bodies: Joubert eqs. (31)–(32) over the markers, averaged over the window, tree-reduced per body".into());
     }
-    push(BLOWUP_CHECK, "once per window: non-finite or runaway density/velocity, grid overflow".into());
+    push(
+        BLOWUP_CHECK,
+        "once per window: non-finite or runaway density/velocity, grid overflow".into(),
+    );
     out
 }

@@ -23,9 +23,17 @@ const PREFIX_SUM_WGSL: &str = include_str!("../shaders/prefix_sum.wgsl");
 #[derive(Debug, thiserror::Error)]
 pub enum PrefixSumError {
     #[error("prefix sum over {n} u32 needs a buffer of {needed} bytes, `{label}` has {size}")]
-    BufferTooSmall { label: String, n: u32, needed: u64, size: u64 },
+    BufferTooSmall {
+        label: String,
+        n: u32,
+        needed: u64,
+        size: u64,
+    },
     #[error("prefix sum buffer `{label}` lacks STORAGE usage (has {usage:?})")]
-    MissingUsage { label: String, usage: wgpu::BufferUsages },
+    MissingUsage {
+        label: String,
+        usage: wgpu::BufferUsages,
+    },
     #[error(
         "prefix sum over {n} u32 ({bytes} bytes) exceeds the adapter's max storage buffer \
          binding size of {max} bytes"
@@ -63,25 +71,39 @@ impl PrefixSum {
     pub fn new(gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> Result<PrefixSum, PrefixSumError> {
         let label = format!("{data:?}");
         if !data.usage().contains(wgpu::BufferUsages::STORAGE) {
-            return Err(PrefixSumError::MissingUsage { label, usage: data.usage() });
+            return Err(PrefixSumError::MissingUsage {
+                label,
+                usage: data.usage(),
+            });
         }
         let needed = u64::from(n) * 4;
         if data.size() < needed {
-            return Err(PrefixSumError::BufferTooSmall { label, n, needed, size: data.size() });
+            return Err(PrefixSumError::BufferTooSmall {
+                label,
+                n,
+                needed,
+                size: data.size(),
+            });
         }
         let max = gpu.device.limits().max_storage_buffer_binding_size;
         if needed > max {
-            return Err(PrefixSumError::TooLarge { n, bytes: needed, max });
+            return Err(PrefixSumError::TooLarge {
+                n,
+                bytes: needed,
+                max,
+            });
         }
 
-        let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("prefix sum"),
-            entries: &[
-                shaders::uniform_entry(0),
-                shaders::storage_entry(1, false),
-                shaders::storage_entry(2, false),
-            ],
-        });
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("prefix sum"),
+                entries: &[
+                    shaders::uniform_entry(0),
+                    shaders::storage_entry(1, false),
+                    shaders::storage_entry(2, false),
+                ],
+            });
         let consts = format!("const SCAN_ITEMS_PER_THREAD: u32 = {SCAN_ITEMS_PER_THREAD}u;\n");
         let module = shaders::module(gpu, "prefix sum", &[&consts, PREFIX_SUM_WGSL]);
         let scan_blocks = shaders::compute_pipeline_with_layouts(
@@ -110,22 +132,41 @@ impl PrefixSum {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let params = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("prefix sum: level params"),
-                contents: bytemuck::bytes_of(&ScanParams { n: level_n, _pad: [0; 3] }),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
+            let params = gpu
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("prefix sum: level params"),
+                    contents: bytemuck::bytes_of(&ScanParams {
+                        n: level_n,
+                        _pad: [0; 3],
+                    }),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
             let level_data = block_sums.last().unwrap_or(data);
-            let bind_group =
-                shaders::bind_buffers(gpu, "prefix sum level", &layout, &[&params, level_data, &sums]);
-            levels.push(Level { n: level_n, bind_group, _params: params });
+            let bind_group = shaders::bind_buffers(
+                gpu,
+                "prefix sum level",
+                &layout,
+                &[&params, level_data, &sums],
+            );
+            levels.push(Level {
+                n: level_n,
+                bind_group,
+                _params: params,
+            });
             block_sums.push(sums);
             if n_blocks <= 1 {
                 break;
             }
             level_n = n_blocks;
         }
-        Ok(PrefixSum { scan_blocks, add_block_offsets, levels, _block_sums: block_sums, n })
+        Ok(PrefixSum {
+            scan_blocks,
+            add_block_offsets,
+            levels,
+            _block_sums: block_sums,
+            n,
+        })
     }
 
     /// Elements scanned.
@@ -162,7 +203,12 @@ impl PrefixSum {
     }
 
     /// Records the scan as its own compute pass labelled "prefix sum".
-    pub fn queue(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, timer: Option<&mut StageTimer>) {
+    pub fn queue(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&mut StageTimer>,
+    ) {
         let mut pass = timing::begin_pass(timer, gpu, encoder, "prefix sum");
         self.record(&mut pass);
     }

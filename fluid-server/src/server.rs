@@ -5,14 +5,13 @@
 //! limit needs, publish the per-body loads (reduced on the GPU), and at output times a
 //! particle snapshot for the recording.
 
-use crate::gpu::{Gpu, GpuError};
 use crate::error::FluidError;
+use crate::gpu::{Gpu, GpuError};
 use crate::solver::FluidSolver;
-use couplet_protocol::transport::{parent_alive, Control, Endpoint, TransportError};
+use couplet_protocol::transport::{Control, Endpoint, TransportError, parent_alive};
 use couplet_protocol::{
-    monotonic_ns, validate_points, validate_states, BodyLoad, BodyState, CommandKind,
-    CouplingPoint, Hello, ParticleRecord, Role, Scene, ServiceLeaf, SideReport, WindowHeader,
-    PROTOCOL_VERSION,
+    BodyLoad, BodyState, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, ParticleRecord, Role,
+    Scene, ServiceLeaf, SideReport, WindowHeader, monotonic_ns, validate_points, validate_states,
 };
 use std::time::Instant;
 
@@ -26,7 +25,9 @@ pub enum ServerError {
     Transport(#[from] TransportError),
     #[error("the scene has no [fluid] section: there is nothing for a fluid server to do")]
     NoFluid,
-    #[error("command for window {step} speaks protocol {got}, this fluid-server speaks {PROTOCOL_VERSION}")]
+    #[error(
+        "command for window {step} speaks protocol {got}, this fluid-server speaks {PROTOCOL_VERSION}"
+    )]
     Version { step: u64, got: u32 },
     #[error("unknown command kind {0}")]
     UnknownCommand(u32),
@@ -51,7 +52,8 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     let points_rx = ep.slice_receiver::<CouplingPoint>(ServiceLeaf::Points)?;
     let bodies_rx = ep.slice_receiver::<BodyState>(ServiceLeaf::Bodies)?;
     let loads_tx = ep.slice_sender::<BodyLoad>(ServiceLeaf::Loads, n_bodies)?;
-    let particles_tx = ep.slice_sender::<ParticleRecord>(ServiceLeaf::Particles, counts.fluid as usize)?;
+    let particles_tx =
+        ep.slice_sender::<ParticleRecord>(ServiceLeaf::Particles, counts.fluid as usize)?;
     let wake = ep.wake_listener(ServiceLeaf::FluidWake)?;
     let wake_dem = ep.waker(ServiceLeaf::DemWake)?;
     let wake_orchestrator = ep.waker(ServiceLeaf::OrchestratorWake)?;
@@ -76,7 +78,10 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     loop {
         let cmd = wake.wait_for(|| commands.try_next(), alive)?;
         if cmd.protocol_version != PROTOCOL_VERSION {
-            return Err(ServerError::Version { step: cmd.step, got: cmd.protocol_version });
+            return Err(ServerError::Version {
+                step: cmd.step,
+                got: cmd.protocol_version,
+            });
         }
         match cmd.kind() {
             Some(CommandKind::Shutdown) => return Ok(()),
@@ -96,7 +101,10 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
                         if let Some(s) = points_rx.try_step(step)? {
                             exchange_us += hop_us(s.user_header(), wait_start_ns);
                             validate_points(s.payload(), n_bodies).map_err(|source| {
-                                TransportError::Invalid { service: points_rx.service.clone(), source }
+                                TransportError::Invalid {
+                                    service: points_rx.service.clone(),
+                                    source,
+                                }
                             })?;
                             points.clear();
                             points.extend_from_slice(s.payload());
@@ -107,7 +115,10 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
                         if let Some(s) = bodies_rx.try_step(step)? {
                             exchange_us += hop_us(s.user_header(), wait_start_ns);
                             validate_states(s.payload(), n_bodies).map_err(|source| {
-                                TransportError::Invalid { service: bodies_rx.service.clone(), source }
+                                TransportError::Invalid {
+                                    service: bodies_rx.service.clone(),
+                                    source,
+                                }
                             })?;
                             states.clear();
                             states.extend_from_slice(s.payload());
@@ -133,13 +144,19 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
             let loads = solver.loads(&gpu)?;
             compute_us += t.elapsed().as_secs_f64() * 1e6;
             let t = Instant::now();
-            loads_tx.send(WindowHeader::new(step, cmd.time, cmd.window, loads.len()), &loads)?;
+            loads_tx.send(
+                WindowHeader::new(step, cmd.time, cmd.window, loads.len()),
+                &loads,
+            )?;
             wake_dem.wake()?;
             exchange_us += t.elapsed().as_secs_f64() * 1e6;
         }
         if cmd.snapshot != 0 {
             let snapshot = solver.snapshot(&gpu)?;
-            particles_tx.send(WindowHeader::new(step, cmd.time + cmd.window, cmd.window, snapshot.len()), &snapshot)?;
+            particles_tx.send(
+                WindowHeader::new(step, cmd.time + cmd.window, cmd.window, snapshot.len()),
+                &snapshot,
+            )?;
         }
         report.send(SideReport {
             protocol_version: PROTOCOL_VERSION,

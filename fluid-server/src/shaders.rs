@@ -76,10 +76,11 @@ pub fn source(parts: &[&str]) -> String {
 /// Creates a shader module from the prelude and `parts`. An invalid shader is a
 /// programming error: wgpu reports it through the device's error handler.
 pub fn module(gpu: &Gpu, label: &str, parts: &[&str]) -> wgpu::ShaderModule {
-    gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(source(parts).into()),
-    })
+    gpu.device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source(parts).into()),
+        })
 }
 
 /// A compute pipeline with the layout derived from the shader (auto layout).
@@ -89,14 +90,15 @@ pub fn compute_pipeline(
     module: &wgpu::ShaderModule,
     entry: &str,
 ) -> wgpu::ComputePipeline {
-    gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: None,
-        module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    })
+    gpu.device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: None,
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
 }
 
 /// A compute pipeline with explicit bind group layouts: `layouts[g]` is group `g`,
@@ -108,19 +110,22 @@ pub fn compute_pipeline_with_layouts(
     entry: &str,
     layouts: &[Option<&wgpu::BindGroupLayout>],
 ) -> wgpu::ComputePipeline {
-    let layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(label),
-        bind_group_layouts: layouts,
-        immediate_size: 0,
-    });
-    gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: Some(&layout),
-        module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    })
+    let layout = gpu
+        .device
+        .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: layouts,
+            immediate_size: 0,
+        });
+    gpu.device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
 }
 
 /// Layout entry of a compute-visible storage buffer.
@@ -161,7 +166,10 @@ pub fn bind_buffers(
     let entries: Vec<wgpu::BindGroupEntry> = buffers
         .iter()
         .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
         .collect();
     gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
@@ -183,7 +191,11 @@ pub fn workgroups_for_groups(groups: u32) -> [u32; 3] {
     if groups <= MAX_WORKGROUPS_PER_DIMENSION {
         [groups, 1, 1]
     } else {
-        [MAX_WORKGROUPS_PER_DIMENSION, groups.div_ceil(MAX_WORKGROUPS_PER_DIMENSION), 1]
+        [
+            MAX_WORKGROUPS_PER_DIMENSION,
+            groups.div_ceil(MAX_WORKGROUPS_PER_DIMENSION),
+            1,
+        ]
     }
 }
 

@@ -27,13 +27,17 @@ use crate::gpu::Gpu;
 use crate::limits::FluidLimits;
 use crate::marker_update::{Clock, GpuBody, GpuMarker};
 use crate::neighbour_grid::NeighbourGrid;
-use crate::particles::{initial_particles, wall_layers, Kind, ParticleKinds, ParticleSet};
+use crate::particles::{Kind, ParticleKinds, ParticleSet, initial_particles, wall_layers};
 use crate::plan::Stage;
-use crate::sph_kernel::{body_binding as bb, param_binding as qb, particle_binding as pb, BoundKernel, SphKernel, BODIES, PARAMS, PARTICLES};
+use crate::sph_kernel::{
+    BODIES, BoundKernel, PARAMS, PARTICLES, SphKernel, body_binding as bb, param_binding as qb,
+    particle_binding as pb,
+};
 use crate::timing::{self, StageTimer};
 use crate::{
-    adami2012_boundary_pressure, blowup_check, body_load_reduce, fluid_rates, integrate, joubert2020_body_loads,
-    joubert2020_gradients, marker_update, neighbour_count, particle_shifting, plan, tait_eos,
+    adami2012_boundary_pressure, blowup_check, body_load_reduce, fluid_rates, integrate,
+    joubert2020_body_loads, joubert2020_gradients, marker_update, neighbour_count,
+    particle_shifting, plan, tait_eos,
 };
 use couplet_protocol::{BodyLoad, BodyState, CouplingPoint, ParticleRecord, Scene};
 use wgpu::util::DeviceExt;
@@ -96,7 +100,12 @@ pub struct SphPipelines {
 }
 
 impl SphPipelines {
-    fn new(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout, with_markers: bool) -> Self {
+    fn new(
+        gpu: &Gpu,
+        c: &SphConstants,
+        grid_layout: &wgpu::BindGroupLayout,
+        with_markers: bool,
+    ) -> Self {
         SphPipelines {
             tait_eos: tait_eos::kernel(gpu, c),
             boundary_pressure: adami2012_boundary_pressure::kernel(gpu, c, grid_layout),
@@ -106,7 +115,9 @@ impl SphPipelines {
             find_bad: blowup_check::find_kernel(gpu, c),
             capture_bad: blowup_check::capture_kernel(gpu, c),
             neighbour_count: neighbour_count::kernel(gpu, c, grid_layout),
-            gradients: c.gradient_pass().then(|| joubert2020_gradients::kernel(gpu, c, grid_layout)),
+            gradients: c
+                .gradient_pass()
+                .then(|| joubert2020_gradients::kernel(gpu, c, grid_layout)),
             shift: (c.shifting_beta > 0.0).then(|| particle_shifting::kernel(gpu, c)),
             markers: with_markers.then(|| MarkerPipelines::new(gpu, c, grid_layout)),
         }
@@ -207,15 +218,25 @@ fn storage_init(gpu: &Gpu, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     if contents.len() < 16 {
         contents.resize(16, 0);
     }
-    gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: &contents, usage: STORAGE })
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: &contents,
+            usage: STORAGE,
+        })
 }
 
 fn vec4s(v: &[[f64; 3]]) -> Vec<[f32; 4]> {
-    v.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, 0.0]).collect()
+    v.iter()
+        .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, 0.0])
+        .collect()
 }
 
 fn missing(what: &str) -> FluidError {
-    FluidError::Grid { step: 0, message: format!("internal: kernel binding for {what} is missing") }
+    FluidError::Grid {
+        step: 0,
+        message: format!("internal: kernel binding for {what} is missing"),
+    }
 }
 
 impl SphData {
@@ -231,18 +252,35 @@ impl SphData {
         body_capacity: usize,
     ) -> Result<SphData, FluidError> {
         let n = set.len();
-        for (what, got) in [("vel", set.vel.len()), ("rho", set.rho.len()), ("press", set.press.len()), ("id", set.id.len())] {
+        for (what, got) in [
+            ("vel", set.vel.len()),
+            ("rho", set.rho.len()),
+            ("press", set.press.len()),
+            ("id", set.id.len()),
+        ] {
             if got != n {
-                return Err(FluidError::BadParticleSet { what, got, expected: n });
+                return Err(FluidError::BadParticleSet {
+                    what,
+                    got,
+                    expected: n,
+                });
             }
         }
         if set.kinds.total() != n {
-            return Err(FluidError::BadParticleSet { what: "kinds (fluid + wall + markers)", got: set.kinds.total(), expected: n });
+            return Err(FluidError::BadParticleSet {
+                what: "kinds (fluid + wall + markers)",
+                got: set.kinds.total(),
+                expected: n,
+            });
         }
         let limit = gpu.device.limits().max_storage_buffer_binding_size;
         let needed = n as u64 * 16;
         if needed > limit {
-            return Err(FluidError::TooLarge { what: format!("{n} particles (vec4 arrays)"), needed, limit });
+            return Err(FluidError::TooLarge {
+                what: format!("{n} particles (vec4 arrays)"),
+                needed,
+                limit,
+            });
         }
         let f32s = |v: &[f64]| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
         let pos = storage_init(gpu, "sph: pos", bytemuck::cast_slice(&vec4s(&set.pos)));
@@ -263,12 +301,18 @@ impl SphData {
             n_markers: set.kinds.n_markers as u32,
             ..Default::default()
         };
-        let params = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("sph: step params"),
-            contents: bytemuck::bytes_of(&step_params),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
-        let status = storage_init(gpu, "sph: blow-up status", bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]));
+        let params = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("sph: step params"),
+                contents: bytemuck::bytes_of(&step_params),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            });
+        let status = storage_init(
+            gpu,
+            "sph: blow-up status",
+            bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]),
+        );
         let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 32]);
 
         let mut grid = NeighbourGrid::new(gpu, grid_min, grid_max, c.support_radius(), n as u32)?;
@@ -291,7 +335,11 @@ impl SphData {
                 bodies: storage_init(gpu, "sph: bodies", &vec![0u8; cap * 32]),
                 clock: storage_init(gpu, "sph: clock", &[0u8; 16]),
                 marker_load: storage_init(gpu, "sph: marker load", &vec![0u8; m * 32]),
-                marker_load_c: storage_init(gpu, "sph: marker load compensation", &vec![0u8; m * 32]),
+                marker_load_c: storage_init(
+                    gpu,
+                    "sph: marker load compensation",
+                    &vec![0u8; m * 32],
+                ),
                 load_ranges: storage_init(gpu, "sph: load ranges", &vec![0u8; cap * 16]),
                 body_loads: storage_init(gpu, "sph: body loads", &vec![0u8; cap * 32]),
                 body_capacity: cap,
@@ -345,27 +393,66 @@ impl SphData {
             let p = pipelines;
             let markers = match (&p.markers, &bodies) {
                 (Some(m), Some(_)) => Some(BoundMarkers {
-                    marker_update: m.marker_update.bind(gpu, resolve, None).ok_or_else(|| missing("marker_update"))?,
-                    advance_clock: m.advance_clock.bind(gpu, resolve, None).ok_or_else(|| missing("advance_clock"))?,
-                    marker_loads: m.marker_loads.bind(gpu, resolve, g).ok_or_else(|| missing("marker_loads"))?,
-                    reduce: m.reduce.bind(gpu, resolve, None).ok_or_else(|| missing("reduce_body_loads"))?,
+                    marker_update: m
+                        .marker_update
+                        .bind(gpu, resolve, None)
+                        .ok_or_else(|| missing("marker_update"))?,
+                    advance_clock: m
+                        .advance_clock
+                        .bind(gpu, resolve, None)
+                        .ok_or_else(|| missing("advance_clock"))?,
+                    marker_loads: m
+                        .marker_loads
+                        .bind(gpu, resolve, g)
+                        .ok_or_else(|| missing("marker_loads"))?,
+                    reduce: m
+                        .reduce
+                        .bind(gpu, resolve, None)
+                        .ok_or_else(|| missing("reduce_body_loads"))?,
                 }),
                 _ => None,
             };
             Bound {
-                tait_eos: p.tait_eos.bind(gpu, resolve, None).ok_or_else(|| missing("tait_eos"))?,
-                boundary_pressure: p.boundary_pressure.bind(gpu, resolve, g).ok_or_else(|| missing("boundary pressure"))?,
-                fluid_rates: p.fluid_rates.bind(gpu, resolve, g).ok_or_else(|| missing("fluid_rates"))?,
-                predict: p.predict.bind(gpu, resolve, None).ok_or_else(|| missing("predict"))?,
-                correct: p.correct.bind(gpu, resolve, None).ok_or_else(|| missing("correct"))?,
-                find_bad: p.find_bad.bind(gpu, resolve, None).ok_or_else(|| missing("find_bad"))?,
-                capture_bad: p.capture_bad.bind(gpu, resolve, None).ok_or_else(|| missing("capture_bad"))?,
+                tait_eos: p
+                    .tait_eos
+                    .bind(gpu, resolve, None)
+                    .ok_or_else(|| missing("tait_eos"))?,
+                boundary_pressure: p
+                    .boundary_pressure
+                    .bind(gpu, resolve, g)
+                    .ok_or_else(|| missing("boundary pressure"))?,
+                fluid_rates: p
+                    .fluid_rates
+                    .bind(gpu, resolve, g)
+                    .ok_or_else(|| missing("fluid_rates"))?,
+                predict: p
+                    .predict
+                    .bind(gpu, resolve, None)
+                    .ok_or_else(|| missing("predict"))?,
+                correct: p
+                    .correct
+                    .bind(gpu, resolve, None)
+                    .ok_or_else(|| missing("correct"))?,
+                find_bad: p
+                    .find_bad
+                    .bind(gpu, resolve, None)
+                    .ok_or_else(|| missing("find_bad"))?,
+                capture_bad: p
+                    .capture_bad
+                    .bind(gpu, resolve, None)
+                    .ok_or_else(|| missing("capture_bad"))?,
                 gradients: match &p.gradients {
-                    Some(k) => Some(k.bind(gpu, resolve, g).ok_or_else(|| missing("gradients"))?),
+                    Some(k) => Some(
+                        k.bind(gpu, resolve, g)
+                            .ok_or_else(|| missing("gradients"))?,
+                    ),
                     None => None,
                 },
                 shift: match &p.shift {
-                    Some(k) => Some(k.bind(gpu, resolve, None).ok_or_else(|| missing("particle_shifting"))?),
+                    Some(k) => Some(
+                        k.bind(gpu, resolve, None)
+                            .ok_or_else(|| missing("particle_shifting"))?,
+                    ),
                     None => None,
                 },
                 markers,
@@ -395,7 +482,13 @@ impl SphData {
 
     /// Records one stage as a labelled compute pass (nothing when the stage is not
     /// present for this data).
-    pub fn queue_op(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, timer: Option<&mut StageTimer>, op: Op) {
+    pub fn queue_op(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&mut StageTimer>,
+        op: Op,
+    ) {
         let n = self.n_total;
         let b = &self.bound;
         let m = b.markers.as_ref();
@@ -439,7 +532,8 @@ impl SphData {
             Op::ReduceBodyLoads => {
                 if let Some(m) = m {
                     let groups = self.bodies.as_ref().map_or(0, |b| b.body_capacity as u32);
-                    let mut pass = timing::begin_pass(timer, gpu, encoder, "sph: reduce_body_loads");
+                    let mut pass =
+                        timing::begin_pass(timer, gpu, encoder, "sph: reduce_body_loads");
                     m.reduce.dispatch_groups(&mut pass, groups);
                 }
                 return;
@@ -475,7 +569,9 @@ impl SphData {
         let dvel: Vec<[f32; 4]> = gpu.read_buffer(&self.dvel, 0, n)?;
         Ok((
             drho.iter().map(|x| f64::from(*x)).collect(),
-            dvel.iter().map(|v| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])]).collect(),
+            dvel.iter()
+                .map(|v| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])])
+                .collect(),
         ))
     }
 
@@ -483,29 +579,41 @@ impl SphData {
     /// ∇u_z, ∇p, s, ∇ρ]`, and the diagnostics word (max speed of the last step, near-singular
     /// particle-steps of the window). `None` without the pass.
     pub fn read_gradients(&self, gpu: &Gpu) -> Result<Option<GradientReadback>, FluidError> {
-        let Some(g) = &self.gradients else { return Ok(None) };
+        let Some(g) = &self.gradients else {
+            return Ok(None);
+        };
         let n = u64::from(self.n_total);
         let b: Vec<[f32; 4]> = gpu.read_buffer(&g.bmat, 0, 3 * n)?;
         let f: Vec<[f32; 4]> = gpu.read_buffer(&g.grads, 0, 6 * n)?;
         let v3 = |v: [f32; 4]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
         Ok(Some(GradientReadback {
             // Columns on the GPU, rows here.
-            b: (0..n as usize).map(|i| std::array::from_fn(|r| std::array::from_fn(|c| f64::from(b[3 * i + c][r])))).collect(),
-            fields: (0..n as usize).map(|i| std::array::from_fn(|k| v3(f[6 * i + k]))).collect(),
+            b: (0..n as usize)
+                .map(|i| {
+                    std::array::from_fn(|r| std::array::from_fn(|c| f64::from(b[3 * i + c][r])))
+                })
+                .collect(),
+            fields: (0..n as usize)
+                .map(|i| std::array::from_fn(|k| v3(f[6 * i + k])))
+                .collect(),
             diag: self.read_diag(gpu)?.unwrap_or_default(),
         }))
     }
 
     /// The gradient pass's diagnostics word, `None` without the pass.
     pub fn read_diag(&self, gpu: &Gpu) -> Result<Option<[u32; 4]>, FluidError> {
-        let Some(g) = &self.gradients else { return Ok(None) };
+        let Some(g) = &self.gradients else {
+            return Ok(None);
+        };
         let d: Vec<u32> = gpu.read_buffer(&g.diag, 0, 4)?;
         Ok(Some([d[0], d[1], d[2], d[3]]))
     }
 
     /// Reads the per-marker window sums (force, moment) in marker (DEM) order.
     pub fn read_marker_loads(&self, gpu: &Gpu) -> Result<Vec<MarkerLoad>, FluidError> {
-        let Some(b) = &self.bodies else { return Ok(Vec::new()) };
+        let Some(b) = &self.bodies else {
+            return Ok(Vec::new());
+        };
         let m = self.kinds.n_markers as u64;
         let s: Vec<[f32; 4]> = gpu.read_buffer(&b.marker_load, 0, 2 * m)?;
         let c: Vec<[f32; 4]> = gpu.read_buffer(&b.marker_load_c, 0, 2 * m)?;
@@ -560,7 +668,11 @@ impl FluidSolver {
     /// A solver for `scene` started from an explicit particle set (world coordinates;
     /// ids and kinds as in [`ParticleSet`]); fluid pressures are set from the densities
     /// by the Tait equation. For tests and restarts.
-    pub fn from_particles(gpu: &Gpu, scene: &Scene, mut set: ParticleSet) -> Result<FluidSolver, FluidError> {
+    pub fn from_particles(
+        gpu: &Gpu,
+        scene: &Scene,
+        mut set: ParticleSet,
+    ) -> Result<FluidSolver, FluidError> {
         let consts = SphConstants::from_scene(scene)?;
         let limits = FluidLimits::from_scene(scene)?;
         let stages = plan::stages(scene);
@@ -577,9 +689,22 @@ impl FluidSolver {
         // Only a throwaway grid gives the layout the pipelines are built with; wgpu
         // deduplicates identical bind group layouts, so later grids' bind groups fit.
         let probe = NeighbourGrid::new(gpu, grid_min, grid_max, consts.support_radius(), 1)?;
-        let pipelines = SphPipelines::new(gpu, &consts, probe.bind_group_layout(), scene.has_resolved_bodies());
+        let pipelines = SphPipelines::new(
+            gpu,
+            &consts,
+            probe.bind_group_layout(),
+            scene.has_resolved_bodies(),
+        );
         drop(probe);
-        let data = SphData::new(gpu, &consts, &pipelines, &set, grid_min, grid_max, scene.bodies.len())?;
+        let data = SphData::new(
+            gpu,
+            &consts,
+            &pipelines,
+            &set,
+            grid_min,
+            grid_max,
+            scene.bodies.len(),
+        )?;
         let step_params = StepParams {
             n_total: data.n_total,
             n_fluid: data.kinds.n_fluid as u32,
@@ -608,7 +733,11 @@ impl FluidSolver {
         };
         // Fluid pressures from the initial densities (Joubert eq. 4).
         solver.write_params(gpu);
-        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: init") });
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("sph: init"),
+            });
         solver.data.queue_op(gpu, &mut encoder, None, Op::TaitEos);
         gpu.queue.submit([encoder.finish()]);
         Ok(solver)
@@ -616,7 +745,11 @@ impl FluidSolver {
 
     pub fn counts(&self) -> ParticleCounts {
         let k = self.data.kinds;
-        ParticleCounts { fluid: k.n_fluid as u32, wall: k.n_wall as u32, markers: k.n_markers as u32 }
+        ParticleCounts {
+            fluid: k.n_fluid as u32,
+            wall: k.n_wall as u32,
+            markers: k.n_markers as u32,
+        }
     }
 
     pub fn limits(&self) -> FluidLimits {
@@ -657,26 +790,47 @@ impl FluidSolver {
     }
 
     fn write_params(&self, gpu: &Gpu) {
-        gpu.queue.write_buffer(&self.data.params, 0, bytemuck::bytes_of(&self.step_params));
+        gpu.queue
+            .write_buffer(&self.data.params, 0, bytemuck::bytes_of(&self.step_params));
     }
 
     /// Sets the bodies and markers for the next window: `states` at the window start and
     /// the world-frame coupling points in DEM order (contiguous per body). The first
     /// call fixes the marker capacity (the marker particles are appended then); later
     /// calls must give the same number of points.
-    pub fn set_bodies(&mut self, gpu: &Gpu, states: &[BodyState], points: &[CouplingPoint]) -> Result<(), FluidError> {
+    pub fn set_bodies(
+        &mut self,
+        gpu: &Gpu,
+        states: &[BodyState],
+        points: &[CouplingPoint],
+    ) -> Result<(), FluidError> {
         if let Some(cap) = self.marker_capacity
             && cap != points.len()
         {
-            return Err(FluidError::MarkerCount { got: points.len(), capacity: cap });
+            return Err(FluidError::MarkerCount {
+                got: points.len(),
+                capacity: cap,
+            });
         }
         // Validate before touching anything.
         let body_capacity = match &self.data.bodies {
             Some(b) => b.body_capacity,
             None => self
                 .n_scene_bodies
-                .max(states.iter().map(|s| s.body as usize + 1).max().unwrap_or(0))
-                .max(points.iter().map(|p| p.body as usize + 1).max().unwrap_or(0))
+                .max(
+                    states
+                        .iter()
+                        .map(|s| s.body as usize + 1)
+                        .max()
+                        .unwrap_or(0),
+                )
+                .max(
+                    points
+                        .iter()
+                        .map(|p| p.body as usize + 1)
+                        .max()
+                        .unwrap_or(0),
+                )
                 .max(1),
         };
         let mut bodies = vec![GpuBody::default(); body_capacity];
@@ -684,9 +838,17 @@ impl FluidSolver {
         for (index, s) in states.iter().enumerate() {
             let b = s.body as usize;
             if b >= body_capacity {
-                return Err(FluidError::BodyIndex { index, body: s.body, capacity: body_capacity });
+                return Err(FluidError::BodyIndex {
+                    index,
+                    body: s.body,
+                    capacity: body_capacity,
+                });
             }
-            if s.position.iter().chain(&s.linear_velocity).any(|x| !x.is_finite()) {
+            if s.position
+                .iter()
+                .chain(&s.linear_velocity)
+                .any(|x| !x.is_finite())
+            {
                 return Err(FluidError::NonFiniteInput {
                     what: "position or velocity",
                     item: format!("body state {index} (body {})", s.body),
@@ -695,7 +857,10 @@ impl FluidSolver {
             }
             let rel = |k: usize| (s.position[k] - self.origin[k]) as f32;
             let v = s.linear_velocity.map(|x| x as f32);
-            bodies[b] = GpuBody { cg: [rel(0), rel(1), rel(2), 0.0], vel: [v[0], v[1], v[2], 0.0] };
+            bodies[b] = GpuBody {
+                cg: [rel(0), rel(1), rel(2), 0.0],
+                vel: [v[0], v[1], v[2], 0.0],
+            };
             has_state[b] = true;
         }
         let mut ranges: Vec<[u32; 4]> = Vec::new();
@@ -703,9 +868,19 @@ impl FluidSolver {
         for (index, p) in points.iter().enumerate() {
             let b = p.body as usize;
             if b >= body_capacity || !has_state[b] {
-                return Err(FluidError::MarkerBody { index, body: p.body, n_bodies: states.len() });
+                return Err(FluidError::MarkerBody {
+                    index,
+                    body: p.body,
+                    n_bodies: states.len(),
+                });
             }
-            if p.position.iter().chain(&p.velocity).chain(&p.normal).chain(std::iter::once(&p.measure)).any(|x| !x.is_finite()) {
+            if p.position
+                .iter()
+                .chain(&p.velocity)
+                .chain(&p.normal)
+                .chain(std::iter::once(&p.measure))
+                .any(|x| !x.is_finite())
+            {
                 return Err(FluidError::NonFiniteInput {
                     what: "position, velocity, normal or area",
                     item: format!("coupling point {index} (body {})", p.body),
@@ -716,7 +891,10 @@ impl FluidSolver {
                 Some(r) if r[2] == p.body => r[1] += 1,
                 _ => {
                     if seen[b] {
-                        return Err(FluidError::MarkerOrder { index, body: p.body });
+                        return Err(FluidError::MarkerOrder {
+                            index,
+                            body: p.body,
+                        });
                     }
                     seen[b] = true;
                     ranges.push([index as u32, 1, p.body, 0]);
@@ -732,10 +910,16 @@ impl FluidSolver {
         let Some(buffers) = &self.data.bodies else {
             return Ok(());
         };
-        let markers: Vec<GpuMarker> = points.iter().map(|p| GpuMarker::from_point(p, self.origin)).collect();
-        gpu.queue.write_buffer(&buffers.markers_in, 0, bytemuck::cast_slice(&markers));
-        gpu.queue.write_buffer(&buffers.bodies, 0, bytemuck::cast_slice(&bodies));
-        gpu.queue.write_buffer(&buffers.load_ranges, 0, bytemuck::cast_slice(&ranges));
+        let markers: Vec<GpuMarker> = points
+            .iter()
+            .map(|p| GpuMarker::from_point(p, self.origin))
+            .collect();
+        gpu.queue
+            .write_buffer(&buffers.markers_in, 0, bytemuck::cast_slice(&markers));
+        gpu.queue
+            .write_buffer(&buffers.bodies, 0, bytemuck::cast_slice(&bodies));
+        gpu.queue
+            .write_buffer(&buffers.load_ranges, 0, bytemuck::cast_slice(&ranges));
         self.load_bodies = ranges.iter().map(|r| r[2]).collect();
         self.step_params.n_load_bodies = ranges.len() as u32;
         self.loads_ready = false;
@@ -744,14 +928,21 @@ impl FluidSolver {
 
     /// Rebuilds the data with `points.len()` marker particles appended (first
     /// `set_bodies`): the current particle state is read back once.
-    fn append_markers(&mut self, gpu: &Gpu, points: &[CouplingPoint], body_capacity: usize) -> Result<(), FluidError> {
+    fn append_markers(
+        &mut self,
+        gpu: &Gpu,
+        points: &[CouplingPoint],
+        body_capacity: usize,
+    ) -> Result<(), FluidError> {
         let read = self.data.read(gpu)?;
         let mut set = carve_out_bodies(read, points, self.origin, self.consts.spacing);
         let marker_base = set.kinds.marker_base() as u32;
         for (k, p) in points.iter().enumerate() {
             let m = GpuMarker::from_point(p, self.origin);
-            set.pos.push(std::array::from_fn(|a| f64::from(m.pos_area[a])));
-            set.vel.push(std::array::from_fn(|a| f64::from(m.vel_body[a])));
+            set.pos
+                .push(std::array::from_fn(|a| f64::from(m.pos_area[a])));
+            set.vel
+                .push(std::array::from_fn(|a| f64::from(m.vel_body[a])));
             set.rho.push(self.consts.rho0);
             set.press.push(0.0);
             set.id.push(marker_base + k as u32);
@@ -759,10 +950,28 @@ impl FluidSolver {
         set.kinds.n_markers = points.len();
         if self.pipelines.markers.is_none() {
             // A scene without resolved bodies that still receives markers (tests).
-            let probe = NeighbourGrid::new(gpu, self.grid_min, self.grid_max, self.consts.support_radius(), 1)?;
-            self.pipelines.markers = Some(MarkerPipelines::new(gpu, &self.consts, probe.bind_group_layout()));
+            let probe = NeighbourGrid::new(
+                gpu,
+                self.grid_min,
+                self.grid_max,
+                self.consts.support_radius(),
+                1,
+            )?;
+            self.pipelines.markers = Some(MarkerPipelines::new(
+                gpu,
+                &self.consts,
+                probe.bind_group_layout(),
+            ));
         }
-        self.data = SphData::new(gpu, &self.consts, &self.pipelines, &set, self.grid_min, self.grid_max, body_capacity)?;
+        self.data = SphData::new(
+            gpu,
+            &self.consts,
+            &self.pipelines,
+            &set,
+            self.grid_min,
+            self.grid_max,
+            body_capacity,
+        )?;
         self.step_params.n_total = self.data.n_total;
         self.step_params.n_fluid = self.data.kinds.n_fluid as u32;
         self.step_params.n_wall = self.data.kinds.n_wall as u32;
@@ -771,7 +980,12 @@ impl FluidSolver {
     }
 
     /// Records one predictor–corrector step (Joubert eqs. 20–23) as labelled passes.
-    pub fn queue_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, mut timer: Option<&mut StageTimer>) {
+    pub fn queue_step(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        mut timer: Option<&mut StageTimer>,
+    ) {
         let d = &self.data;
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerUpdate);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Sort);
@@ -792,7 +1006,8 @@ impl FluidSolver {
             encoder.clear_buffer(&g.diag, 0, None);
         }
         if let Some(b) = &self.data.bodies {
-            gpu.queue.write_buffer(&b.clock, 0, bytemuck::bytes_of(&Clock::default()));
+            gpu.queue
+                .write_buffer(&b.clock, 0, bytemuck::bytes_of(&Clock::default()));
             encoder.clear_buffer(&b.marker_load, 0, None);
             encoder.clear_buffer(&b.marker_load_c, 0, None);
         }
@@ -800,11 +1015,21 @@ impl FluidSolver {
 
     /// Runs `ops` once with substep `dt` and load weight `load_weight` after resetting the
     /// window accumulators, then waits (tests and benchmarks).
-    pub fn run_ops(&mut self, gpu: &Gpu, ops: &[Op], dt: f64, load_weight: f64) -> Result<(), FluidError> {
+    pub fn run_ops(
+        &mut self,
+        gpu: &Gpu,
+        ops: &[Op],
+        dt: f64,
+        load_weight: f64,
+    ) -> Result<(), FluidError> {
         self.step_params.dt = dt as f32;
         self.step_params.load_weight = load_weight as f32;
         self.write_params(gpu);
-        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: ops") });
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("sph: ops"),
+            });
         self.queue_window_start(gpu, &mut encoder);
         for op in ops {
             self.data.queue_op(gpu, &mut encoder, None, *op);
@@ -820,7 +1045,12 @@ impl FluidSolver {
     /// Advances the fluid over `window` seconds in `ceil(window / dt)` equal substeps and
     /// returns their number. At the end: body loads reduced (when markers exist), the
     /// blow-up check and the grid's error record (each a small readback).
-    pub fn advance(&mut self, gpu: &Gpu, window: f64, mut timer: Option<&mut StageTimer>) -> Result<u32, FluidError> {
+    pub fn advance(
+        &mut self,
+        gpu: &Gpu,
+        window: f64,
+        mut timer: Option<&mut StageTimer>,
+    ) -> Result<u32, FluidError> {
         if !(window.is_finite() && window > 0.0) {
             return Err(FluidError::BadWindow { window });
         }
@@ -831,13 +1061,18 @@ impl FluidSolver {
         self.step_params.load_weight = (0.5 / f64::from(substeps)) as f32;
         self.write_params(gpu);
         for s in 0..substeps {
-            let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: step") });
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("sph: step"),
+                });
             if s == 0 {
                 self.queue_window_start(gpu, &mut encoder);
             }
             self.queue_step(gpu, &mut encoder, timer.as_deref_mut());
             if s + 1 == substeps {
-                self.data.queue_op(gpu, &mut encoder, timer.as_deref_mut(), Op::ReduceBodyLoads);
+                self.data
+                    .queue_op(gpu, &mut encoder, timer.as_deref_mut(), Op::ReduceBodyLoads);
             }
             if let Some(t) = timer.as_deref_mut() {
                 t.finish(gpu, &mut encoder);
@@ -859,8 +1094,16 @@ impl FluidSolver {
     /// particles outside the grid.
     fn check(&self, gpu: &Gpu) -> Result<(), FluidError> {
         let d = &self.data;
-        gpu.queue.write_buffer(&d.status, 0, bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]));
-        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: check") });
+        gpu.queue.write_buffer(
+            &d.status,
+            0,
+            bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]),
+        );
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("sph: check"),
+            });
         {
             let mut pass = timing::begin_pass(None, gpu, &mut encoder, "sph: blowup_check");
             d.bound.find_bad.dispatch(&mut pass, d.n_total);
@@ -881,7 +1124,9 @@ impl FluidSolver {
                 ("position", format!("{:?}", &pos[..3]))
             } else if !finite(&vel[..3]) {
                 ("velocity", format!("{:?} at {world:?}", &vel[..3]))
-            } else if !rho.is_finite() || (f64::from(rho) / c.rho0 - 1.0).abs() > blowup_check::BLOWUP_DENSITY_DEVIATION {
+            } else if !rho.is_finite()
+                || (f64::from(rho) / c.rho0 - 1.0).abs() > blowup_check::BLOWUP_DENSITY_DEVIATION
+            {
                 ("density", format!("{rho} kg/m³ at {world:?}"))
             } else {
                 ("speed", format!("{speed} m/s at {world:?}"))
@@ -904,7 +1149,10 @@ impl FluidSolver {
         }
         if let Err(e) = d.grid.check(gpu) {
             d.grid.reset_error(gpu);
-            return Err(FluidError::Grid { step: self.steps, message: e.to_string() });
+            return Err(FluidError::Grid {
+                step: self.steps,
+                message: e.to_string(),
+            });
         }
         Ok(())
     }
@@ -912,9 +1160,18 @@ impl FluidSolver {
     /// Fluid force and moment per body, averaged over the last window (Joubert eqs.
     /// 31–32); one entry per body that has markers, in marker order. Empty without markers.
     pub fn loads(&mut self, gpu: &Gpu) -> Result<Vec<BodyLoad>, FluidError> {
-        let Some(b) = &self.data.bodies else { return Ok(Vec::new()) };
+        let Some(b) = &self.data.bodies else {
+            return Ok(Vec::new());
+        };
         if !self.loads_ready {
-            return Ok(self.load_bodies.iter().map(|&body| BodyLoad { body, ..Default::default() }).collect());
+            return Ok(self
+                .load_bodies
+                .iter()
+                .map(|&body| BodyLoad {
+                    body,
+                    ..Default::default()
+                })
+                .collect());
         }
         let n = self.load_bodies.len() as u64;
         let raw: Vec<[f32; 4]> = gpu.read_buffer(&b.body_loads, 0, 2 * n)?;
@@ -923,7 +1180,12 @@ impl FluidSolver {
             .load_bodies
             .iter()
             .enumerate()
-            .map(|(g, &body)| BodyLoad { force: v(raw[2 * g]), body, _pad: 0, moment: v(raw[2 * g + 1]) })
+            .map(|(g, &body)| BodyLoad {
+                force: v(raw[2 * g]),
+                body,
+                _pad: 0,
+                moment: v(raw[2 * g + 1]),
+            })
             .collect())
     }
 
@@ -958,7 +1220,11 @@ impl FluidSolver {
     /// Mean number of neighbours inside the support per fluid particle (sorts first).
     pub fn neighbour_stats(&mut self, gpu: &Gpu) -> Result<f64, FluidError> {
         let d = &self.data;
-        let counts = storage_init(gpu, "sph: neighbour counts", &vec![0u8; d.n_total as usize * 4]);
+        let counts = storage_init(
+            gpu,
+            "sph: neighbour counts",
+            &vec![0u8; d.n_total as usize * 4],
+        );
         let resolve = |g: u32, b: u32| -> Option<&wgpu::Buffer> {
             match (g, b) {
                 (PARTICLES, pb::POS) => Some(&d.pos),
@@ -973,7 +1239,11 @@ impl FluidSolver {
             .neighbour_count
             .bind(gpu, resolve, Some(d.grid.bind_group()))
             .ok_or_else(|| missing("neighbour_count"))?;
-        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sph: neighbours") });
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("sph: neighbours"),
+            });
         d.queue_op(gpu, &mut encoder, None, Op::Sort);
         {
             let mut pass = timing::begin_pass(None, gpu, &mut encoder, "sph: neighbour_count");
@@ -995,7 +1265,12 @@ impl FluidSolver {
 /// `set` is in buffer order with GPU-relative positions; the result is in id order.
 /// Cost: every fluid particle within a body's bounding sphere against that body's
 /// markers, done once when the markers first arrive.
-fn carve_out_bodies(set: ParticleSet, points: &[CouplingPoint], origin: [f64; 3], spacing: f64) -> ParticleSet {
+fn carve_out_bodies(
+    set: ParticleSet,
+    points: &[CouplingPoint],
+    origin: [f64; 3],
+    spacing: f64,
+) -> ParticleSet {
     // Markers per body in GPU-relative coordinates, with each body's bounding sphere.
     let mut bodies: Vec<(u32, [f64; 3], f64, Vec<([f64; 3], [f64; 3])>)> = Vec::new();
     for p in points {
@@ -1007,17 +1282,26 @@ fn carve_out_bodies(set: ParticleSet, points: &[CouplingPoint], origin: [f64; 3]
         }
     }
     for b in &mut bodies {
-        let c: [f64; 3] = std::array::from_fn(|k| b.3.iter().map(|(m, _)| m[k]).sum::<f64>() / b.3.len() as f64);
+        let c: [f64; 3] =
+            std::array::from_fn(|k| b.3.iter().map(|(m, _)| m[k]).sum::<f64>() / b.3.len() as f64);
         b.1 = c;
-        b.2 = b.3.iter().map(|(m, _)| dist2(*m, c).sqrt()).fold(0.0, f64::max) + spacing;
+        b.2 =
+            b.3.iter()
+                .map(|(m, _)| dist2(*m, c).sqrt())
+                .fold(0.0, f64::max)
+                + spacing;
     }
     let removed = |x: [f64; 3]| {
         bodies.iter().any(|(_, c, r, markers)| {
             if dist2(x, *c) > r * r {
                 return false;
             }
-            let nearest = markers.iter().min_by(|a, b| dist2(x, a.0).total_cmp(&dist2(x, b.0)));
-            nearest.is_some_and(|(m, n)| (0..3).map(|k| (x[k] - m[k]) * n[k]).sum::<f64>() < 0.5 * spacing)
+            let nearest = markers
+                .iter()
+                .min_by(|a, b| dist2(x, a.0).total_cmp(&dist2(x, b.0)));
+            nearest.is_some_and(|(m, n)| {
+                (0..3).map(|k| (x[k] - m[k]) * n[k]).sum::<f64>() < 0.5 * spacing
+            })
         })
     };
     let n = set.len();
@@ -1066,7 +1350,11 @@ mod carve_out_tests {
         for i in 0..10 {
             for j in 0..10 {
                 for k in 0..10 {
-                    pos.push([(i as f64 + 0.5) * delta, (j as f64 + 0.5) * delta, (k as f64 + 0.5) * delta]);
+                    pos.push([
+                        (i as f64 + 0.5) * delta,
+                        (j as f64 + 0.5) * delta,
+                        (k as f64 + 0.5) * delta,
+                    ]);
                 }
             }
         }
@@ -1079,7 +1367,11 @@ mod carve_out_tests {
             .map(|i| {
                 let y = 1.0 - 2.0 * (i as f64 + 0.5) / m as f64;
                 let rho = (1.0 - y * y).sqrt();
-                let n = [rho * (golden * i as f64).cos(), y, rho * (golden * i as f64).sin()];
+                let n = [
+                    rho * (golden * i as f64).cos(),
+                    y,
+                    rho * (golden * i as f64).sin(),
+                ];
                 CouplingPoint {
                     position: std::array::from_fn(|k| (c[k] + r * n[k]) as f32),
                     measure: (delta * delta) as f32,
@@ -1098,17 +1390,34 @@ mod carve_out_tests {
                 p.reverse();
                 p
             },
-            kinds: ParticleKinds { n_fluid: n - 1, n_wall: 1, n_markers: 0 },
+            kinds: ParticleKinds {
+                n_fluid: n - 1,
+                n_wall: 1,
+                n_markers: 0,
+            },
         };
         let out = carve_out_bodies(set, &points, [0.0; 3], delta);
         assert_eq!(out.id, (0..out.len() as u32).collect::<Vec<_>>());
         assert_eq!(out.kinds.n_wall, 1);
-        assert_eq!(out.pos[out.kinds.n_fluid], [-0.05, -0.05, -0.05], "the wall particle stays last");
+        assert_eq!(
+            out.pos[out.kinds.n_fluid],
+            [-0.05, -0.05, -0.05],
+            "the wall particle stays last"
+        );
         for p in &out.pos[..out.kinds.n_fluid] {
-            assert!(dist2(*p, c).sqrt() > r + 0.5 * delta - 1e-9 - 0.02, "kept a particle inside: {p:?}");
+            assert!(
+                dist2(*p, c).sqrt() > r + 0.5 * delta - 1e-9 - 0.02,
+                "kept a particle inside: {p:?}"
+            );
         }
-        let far_outside = pos[..n - 1].iter().filter(|p| dist2(**p, c).sqrt() > r + delta).count();
-        let kept_far = out.pos[..out.kinds.n_fluid].iter().filter(|p| dist2(**p, c).sqrt() > r + delta).count();
+        let far_outside = pos[..n - 1]
+            .iter()
+            .filter(|p| dist2(**p, c).sqrt() > r + delta)
+            .count();
+        let kept_far = out.pos[..out.kinds.n_fluid]
+            .iter()
+            .filter(|p| dist2(**p, c).sqrt() > r + delta)
+            .count();
         assert_eq!(kept_far, far_outside);
     }
 }

@@ -115,14 +115,21 @@ impl SphKernel {
                         Access::Uniform => shaders::uniform_entry(*b),
                     })
                     .collect();
-                let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some(label),
-                    entries: &entries,
-                });
+                let layout =
+                    gpu.device
+                        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                            label: Some(label),
+                            entries: &entries,
+                        });
                 (*g, layout, *bindings)
             })
             .collect();
-        let n_groups = own.iter().map(|(g, _, _)| *g + 1).max().unwrap_or(0).max(if grid_layout.is_some() { GRID + 1 } else { 0 });
+        let n_groups = own
+            .iter()
+            .map(|(g, _, _)| *g + 1)
+            .max()
+            .unwrap_or(0)
+            .max(if grid_layout.is_some() { GRID + 1 } else { 0 });
         let layouts: Vec<Option<&wgpu::BindGroupLayout>> = (0..n_groups)
             .map(|g| {
                 if g == GRID && grid_layout.is_some() {
@@ -133,7 +140,12 @@ impl SphKernel {
             })
             .collect();
         let pipeline = shaders::compute_pipeline_with_layouts(gpu, label, &module, entry, &layouts);
-        SphKernel { label, pipeline, groups: own, uses_grid: grid_layout.is_some() }
+        SphKernel {
+            label,
+            pipeline,
+            groups: own,
+            uses_grid: grid_layout.is_some(),
+        }
     }
 
     /// Binds the kernel: `buffer(group, binding)` supplies each declared binding.
@@ -149,7 +161,10 @@ impl SphKernel {
         for (g, layout, bindings) in &self.groups {
             let mut entries = Vec::new();
             for (b, _) in bindings.iter() {
-                entries.push(wgpu::BindGroupEntry { binding: *b, resource: buffer(*g, *b)?.as_entire_binding() });
+                entries.push(wgpu::BindGroupEntry {
+                    binding: *b,
+                    resource: buffer(*g, *b)?.as_entire_binding(),
+                });
             }
             let bg = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(self.label),
@@ -161,7 +176,11 @@ impl SphKernel {
         if self.uses_grid {
             groups.push((GRID, grid?.clone()));
         }
-        Some(BoundKernel { label: self.label, pipeline: self.pipeline.clone(), groups })
+        Some(BoundKernel {
+            label: self.label,
+            pipeline: self.pipeline.clone(),
+            groups,
+        })
     }
 }
 

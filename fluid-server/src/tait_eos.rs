@@ -2,10 +2,10 @@
 //! WGSL: `shaders/tait_eos.wgsl` (its library part is fused into the integrator and the
 //! boundary pressure; its kernel sets the pressures at the start of a run).
 
-use crate::constants::{SphConstants, STEP_PARAMS_WGSL};
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::particles::{Kind, ParticleSet};
-use crate::sph_kernel::{particle_binding as pb, Access, SphKernel, PARAMS, PARTICLES};
+use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 
 pub const TAIT_EOS_WGSL: &str = include_str!("../shaders/tait_eos.wgsl");
 
@@ -18,7 +18,14 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
         &[&consts, STEP_PARAMS_WGSL, TAIT_EOS_WGSL],
         "tait_eos",
         &[
-            (PARTICLES, &[(pb::RHO, Access::Read), (pb::PRESS, Access::ReadWrite), (pb::ID, Access::Read)]),
+            (
+                PARTICLES,
+                &[
+                    (pb::RHO, Access::Read),
+                    (pb::PRESS, Access::ReadWrite),
+                    (pb::ID, Access::Read),
+                ],
+            ),
             (PARAMS, &[(0, Access::Uniform)]),
         ],
         None,
@@ -28,6 +35,12 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
 /// CPU twin: the pressure of every fluid particle (others unchanged), Joubert eq. (4).
 pub fn tait_eos_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<f64> {
     (0..set.len())
-        .map(|k| if set.kinds.kind(set.id[k]) == Kind::Fluid { c.pressure(set.rho[k]) } else { set.press[k] })
+        .map(|k| {
+            if set.kinds.kind(set.id[k]) == Kind::Fluid {
+                c.pressure(set.rho[k])
+            } else {
+                set.press[k]
+            }
+        })
         .collect()
 }

@@ -96,11 +96,21 @@ impl StageTimer {
                 period_ns: f64::from(gpu.queue.get_timestamp_period()),
             }
         });
-        StageTimer { timestamps, pending: None, totals: Vec::new(), dropped: 0, open_span: None }
+        StageTimer {
+            timestamps,
+            pending: None,
+            totals: Vec::new(),
+            dropped: 0,
+            open_span: None,
+        }
     }
 
     pub fn mode(&self) -> TimingMode {
-        if self.timestamps.is_some() { TimingMode::Timestamps } else { TimingMode::WallClock }
+        if self.timestamps.is_some() {
+            TimingMode::Timestamps
+        } else {
+            TimingMode::WallClock
+        }
     }
 
     /// Passes that ran untimed because the query set was full.
@@ -201,7 +211,9 @@ impl StageTimer {
     fn flush_wall(&mut self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
         let fresh = gpu
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("stage timer") });
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("stage timer"),
+            });
         let recorded = std::mem::replace(encoder, fresh);
         gpu.queue.submit([recorded.finish()]);
         // A failed wait leaves the stage uncharged; the next real readback reports it.
@@ -235,9 +247,10 @@ impl StageTimer {
             if resolved > 0 {
                 let bytes = resolved as u64 * 2 * u64::from(wgpu::QUERY_SIZE);
                 let (tx, rx) = std::sync::mpsc::channel();
-                ts.readback.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
-                    let _ = tx.send(r);
-                });
+                ts.readback
+                    .map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
+                        let _ = tx.send(r);
+                    });
                 gpu.wait()?;
                 let readback_err = |reason: String| GpuError::Readback {
                     buffer: "stage timer readback".into(),
@@ -274,7 +287,10 @@ impl StageTimer {
 
     /// The totals so far without reading anything back.
     pub fn totals(&self) -> Vec<(String, f64)> {
-        self.totals.iter().map(|(l, s, _)| (l.clone(), *s)).collect()
+        self.totals
+            .iter()
+            .map(|(l, s, _)| (l.clone(), *s))
+            .collect()
     }
 
     /// The totals with the number of passes behind each: (label, seconds, passes).
@@ -309,7 +325,12 @@ fn plain_pass<'e>(encoder: &'e mut wgpu::CommandEncoder, label: &str) -> wgpu::C
 }
 
 /// [`StageTimer::begin_span`] when `timer` is `Some`; nothing otherwise.
-pub fn begin_span(timer: Option<&mut StageTimer>, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, label: &str) {
+pub fn begin_span(
+    timer: Option<&mut StageTimer>,
+    gpu: &Gpu,
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+) {
     if let Some(t) = timer {
         t.begin_span(gpu, encoder, label);
     }

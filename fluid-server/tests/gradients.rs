@@ -6,8 +6,8 @@ mod common;
 
 use common::{max_err, random_set, scene};
 use couplet_fluid::gpu::shared_test_gpu;
-use couplet_fluid::joubert2020_gradients::{gradients_cpu, Gradients, B_DET_MIN};
-use couplet_fluid::particle_shifting::{shift_cpu, Shifted};
+use couplet_fluid::joubert2020_gradients::{B_DET_MIN, Gradients, gradients_cpu};
+use couplet_fluid::particle_shifting::{Shifted, shift_cpu};
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConstants};
 
 const EFFECTS: &str = "[effects]\ngradient_correction = true\nparticle_shifting = 0.1";
@@ -23,29 +23,78 @@ fn gradients_match_cpu_twin() {
         let c = SphConstants::from_scene(&s).unwrap();
         let set = random_set(&c, 14, 0.3, 0.2, 0.5, 11);
         let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-        solver.run_ops(&gpu, &[Op::Sort, Op::Gradients], 1e-4, 1.0).unwrap();
+        solver
+            .run_ops(&gpu, &[Op::Sort, Op::Gradients], 1e-4, 1.0)
+            .unwrap();
         let got = solver.data().read(&gpu).unwrap();
-        let g = &solver.data().read_gradients(&gpu).unwrap().expect("the gradient pass runs");
+        let g = &solver
+            .data()
+            .read_gradients(&gpu)
+            .unwrap()
+            .expect("the gradient pass runs");
         let want = gradients_cpu(&c, &got);
-        let fluid: Vec<(usize, Gradients)> = want.iter().enumerate().filter_map(|(i, w)| w.map(|w| (i, w))).collect();
+        let fluid: Vec<(usize, Gradients)> = want
+            .iter()
+            .enumerate()
+            .filter_map(|(i, w)| w.map(|w| (i, w)))
+            .collect();
         assert!(fluid.len() > 1500);
         let check = |name: &str, pairs: Vec<(f64, f64)>| {
             let (e, m) = max_err(pairs.into_iter());
             println!("{kernel}: {name}: max |Δ| = {e:e} of {m:e}");
-            assert!(m > 0.0 && e <= 2e-4 * m, "{kernel}: {name}: max |Δ| = {e:e}, max = {m:e}");
+            assert!(
+                m > 0.0 && e <= 2e-4 * m,
+                "{kernel}: {name}: max |Δ| = {e:e}, max = {m:e}"
+            );
         };
-        check("B", fluid.iter().flat_map(|(i, w)| (0..9).map(move |k| (g.b[*i][k / 3][k % 3], w.b[k / 3][k % 3]))).collect());
+        check(
+            "B",
+            fluid
+                .iter()
+                .flat_map(|(i, w)| (0..9).map(move |k| (g.b[*i][k / 3][k % 3], w.b[k / 3][k % 3])))
+                .collect(),
+        );
         for a in 0..3 {
-            check(&format!("grad u[{a}]"), fluid.iter().flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][a][k], w.grad_u[a][k]))).collect());
+            check(
+                &format!("grad u[{a}]"),
+                fluid
+                    .iter()
+                    .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][a][k], w.grad_u[a][k])))
+                    .collect(),
+            );
         }
-        check("grad p", fluid.iter().flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][3][k], w.grad_p[k]))).collect());
-        check("shift s", fluid.iter().flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][4][k], w.shift[k]))).collect());
-        check("grad rho", fluid.iter().flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][5][k], w.grad_rho[k]))).collect());
+        check(
+            "grad p",
+            fluid
+                .iter()
+                .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][3][k], w.grad_p[k])))
+                .collect(),
+        );
+        check(
+            "shift s",
+            fluid
+                .iter()
+                .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][4][k], w.shift[k])))
+                .collect(),
+        );
+        check(
+            "grad rho",
+            fluid
+                .iter()
+                .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][5][k], w.grad_rho[k])))
+                .collect(),
+        );
         let singular = fluid.iter().filter(|(_, w)| w.singular).count() as u32;
         assert_eq!(g.diag[1], singular, "{kernel}: near-singular count");
-        let u_max = fluid.iter().map(|(i, _)| got.vel[*i].iter().map(|x| x * x).sum::<f64>().sqrt()).fold(0.0, f64::max);
+        let u_max = fluid
+            .iter()
+            .map(|(i, _)| got.vel[*i].iter().map(|x| x * x).sum::<f64>().sqrt())
+            .fold(0.0, f64::max);
         let gpu_u_max = f64::from(f32::from_bits(g.diag[0]));
-        assert!((gpu_u_max - u_max).abs() <= 1e-6 * u_max, "{kernel}: ‖u‖max {gpu_u_max} vs {u_max}");
+        assert!(
+            (gpu_u_max - u_max).abs() <= 1e-6 * u_max,
+            "{kernel}: ‖u‖max {gpu_u_max} vs {u_max}"
+        );
     }
 }
 
@@ -67,7 +116,12 @@ fn corrected_gradient_of_linear_fields_is_exact_at_walls_corners_and_free_surfac
         // is 1e-5 of the difference across one spacing (3 kPa).
         let (p0, a) = (0.0, [3e5, -2e5, 1e5]); // Pa, Pa/m
         let (u0, gy, wz) = (0.2, 1.5, -0.8); // m/s, 1/s, 1/s
-        let field = |x: [f64; 3]| (p0 + a[0] * x[0] + a[1] * x[1] + a[2] * x[2], [u0 + gy * x[1], 0.0, wz * x[2]]);
+        let field = |x: [f64; 3]| {
+            (
+                p0 + a[0] * x[0] + a[1] * x[1] + a[2] * x[2],
+                [u0 + gy * x[1], 0.0, wz * x[2]],
+            )
+        };
         let d = c.spacing;
         let n = 12;
         let mut set = ParticleSet::default();
@@ -81,23 +135,39 @@ fn corrected_gradient_of_linear_fields_is_exact_at_walls_corners_and_free_surfac
             set.id.push(set.id.len() as u32);
         };
         for k in 0..n * n * n {
-            let x = [(k % n) as f64, ((k / n) % n) as f64, (k / (n * n)) as f64].map(|v| 0.03 + (v + 0.5) * d);
+            let x = [(k % n) as f64, ((k / n) % n) as f64, (k / (n * n)) as f64]
+                .map(|v| 0.03 + (v + 0.5) * d);
             push(x, &mut set);
         }
         let n_fluid = set.len();
         for k in 0..(n + 6) * (n + 6) * 2 {
-            let (i, j, l) = (k % (n + 6), (k / (n + 6)) % (n + 6), k / ((n + 6) * (n + 6)));
-            let x = [0.03 + (i as f64 - 2.5) * d, 0.03 - (l as f64 + 0.5) * d, 0.03 + (j as f64 - 2.5) * d];
+            let (i, j, l) = (
+                k % (n + 6),
+                (k / (n + 6)) % (n + 6),
+                k / ((n + 6) * (n + 6)),
+            );
+            let x = [
+                0.03 + (i as f64 - 2.5) * d,
+                0.03 - (l as f64 + 0.5) * d,
+                0.03 + (j as f64 - 2.5) * d,
+            ];
             push(x, &mut set);
         }
-        set.kinds = ParticleKinds { n_fluid, n_wall: set.len() - n_fluid, n_markers: 0 };
+        set.kinds = ParticleKinds {
+            n_fluid,
+            n_wall: set.len() - n_fluid,
+            n_markers: 0,
+        };
         let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-        solver.run_ops(&gpu, &[Op::Sort, Op::Gradients], 1e-4, 1.0).unwrap();
+        solver
+            .run_ops(&gpu, &[Op::Sort, Op::Gradients], 1e-4, 1.0)
+            .unwrap();
         let got = solver.data().read(&gpu).unwrap();
         let g = solver.data().read_gradients(&gpu).unwrap().unwrap();
         let cpu = gradients_cpu(&c, &got);
         let want_u = [[0.0, gy, 0.0], [0.0; 3], [0.0, 0.0, wz]];
-        let (mut worst_p, mut worst_u, mut worst_uncorrected, mut checked) = (0.0f64, 0.0f64, 0.0f64, 0);
+        let (mut worst_p, mut worst_u, mut worst_uncorrected, mut checked) =
+            (0.0f64, 0.0f64, 0.0f64, 0);
         for i in 0..got.len() {
             let Some(w) = cpu[i] else { continue };
             assert_eq!(got.kinds.kind(got.id[i]), Kind::Fluid);
@@ -109,7 +179,8 @@ fn corrected_gradient_of_linear_fields_is_exact_at_walls_corners_and_free_surfac
             for k in 0..3 {
                 worst_p = worst_p.max((g.fields[i][3][k] - a[k]).abs() / scale_p);
                 for r in 0..3 {
-                    worst_u = worst_u.max((g.fields[i][r][k] - want_u[r][k]).abs() / gy.abs().max(wz.abs()));
+                    worst_u = worst_u
+                        .max((g.fields[i][r][k] - want_u[r][k]).abs() / gy.abs().max(wz.abs()));
                 }
             }
             // Uncorrected: M ⟨∇p⟩ᶜ = the raw sum (B = M⁻¹), in f64 from the twin.
@@ -123,9 +194,18 @@ fn corrected_gradient_of_linear_fields_is_exact_at_walls_corners_and_free_surfac
         println!(
             "{kernel}: {checked} fluid particles (near-singular {singular}, det < {B_DET_MIN}): corrected max rel error ∇p {worst_p:e}, ∇u {worst_u:e}; uncorrected ∇p {worst_uncorrected:.3}"
         );
-        assert!(checked > n_fluid * 9 / 10, "{kernel}: only {checked} of {n_fluid} particles invertible");
-        assert!(worst_p < 1e-4 && worst_u < 1e-4, "{kernel}: corrected gradient error ∇p {worst_p:e}, ∇u {worst_u:e}");
-        assert!(worst_uncorrected > 0.2, "{kernel}: uncorrected error only {worst_uncorrected}");
+        assert!(
+            checked > n_fluid * 9 / 10,
+            "{kernel}: only {checked} of {n_fluid} particles invertible"
+        );
+        assert!(
+            worst_p < 1e-4 && worst_u < 1e-4,
+            "{kernel}: corrected gradient error ∇p {worst_p:e}, ∇u {worst_u:e}"
+        );
+        assert!(
+            worst_uncorrected > 0.2,
+            "{kernel}: uncorrected error only {worst_uncorrected}"
+        );
     }
 }
 
@@ -143,7 +223,9 @@ fn particle_shifting_matches_cpu_twin() {
     solver.run_ops(&gpu, &[Op::Sort], 1e-3, 1.0).unwrap();
     let before = solver.data().read(&gpu).unwrap();
     let dt = 1e-3;
-    solver.run_ops(&gpu, &[Op::Gradients, Op::Shift], dt, 1.0).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::Gradients, Op::Shift], dt, 1.0)
+        .unwrap();
     let after = solver.data().read(&gpu).unwrap();
     let cpu = gradients_cpu(&c, &before);
     let u_max = (0..before.len())
@@ -153,7 +235,11 @@ fn particle_shifting_matches_cpu_twin() {
     let (mut dr, mut du, mut drho) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..before.len() {
         let Some(g) = cpu[i] else { continue };
-        let s0 = Shifted { pos: before.pos[i], vel: before.vel[i], rho: before.rho[i] };
+        let s0 = Shifted {
+            pos: before.pos[i],
+            vel: before.vel[i],
+            rho: before.rho[i],
+        };
         let w = shift_cpu(&c, &g, u_max, dt, s0);
         for k in 0..3 {
             dr.push((after.pos[i][k] - s0.pos[k], w.pos[k] - s0.pos[k]));
@@ -165,6 +251,9 @@ fn particle_shifting_matches_cpu_twin() {
         let (e, m) = max_err(pairs.into_iter());
         println!("shift {name}: max |Δ| = {e:e} of {m:e}");
         // `floor`: the f32 quantisation of the stored value itself (0.1 m, 0.5 m/s, 1000 kg/m³).
-        assert!(m > 0.0 && e <= 1e-3 * m + floor, "{name}: max |Δ| = {e:e}, max = {m:e}");
+        assert!(
+            m > 0.0 && e <= 1e-3 * m + floor,
+            "{name}: max |Δ| = {e:e}, max = {m:e}"
+        );
     }
 }

@@ -3,7 +3,9 @@
 //! Every test holds `shared_test_gpu()` for its whole body (one GPU, serialised).
 
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
-use couplet_fluid::neighbour_grid::{GRID_COMMON_WGSL, GRID_REACH, GridError, GridParams, NeighbourGrid};
+use couplet_fluid::neighbour_grid::{
+    GRID_COMMON_WGSL, GRID_REACH, GridError, GridParams, NeighbourGrid,
+};
 use couplet_fluid::shaders;
 use couplet_fluid::timing::{StageTimer, TimingMode};
 use rand::seq::SliceRandom;
@@ -12,11 +14,14 @@ use rand_chacha::ChaCha8Rng;
 use wgpu::util::DeviceExt;
 
 fn buffer_init<T: bytemuck::Pod>(gpu: &Gpu, label: &str, data: &[T]) -> wgpu::Buffer {
-    gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents: bytemuck::cast_slice(data),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-    })
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::cast_slice(data),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+        })
 }
 
 /// The particle arrays of a test: pos (w = id as f32), vel, rho (f32), id (u32).
@@ -31,8 +36,14 @@ impl Particles {
     fn from_positions(xyz: &[[f32; 3]]) -> Particles {
         let n = xyz.len();
         Particles {
-            pos: xyz.iter().enumerate().map(|(i, p)| [p[0], p[1], p[2], i as f32]).collect(),
-            vel: (0..n).map(|i| [i as f32 * 0.5, -(i as f32), 3.0, i as f32 + 0.25]).collect(),
+            pos: xyz
+                .iter()
+                .enumerate()
+                .map(|(i, p)| [p[0], p[1], p[2], i as f32])
+                .collect(),
+            vel: (0..n)
+                .map(|i| [i as f32 * 0.5, -(i as f32), 3.0, i as f32 + 0.25])
+                .collect(),
             rho: (0..n).map(|i| 1000.0 + i as f32 * 1e-3).collect(),
             id: (0..n as u32).collect(),
         }
@@ -82,7 +93,9 @@ fn scene(n: usize, seed: u64) -> Vec<[f32; 3]> {
             // Uniform over the box.
             0..=4 => std::array::from_fn(|a| rng.random_range(0.0..=max[a])),
             // Dense cluster straddling cell faces at 0.25 and 0.375.
-            5 | 6 => std::array::from_fn(|a| [0.25, 0.375, 0.25][a] + rng.random_range(-0.04..0.04)),
+            5 | 6 => {
+                std::array::from_fn(|a| [0.25, 0.375, 0.25][a] + rng.random_range(-0.04..0.04))
+            }
             // On cell faces: one, two or three coordinates on a multiple of H.
             7 | 8 => {
                 let mut p: [f32; 3] = std::array::from_fn(|a| rng.random_range(0.0..=max[a]));
@@ -101,7 +114,11 @@ fn scene(n: usize, seed: u64) -> Vec<[f32; 3]> {
                 } else {
                     let a = rng.random_range(0..3);
                     let mut p: [f32; 3] = std::array::from_fn(|a| rng.random_range(0.0..=max[a]));
-                    p[a] = if rng.random_bool(0.5) { -0.1 } else { max[a] + 0.1 };
+                    p[a] = if rng.random_bool(0.5) {
+                        -0.1
+                    } else {
+                        max[a] + 0.1
+                    };
                     p
                 }
             }
@@ -207,7 +224,10 @@ fn grid_neighbours_match_brute_force() {
     // (1.25, 1.0, 0.75) / (h / R) + 1 = (10, 8, 6) R + 1 (11 × 9 × 7 for R = 1).
     let r = GRID_REACH;
     assert_eq!(grid.params.dims, [10 * r + 1, 8 * r + 1, 6 * r + 1, 0]);
-    assert_eq!(grid.params.n_cells, (10 * r + 1) * (8 * r + 1) * (6 * r + 1));
+    assert_eq!(
+        grid.params.n_cells,
+        (10 * r + 1) * (8 * r + 1) * (6 * r + 1)
+    );
     let b = upload_and_register(&gpu, &mut grid, &parts);
     sort(&gpu, &grid, &b);
     grid.check(&gpu).unwrap();
@@ -222,32 +242,52 @@ fn grid_neighbours_match_brute_force() {
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let test_params = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("neighbour test params"),
-        contents: bytemuck::cast_slice(&[(h as f32).to_bits(), n as u32, 0, 0]),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
-    let particles_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("test particles"),
-        entries: &[
-            shaders::storage_entry(0, true),
-            shaders::storage_entry(1, true),
-            shaders::storage_entry(2, false),
-        ],
-    });
-    let params_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("test params"),
-        entries: &[shaders::uniform_entry(0)],
-    });
-    let module = shaders::module(&gpu, "neighbour test", &[GRID_COMMON_WGSL, NEIGHBOUR_TEST_WGSL]);
+    let test_params = gpu
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("neighbour test params"),
+            contents: bytemuck::cast_slice(&[(h as f32).to_bits(), n as u32, 0, 0]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+    let particles_layout = gpu
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("test particles"),
+            entries: &[
+                shaders::storage_entry(0, true),
+                shaders::storage_entry(1, true),
+                shaders::storage_entry(2, false),
+            ],
+        });
+    let params_layout = gpu
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("test params"),
+            entries: &[shaders::uniform_entry(0)],
+        });
+    let module = shaders::module(
+        &gpu,
+        "neighbour test",
+        &[GRID_COMMON_WGSL, NEIGHBOUR_TEST_WGSL],
+    );
     let pipeline = shaders::compute_pipeline_with_layouts(
         &gpu,
         "neighbour test",
         &module,
         "count_neighbours",
-        &[Some(&particles_layout), Some(grid.bind_group_layout()), None, Some(&params_layout)],
+        &[
+            Some(&particles_layout),
+            Some(grid.bind_group_layout()),
+            None,
+            Some(&params_layout),
+        ],
     );
-    let particles_bg = shaders::bind_buffers(&gpu, "test particles", &particles_layout, &[&b.pos, &b.id, &out]);
+    let particles_bg = shaders::bind_buffers(
+        &gpu,
+        "test particles",
+        &particles_layout,
+        &[&b.pos, &b.id, &out],
+    );
     let params_bg = shaders::bind_buffers(&gpu, "test params", &params_layout, &[&test_params]);
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
@@ -282,7 +322,10 @@ fn grid_neighbours_match_brute_force() {
         }
         pairs += u64::from(sure);
         let [count, gsum, gsq, count_cells] = got[i];
-        assert_eq!(count, count_cells, "particle slot {i}: row loop and cell-by-cell loop disagree");
+        assert_eq!(
+            count, count_cells,
+            "particle slot {i}: row loop and cell-by-cell loop disagree"
+        );
         if tied == 0 {
             assert_eq!(
                 (count, gsum, gsq),
@@ -335,16 +378,28 @@ fn grid_sort_permutes_every_registered_buffer() {
         let mut seen = vec![false; n];
         for (j, &id) in ids.iter().enumerate() {
             let k = id as usize;
-            assert!(k < n && !seen[k], "round {round}: id {id} at slot {j} repeated or out of range");
+            assert!(
+                k < n && !seen[k],
+                "round {round}: id {id} at slot {j} repeated or out of range"
+            );
             seen[k] = true;
-            assert_eq!(bytemuck::cast::<_, [u32; 4]>(pos[j]), bytemuck::cast::<_, [u32; 4]>(parts.pos[k]));
-            assert_eq!(bytemuck::cast::<_, [u32; 4]>(vel[j]), bytemuck::cast::<_, [u32; 4]>(parts.vel[k]));
+            assert_eq!(
+                bytemuck::cast::<_, [u32; 4]>(pos[j]),
+                bytemuck::cast::<_, [u32; 4]>(parts.pos[k])
+            );
+            assert_eq!(
+                bytemuck::cast::<_, [u32; 4]>(vel[j]),
+                bytemuck::cast::<_, [u32; 4]>(parts.vel[k])
+            );
             assert_eq!(rho[j].to_bits(), parts.rho[k].to_bits());
         }
 
         assert_eq!(cell_start[0], 0);
         assert_eq!(cell_start[nc], n as u32, "cell_start[n_cells] must be n");
-        assert!(cell_start.windows(2).all(|w| w[0] <= w[1]), "cell_start not monotone");
+        assert!(
+            cell_start.windows(2).all(|w| w[0] <= w[1]),
+            "cell_start not monotone"
+        );
         let g = &grid.params;
         for (j, p) in pos.iter().enumerate() {
             // Same f32 arithmetic as cell_coord(): (p − origin) · inv_cell_size, floor.
@@ -367,7 +422,9 @@ fn grid_reports_particle_outside() {
     let gpu = shared_test_gpu().unwrap();
     let n = 1000;
     let mut rng = ChaCha8Rng::seed_from_u64(3);
-    let mut xyz: Vec<[f32; 3]> = (0..n).map(|_| std::array::from_fn(|_| rng.random_range(0.0..1.0))).collect();
+    let mut xyz: Vec<[f32; 3]> = (0..n)
+        .map(|_| std::array::from_fn(|_| rng.random_range(0.0..1.0)))
+        .collect();
     // In the padding of one support (0.1): inside the grid, no error.
     xyz[10] = [-0.09, 1.09, 0.5];
     let parts = Particles::from_positions(&xyz);
@@ -381,10 +438,17 @@ fn grid_reports_particle_outside() {
     let mut pos: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
     let slot = ids.iter().position(|&id| id == 500).unwrap();
     pos[slot] = [0.5, 1.35, 0.5, pos[slot][3]];
-    gpu.queue.write_buffer(&b.pos, 0, bytemuck::cast_slice(&pos));
+    gpu.queue
+        .write_buffer(&b.pos, 0, bytemuck::cast_slice(&pos));
     sort(&gpu, &grid, &b);
     match grid.check(&gpu) {
-        Err(GridError::ParticleOutside { id, index, position, outside, .. }) => {
+        Err(GridError::ParticleOutside {
+            id,
+            index,
+            position,
+            outside,
+            ..
+        }) => {
             assert_eq!(id, Some(500));
             assert_eq!(index as usize, slot);
             assert_eq!(position, [0.5, 1.35, 0.5]);
@@ -409,10 +473,16 @@ fn grid_reports_particle_outside() {
     }
     let slot = ids.iter().position(|&id| id == 123).unwrap();
     pos[slot][0] = f32::NAN;
-    gpu.queue.write_buffer(&b.pos, 0, bytemuck::cast_slice(&pos));
+    gpu.queue
+        .write_buffer(&b.pos, 0, bytemuck::cast_slice(&pos));
     sort(&gpu, &grid, &b);
     match grid.check(&gpu) {
-        Err(GridError::ParticleOutside { id, position, outside, .. }) => {
+        Err(GridError::ParticleOutside {
+            id,
+            position,
+            outside,
+            ..
+        }) => {
             assert_eq!(id, Some(123));
             assert!(position[0].is_nan());
             assert_eq!(outside, 1);
@@ -435,11 +505,13 @@ fn grid_params_layout_agrees_with_wgsl() {
         n_cells: 789,
         dims: [7, 8, 9, 10],
     };
-    let params_buffer = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("params"),
-        contents: bytemuck::bytes_of(&params),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
+    let params_buffer = gpu
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
     let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("out"),
         size: 48,
@@ -464,10 +536,12 @@ fn main() {
     out[11] = grid.dims.w + cell_start[0] * 0u;
 }
 "#;
-    let out_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("out"),
-        entries: &[shaders::storage_entry(0, false)],
-    });
+    let out_layout = gpu
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("out"),
+            entries: &[shaders::storage_entry(0, false)],
+        });
     let module = shaders::module(&gpu, "layout test", &[GRID_COMMON_WGSL, WGSL]);
     let pipeline = shaders::compute_pipeline_with_layouts(
         &gpu,
@@ -476,7 +550,12 @@ fn main() {
         "main",
         &[Some(&out_layout), Some(grid.bind_group_layout())],
     );
-    let grid_bg = shaders::bind_buffers(&gpu, "grid", grid.bind_group_layout(), &[&params_buffer, &grid.cell_start]);
+    let grid_bg = shaders::bind_buffers(
+        &gpu,
+        "grid",
+        grid.bind_group_layout(),
+        &[&params_buffer, &grid.cell_start],
+    );
     let out_bg = shaders::bind_buffers(&gpu, "out", &out_layout, &[&out]);
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
@@ -518,7 +597,13 @@ fn gpu_stage_timer_reports_sort_stages() {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     // Dam-break box 1.6 × 0.67 × 0.6 m, support 2.4 dp with dp ≈ 0.0125.
     let xyz: Vec<[f32; 3]> = (0..n)
-        .map(|_| [rng.random_range(0.0..1.6), rng.random_range(0.0..0.67), rng.random_range(0.0..0.6)])
+        .map(|_| {
+            [
+                rng.random_range(0.0..1.6),
+                rng.random_range(0.0..0.67),
+                rng.random_range(0.0..0.6),
+            ]
+        })
         .collect();
     let parts = Particles::from_positions(&xyz);
     let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.6, 0.67, 0.6], 0.03, n).unwrap();
@@ -534,8 +619,17 @@ fn gpu_stage_timer_reports_sort_stages() {
     }
     grid.check(&gpu).unwrap();
     let totals = timer.totals_with_counts();
-    println!("timing mode {:?}, {} cells", timer.mode(), grid.params.n_cells);
-    for label in ["grid: count", "grid: scan", "grid: scatter", "grid: reorder"] {
+    println!(
+        "timing mode {:?}, {} cells",
+        timer.mode(),
+        grid.params.n_cells
+    );
+    for label in [
+        "grid: count",
+        "grid: scan",
+        "grid: scatter",
+        "grid: reorder",
+    ] {
         let (_, s, count) = totals
             .iter()
             .find(|(l, _, _)| l == label)

@@ -3,8 +3,8 @@
 
 mod common;
 
-use couplet_fluid::gpu::shared_test_gpu;
 use couplet_fluid::FluidSolver;
+use couplet_fluid::gpu::shared_test_gpu;
 use couplet_protocol::Scene;
 use std::path::Path;
 use std::time::Instant;
@@ -54,7 +54,12 @@ fn worst_error(snap: &[couplet_protocol::ParticleRecord], r: f64) -> (f64, usize
     let mut max_speed: f64 = 0.0;
     for p in snap {
         let [x, y, z] = p.position.map(f64::from);
-        let speed = p.velocity.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>().sqrt();
+        let speed = p
+            .velocity
+            .iter()
+            .map(|v| f64::from(*v).powi(2))
+            .sum::<f64>()
+            .sqrt();
         max_speed = max_speed.max(speed);
         if x > r && x < 0.2 - r && z > r && z < 0.2 - r && y > r && y < h_surf - r {
             let want = rho0 * g * (h_surf - y);
@@ -119,7 +124,11 @@ fn settle(label: &str, extra_effects: &str) -> f64 {
             }
             samples += 1;
             if std::env::var_os("HYDROSTATIC_TRACE").is_some() {
-                println!("t = {:.3} s: worst {:.3} %", solver.time(), 100.0 * worst_error(&snap, solver.constants().support_radius()).0);
+                println!(
+                    "t = {:.3} s: worst {:.3} %",
+                    solver.time(),
+                    100.0 * worst_error(&snap, solver.constants().support_radius()).0
+                );
             }
         }
     }

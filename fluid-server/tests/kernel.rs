@@ -2,17 +2,22 @@
 
 mod common;
 
-use couplet_fluid::gpu::shared_test_gpu;
-use couplet_fluid::kernel::{eval_kernel, SmoothingKernel, JOUBERT_QUINTIC_SIGMA_H3, QUINTIC_SIGMA_H3};
-use couplet_fluid::sph_kernel::PARTICLES;
 use couplet_fluid::SphConstants;
+use couplet_fluid::gpu::shared_test_gpu;
+use couplet_fluid::kernel::{
+    JOUBERT_QUINTIC_SIGMA_H3, QUINTIC_SIGMA_H3, SmoothingKernel, eval_kernel,
+};
+use couplet_fluid::sph_kernel::PARTICLES;
 use couplet_protocol::KernelKind;
 
 /// ∫ W dV over the support by the midpoint rule in r (4π r² dr), 20 000 intervals.
 fn integral(k: &SmoothingKernel) -> f64 {
     let n = 20_000;
     let dr = k.radius() / n as f64;
-    (0..n).map(|i| (i as f64 + 0.5) * dr).map(|r| 4.0 * std::f64::consts::PI * r * r * k.w(r) * dr).sum()
+    (0..n)
+        .map(|i| (i as f64 + 0.5) * dr)
+        .map(|r| 4.0 * std::f64::consts::PI * r * r * k.w(r) * dr)
+        .sum()
 }
 
 /// Normalisation ∫ W dV = 1 (rel 1e-3, numerical quadrature) for both kernels and two h.
@@ -34,7 +39,10 @@ fn joubert_quintic_constant_is_not_normalised() {
     let ratio = JOUBERT_QUINTIC_SIGMA_H3 / QUINTIC_SIGMA_H3;
     assert!((ratio - 360.0 / 359.0).abs() < 1e-12);
     let k = SmoothingKernel::new(KernelKind::Quintic, 1.0);
-    let k_paper = SmoothingKernel { sigma: JOUBERT_QUINTIC_SIGMA_H3, ..k };
+    let k_paper = SmoothingKernel {
+        sigma: JOUBERT_QUINTIC_SIGMA_H3,
+        ..k
+    };
     assert!((integral(&k_paper) - 1.0).abs() > 2e-3);
 }
 
@@ -45,7 +53,9 @@ fn joubert_quintic_constant_is_not_normalised() {
 fn gradient_is_the_derivative_of_w() {
     for kind in [KernelKind::WendlandC2, KernelKind::Quintic] {
         let k = SmoothingKernel::new(kind, 0.02);
-        let gmax = (0..1000).map(|i| k.dw_dr(k.radius() * i as f64 / 1000.0).abs()).fold(0.0, f64::max);
+        let gmax = (0..1000)
+            .map(|i| k.dw_dr(k.radius() * i as f64 / 1000.0).abs())
+            .fold(0.0, f64::max);
         for i in 0..200 {
             let r = k.radius() * (i as f64 + 0.37) / 201.0;
             let dir = [(i as f64 * 0.7).cos(), (i as f64 * 1.3).sin(), 0.5];
@@ -59,7 +69,11 @@ fn gradient_is_the_derivative_of_w() {
                 xm[a] -= eps;
                 let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
                 let fd = (k.w(norm(xp)) - k.w(norm(xm))) / (2.0 * eps);
-                assert!((fd - g[a]).abs() < 1e-6 * gmax, "{kind:?} r = {r}: ∂W/∂x{a} {} vs FD {fd}", g[a]);
+                assert!(
+                    (fd - g[a]).abs() < 1e-6 * gmax,
+                    "{kind:?} r = {r}: ∂W/∂x{a} {} vs FD {fd}",
+                    g[a]
+                );
             }
         }
     }
@@ -76,18 +90,37 @@ fn wgsl_kernel_matches_cpu_twin() {
         let c = SphConstants::from_scene(&scene).unwrap();
         let k = c.kernel;
         let n = 4096;
-        let r: Vec<f32> = (0..n).map(|i| (k.radius() * i as f64 / (n - 1) as f64 * 1.02) as f32).collect();
+        let r: Vec<f32> = (0..n)
+            .map(|i| (k.radius() * i as f64 / (n - 1) as f64 * 1.02) as f32)
+            .collect();
         use wgpu::util::DeviceExt;
-        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        let rb = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: None, contents: bytemuck::cast_slice(&r), usage });
-        let out = gpu.device.create_buffer(&wgpu::BufferDescriptor { label: None, size: n as u64 * 8, usage, mapped_at_creation: false });
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let rb = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: None,
+                contents: bytemuck::cast_slice(&r),
+                usage,
+            });
+        let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size: n as u64 * 8,
+            usage,
+            mapped_at_creation: false,
+        });
         let kern = eval_kernel(&gpu, &c);
         let bound = kern
-            .bind(&gpu, |g, b| match (g, b) {
-                (PARTICLES, 0) => Some(&rb),
-                (PARTICLES, 1) => Some(&out),
-                _ => None,
-            }, None)
+            .bind(
+                &gpu,
+                |g, b| match (g, b) {
+                    (PARTICLES, 0) => Some(&rb),
+                    (PARTICLES, 1) => Some(&out),
+                    _ => None,
+                },
+                None,
+            )
             .unwrap();
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         {
@@ -97,12 +130,24 @@ fn wgsl_kernel_matches_cpu_twin() {
         gpu.queue.submit([enc.finish()]);
         let got: Vec<[f32; 2]> = gpu.read_buffer(&out, 0, n as u64).unwrap();
         let wmax = k.w(0.0);
-        let fmax = k.grad_factor(0.0).abs().max((0..n).map(|i| k.grad_factor(f64::from(r[i])).abs()).fold(0.0, f64::max));
+        let fmax = k.grad_factor(0.0).abs().max(
+            (0..n)
+                .map(|i| k.grad_factor(f64::from(r[i])).abs())
+                .fold(0.0, f64::max),
+        );
         for i in 0..n {
             let rr = f64::from(r[i]);
             let (w, f) = (k.w(rr), k.grad_factor(rr));
-            assert!((f64::from(got[i][0]) - w).abs() <= 1e-5 * wmax, "{kernel} r = {rr}: W {} vs {w}", got[i][0]);
-            assert!((f64::from(got[i][1]) - f).abs() <= 1e-5 * fmax, "{kernel} r = {rr}: F {} vs {f}", got[i][1]);
+            assert!(
+                (f64::from(got[i][0]) - w).abs() <= 1e-5 * wmax,
+                "{kernel} r = {rr}: W {} vs {w}",
+                got[i][0]
+            );
+            assert!(
+                (f64::from(got[i][1]) - f).abs() <= 1e-5 * fmax,
+                "{kernel} r = {rr}: F {} vs {f}",
+                got[i][1]
+            );
         }
     }
 }

@@ -10,7 +10,7 @@ use common::{max_err, random_set, scene};
 use couplet_fluid::adami2012_boundary_pressure::boundary_pressure_cpu;
 use couplet_fluid::fluid_rates::fluid_rates_cpu;
 use couplet_fluid::gpu::shared_test_gpu;
-use couplet_fluid::joubert2020_body_loads::{marker_load_cpu, MarkerGeometry};
+use couplet_fluid::joubert2020_body_loads::{MarkerGeometry, marker_load_cpu};
 use couplet_fluid::tait_eos::tait_eos_cpu;
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConstants};
 use couplet_protocol::{BodyState, CouplingPoint};
@@ -33,9 +33,16 @@ fn tait_eos_matches_cpu_twin() {
     let solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
     let got = solver.data().read(&gpu).unwrap();
     let want = tait_eos_cpu(&c, &got);
-    let (e, m) = max_err((0..got.len()).filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid).map(|i| (got.press[i], want[i])));
+    let (e, m) = max_err(
+        (0..got.len())
+            .filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid)
+            .map(|i| (got.press[i], want[i])),
+    );
     println!("EOS: max |Δp| = {e:e} of {m:e}");
-    assert!(m > 0.0 && e <= 1e-4 * m, "max |Δp| = {e:e}, max |p| = {m:e}");
+    assert!(
+        m > 0.0 && e <= 1e-4 * m,
+        "max |Δp| = {e:e}, max |p| = {m:e}"
+    );
 }
 
 /// Boundary pressure (Adami et al. 2012) of 30 % wall particles among 2744 jittered
@@ -48,15 +55,28 @@ fn boundary_pressure_matches_cpu_twin() {
         let c = SphConstants::from_scene(&s).unwrap();
         let set = random_set(&c, 14, 0.3, 0.2, 0.5, 2);
         let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-        solver.run_ops(&gpu, &[Op::Sort, Op::BoundaryPressure], 1e-4, 1.0).unwrap();
+        solver
+            .run_ops(&gpu, &[Op::Sort, Op::BoundaryPressure], 1e-4, 1.0)
+            .unwrap();
         let got = solver.data().read(&gpu).unwrap();
         let want = boundary_pressure_cpu(&c, &got);
         let walls: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
         assert!(walls.len() > 500);
-        let (ep, mp) = max_err(walls.iter().map(|&i| (got.press[i], want[i].map_or(0.0, |w| w.0))));
-        let (er, _) = max_err(walls.iter().map(|&i| (got.rho[i], want[i].map_or(0.0, |w| w.1))));
+        let (ep, mp) = max_err(
+            walls
+                .iter()
+                .map(|&i| (got.press[i], want[i].map_or(0.0, |w| w.0))),
+        );
+        let (er, _) = max_err(
+            walls
+                .iter()
+                .map(|&i| (got.rho[i], want[i].map_or(0.0, |w| w.1))),
+        );
         println!("{kernel}: max |Δp_w| = {ep:e} of {mp:e}, max |Δρ_w| = {er:e}");
-        assert!(ep <= PAIR_RTOL * mp, "{kernel}: max |Δp_w| = {ep:e}, max |p_w| = {mp:e}");
+        assert!(
+            ep <= PAIR_RTOL * mp,
+            "{kernel}: max |Δp_w| = {ep:e}, max |p_w| = {mp:e}"
+        );
         assert!(er <= 1e-6 * c.rho0, "{kernel}: max |Δρ_w| = {er:e}");
     }
 }
@@ -69,22 +89,48 @@ fn check_rates(effects: &str, walls: &str, seed: u64) {
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
     // `Gradients` is absent (dispatches nothing) without the correction; it runs after
     // the wall densities are set so that the twin sees the same V_j = m/ρ_j.
-    solver.run_ops(&gpu, &[Op::Sort, Op::BoundaryPressure, Op::Gradients, Op::FluidRates], 1e-4, 1.0).unwrap();
+    solver
+        .run_ops(
+            &gpu,
+            &[
+                Op::Sort,
+                Op::BoundaryPressure,
+                Op::Gradients,
+                Op::FluidRates,
+            ],
+            1e-4,
+            1.0,
+        )
+        .unwrap();
     let got = solver.data().read(&gpu).unwrap();
     let (drho, dvel) = solver.data().read_rates(&gpu).unwrap();
     let want = fluid_rates_cpu(&c, &got);
     let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
-    let (ec, mc) = max_err(fluid.iter().map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))));
+    let (ec, mc) = max_err(
+        fluid
+            .iter()
+            .map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))),
+    );
     // Gravity is added exactly on both sides: compare the pair sums.
     let g = c.gravity_fluid;
     let dvel = &dvel;
     let (em, mm) = max_err(fluid.iter().flat_map(|&i| {
         let w = want[i].map_or([0.0; 3], |w| w.1);
-        (0..3).map(move |k| (dvel[i][k] - g[k], w[k] - g[k])).collect::<Vec<_>>()
+        (0..3)
+            .map(move |k| (dvel[i][k] - g[k], w[k] - g[k]))
+            .collect::<Vec<_>>()
     }));
-    println!("{effects} {walls}: continuity max |Δ| = {ec:e} of {mc:e}; momentum max |Δ| = {em:e} of {mm:e}");
-    assert!(ec <= PAIR_RTOL * mc, "continuity: max |Δ| = {ec:e}, max = {mc:e}");
-    assert!(em <= PAIR_RTOL * mm, "momentum: max |Δ| = {em:e}, max = {mm:e}");
+    println!(
+        "{effects} {walls}: continuity max |Δ| = {ec:e} of {mc:e}; momentum max |Δ| = {em:e} of {mm:e}"
+    );
+    assert!(
+        ec <= PAIR_RTOL * mc,
+        "continuity: max |Δ| = {ec:e}, max = {mc:e}"
+    );
+    assert!(
+        em <= PAIR_RTOL * mm,
+        "momentum: max |Δ| = {em:e}, max = {mm:e}"
+    );
 }
 
 /// Continuity and momentum (pressure only) against their twins: rel 1e-4 of the max.
@@ -97,22 +143,38 @@ fn rates_match_cpu_twin_inviscid() {
 /// viscosity (α = 0.1), no-slip walls: rel 1e-4 of the max.
 #[test]
 fn rates_match_cpu_twin_viscous_no_slip() {
-    check_rates("[effects]\nviscosity = \"laminar\"\nartificial_viscosity = 0.1", "", 4);
+    check_rates(
+        "[effects]\nviscosity = \"laminar\"\nartificial_viscosity = 0.1",
+        "",
+        4,
+    );
 }
 
 /// Joubert eqs. (12)–(13) with the B-matrix correction (pressure in difference form,
 /// Morris viscosity), no-slip walls: rel 1e-4 of the max.
 #[test]
 fn rates_match_cpu_twin_gradient_corrected() {
-    check_rates("[effects]\nviscosity = \"laminar\"\ngradient_correction = true", "", 6);
+    check_rates(
+        "[effects]\nviscosity = \"laminar\"\ngradient_correction = true",
+        "",
+        6,
+    );
 }
 
 /// δ-SPH density diffusion (Antuono et al. 2010, δ = 0.1) with the renormalised density
 /// gradient, standard and gradient-corrected: rel 1e-4 of the max.
 #[test]
 fn rates_match_cpu_twin_density_diffusion() {
-    check_rates("[effects]\nviscosity = \"none\"\ndensity_diffusion = 0.1", "", 7);
-    check_rates("[effects]\nviscosity = \"laminar\"\ngradient_correction = true\ndensity_diffusion = 0.1", "", 8);
+    check_rates(
+        "[effects]\nviscosity = \"none\"\ndensity_diffusion = 0.1",
+        "",
+        7,
+    );
+    check_rates(
+        "[effects]\nviscosity = \"laminar\"\ngradient_correction = true\ndensity_diffusion = 0.1",
+        "",
+        8,
+    );
 }
 
 /// Same with free-slip walls (walls leave the viscous sums) and the quintic kernel:
@@ -120,23 +182,39 @@ fn rates_match_cpu_twin_density_diffusion() {
 #[test]
 fn rates_match_cpu_twin_viscous_free_slip() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let mut s = scene("kernel = \"quintic\"", "[effects]\nviscosity = \"laminar\"\nartificial_viscosity = 0.1");
+    let mut s = scene(
+        "kernel = \"quintic\"",
+        "[effects]\nviscosity = \"laminar\"\nartificial_viscosity = 0.1",
+    );
     s.domain.walls = couplet_protocol::WallKind::FreeSlip;
     let c = SphConstants::from_scene(&s).unwrap();
     assert!(!c.no_slip_walls);
     let set = random_set(&c, 14, 0.3, 0.2, 0.5, 5);
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-    solver.run_ops(&gpu, &[Op::Sort, Op::BoundaryPressure, Op::FluidRates], 1e-4, 1.0).unwrap();
+    solver
+        .run_ops(
+            &gpu,
+            &[Op::Sort, Op::BoundaryPressure, Op::FluidRates],
+            1e-4,
+            1.0,
+        )
+        .unwrap();
     let got = solver.data().read(&gpu).unwrap();
     let (drho, dvel) = solver.data().read_rates(&gpu).unwrap();
     let want = fluid_rates_cpu(&c, &got);
     let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
-    let (ec, mc) = max_err(fluid.iter().map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))));
+    let (ec, mc) = max_err(
+        fluid
+            .iter()
+            .map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))),
+    );
     let g = c.gravity_fluid;
     let dvel = &dvel;
     let (em, mm) = max_err(fluid.iter().flat_map(|&i| {
         let w = want[i].map_or([0.0; 3], |w| w.1);
-        (0..3).map(move |k| (dvel[i][k] - g[k], w[k] - g[k])).collect::<Vec<_>>()
+        (0..3)
+            .map(move |k| (dvel[i][k] - g[k], w[k] - g[k]))
+            .collect::<Vec<_>>()
     }));
     println!("free-slip quintic: continuity {ec:e} of {mc:e}; momentum {em:e} of {mm:e}");
     assert!(ec <= PAIR_RTOL * mc && em <= PAIR_RTOL * mm);
@@ -153,7 +231,10 @@ fn rates_match_cpu_twin_viscous_free_slip() {
 fn pressure_gradient_of_linear_field_and_translation() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
     for kernel in ["wendland-c2", "quintic"] {
-        let s = scene(&format!("kernel = \"{kernel}\""), "[gravity]\non_fluid = false\n[effects]\nviscosity = \"none\"");
+        let s = scene(
+            &format!("kernel = \"{kernel}\""),
+            "[gravity]\non_fluid = false\n[effects]\nviscosity = \"none\"",
+        );
 
         let c = SphConstants::from_scene(&s).unwrap();
         let n = 20;
@@ -163,7 +244,8 @@ fn pressure_gradient_of_linear_field_and_translation() {
         let u = [0.3, -0.2, 0.1];
         let mut set = ParticleSet::default();
         for k in 0..n * n * n {
-            let p = [(k % n) as f64, ((k / n) % n) as f64, (k / (n * n)) as f64].map(|x| (x + 0.5) * c.spacing);
+            let p = [(k % n) as f64, ((k / n) % n) as f64, (k / (n * n)) as f64]
+                .map(|x| (x + 0.5) * c.spacing);
             let rho = c.density(p0 + a * p[0]);
             set.pos.push(p);
             set.vel.push(u);
@@ -171,9 +253,15 @@ fn pressure_gradient_of_linear_field_and_translation() {
             set.press.push(c.pressure(rho));
             set.id.push(k as u32);
         }
-        set.kinds = ParticleKinds { n_fluid: n * n * n, n_wall: 0, n_markers: 0 };
+        set.kinds = ParticleKinds {
+            n_fluid: n * n * n,
+            n_wall: 0,
+            n_markers: 0,
+        };
         let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-        solver.run_ops(&gpu, &[Op::Sort, Op::FluidRates], 1e-4, 1.0).unwrap();
+        solver
+            .run_ops(&gpu, &[Op::Sort, Op::FluidRates], 1e-4, 1.0)
+            .unwrap();
         let got = solver.particles(&gpu).unwrap();
         let (drho, dvel) = solver.data().read_rates(&gpu).unwrap();
         let r = c.support_radius();
@@ -189,10 +277,17 @@ fn pressure_gradient_of_linear_field_and_translation() {
                 worst = worst.max(dvel[i][1].abs().max(dvel[i][2].abs()) / want.abs());
                 count += 1;
             }
-            assert!(drho[i].abs() < 1e-6 * c.rho0, "{kernel}: dρ/dt = {} for a uniform translation", drho[i]);
+            assert!(
+                drho[i].abs() < 1e-6 * c.rho0,
+                "{kernel}: dρ/dt = {} for a uniform translation",
+                drho[i]
+            );
         }
         println!("{kernel}: {count} interior particles, worst relative error of ∇p/ρ {worst:e}");
-        assert!(count > 100 && worst < 0.01, "{kernel}: worst relative error {worst}");
+        assert!(
+            count > 100 && worst < 0.01,
+            "{kernel}: worst relative error {worst}"
+        );
     }
 }
 
@@ -225,7 +320,11 @@ fn marker_loads_match_cpu_twin() {
     let mut points = Vec::new();
     for (b, &m) in per_body.iter().enumerate() {
         for _ in 0..m {
-            let n: [f32; 3] = [rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5];
+            let n: [f32; 3] = [
+                rng.random::<f32>() - 0.5,
+                rng.random::<f32>() - 0.5,
+                rng.random::<f32>() - 0.5,
+            ];
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             let cg = states[b].position;
             let pos = [0, 1, 2].map(|k| cg[k] as f32 + 0.02 * n[k] / len);
@@ -242,7 +341,18 @@ fn marker_loads_match_cpu_twin() {
     solver.set_bodies(&gpu, &states, &points).unwrap();
     assert_eq!(solver.counts().markers, 300);
     solver
-        .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort, Op::BoundaryPressure, Op::MarkerLoads, Op::ReduceBodyLoads], 1e-4, 1.0)
+        .run_ops(
+            &gpu,
+            &[
+                Op::MarkerUpdate,
+                Op::Sort,
+                Op::BoundaryPressure,
+                Op::MarkerLoads,
+                Op::ReduceBodyLoads,
+            ],
+            1e-4,
+            1.0,
+        )
         .unwrap();
     let mut got = solver.particles(&gpu).unwrap();
     got.kinds = solver.data().kinds;
@@ -259,24 +369,45 @@ fn marker_loads_match_cpu_twin() {
         };
         want.push(marker_load_cpu(&c, &got, i, &geom));
     }
-    let (ef, mf) = max_err((0..points.len()).flat_map(|k| (0..3).map(move |a| (k, a))).map(|(k, a)| (gpu_loads[k].0[a], want[k].0[a])));
-    let (em, mm) = max_err((0..points.len()).flat_map(|k| (0..3).map(move |a| (k, a))).map(|(k, a)| (gpu_loads[k].1[a], want[k].1[a])));
+    let (ef, mf) = max_err(
+        (0..points.len())
+            .flat_map(|k| (0..3).map(move |a| (k, a)))
+            .map(|(k, a)| (gpu_loads[k].0[a], want[k].0[a])),
+    );
+    let (em, mm) = max_err(
+        (0..points.len())
+            .flat_map(|k| (0..3).map(move |a| (k, a)))
+            .map(|(k, a)| (gpu_loads[k].1[a], want[k].1[a])),
+    );
     println!("marker traction max |Δ| = {ef:e} of {mf:e}; moment {em:e} of {mm:e}");
-    assert!(mf > 0.0 && ef <= PAIR_RTOL * mf, "traction {ef:e} of {mf:e}");
+    assert!(
+        mf > 0.0 && ef <= PAIR_RTOL * mf,
+        "traction {ef:e} of {mf:e}"
+    );
     assert!(em <= PAIR_RTOL * mm, "moment {em:e} of {mm:e}");
 
     // The per-body reduction against the f64 sum of the GPU's per-marker values.
     let b = solver.data().bodies.as_ref().unwrap();
-    let raw: Vec<[f32; 4]> = gpu.read_buffer(&b.body_loads, 0, 2 * n_bodies as u64).unwrap();
+    let raw: Vec<[f32; 4]> = gpu
+        .read_buffer(&b.body_loads, 0, 2 * n_bodies as u64)
+        .unwrap();
     let mut first = 0;
     for (body, &m) in per_body.iter().enumerate() {
-        let f: [f64; 3] = std::array::from_fn(|a| (first..first + m).map(|k| gpu_loads[k].0[a]).sum());
-        let mo: [f64; 3] = std::array::from_fn(|a| (first..first + m).map(|k| gpu_loads[k].1[a]).sum());
+        let f: [f64; 3] =
+            std::array::from_fn(|a| (first..first + m).map(|k| gpu_loads[k].0[a]).sum());
+        let mo: [f64; 3] =
+            std::array::from_fn(|a| (first..first + m).map(|k| gpu_loads[k].1[a]).sum());
         let scale_f = f.iter().map(|x| x.abs()).fold(0.0, f64::max);
         let scale_m = mo.iter().map(|x| x.abs()).fold(0.0, f64::max);
         for a in 0..3 {
-            assert!((f64::from(raw[2 * body][a]) - f[a]).abs() <= 1e-5 * scale_f, "body {body} force[{a}]");
-            assert!((f64::from(raw[2 * body + 1][a]) - mo[a]).abs() <= 1e-5 * scale_m, "body {body} moment[{a}]");
+            assert!(
+                (f64::from(raw[2 * body][a]) - f[a]).abs() <= 1e-5 * scale_f,
+                "body {body} force[{a}]"
+            );
+            assert!(
+                (f64::from(raw[2 * body + 1][a]) - mo[a]).abs() <= 1e-5 * scale_m,
+                "body {body} moment[{a}]"
+            );
         }
         first += m;
     }

@@ -10,16 +10,20 @@ use wgpu::util::DeviceExt;
 
 fn gpu_scan(input: &[u32]) -> (Vec<u32>, usize) {
     let gpu = shared_test_gpu().unwrap();
-    let buffer = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("scan input"),
-        contents: bytemuck::cast_slice(input),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    });
+    let buffer = gpu
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("scan input"),
+            contents: bytemuck::cast_slice(input),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        });
     let scan = PrefixSum::new(&gpu, &buffer, input.len() as u32).unwrap();
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     scan.queue(&gpu, &mut encoder, None);
     gpu.queue.submit([encoder.finish()]);
-    let out = gpu.read_buffer::<u32>(&buffer, 0, input.len() as u64).unwrap();
+    let out = gpu
+        .read_buffer::<u32>(&buffer, 0, input.len() as u64)
+        .unwrap();
     (out, scan.levels())
 }
 

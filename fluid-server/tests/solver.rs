@@ -4,7 +4,7 @@
 mod common;
 
 use couplet_fluid::gpu::shared_test_gpu;
-use couplet_fluid::{stages, FluidError, FluidLimits, FluidSolver, Op, SphConstants};
+use couplet_fluid::{FluidError, FluidLimits, FluidSolver, Op, SphConstants, stages};
 use couplet_protocol::{BodyState, CouplingPoint, Scene};
 use std::path::Path;
 
@@ -40,8 +40,14 @@ fn stages_follow_the_scene() {
     let names = |s: &Scene| stages(s).iter().map(|s| s.name).collect::<Vec<_>>();
     let plain = tank("[effects]\nviscosity = \"none\"\n[gravity]\non_fluid = false");
     let n = names(&plain);
-    assert!(!n.contains(&"morris1997_viscosity") && !n.contains(&"monaghan1992_artificial_viscosity"));
-    assert!(!n.contains(&"gravity") && !n.contains(&"marker_update") && !n.contains(&"joubert2020_body_loads"));
+    assert!(
+        !n.contains(&"morris1997_viscosity") && !n.contains(&"monaghan1992_artificial_viscosity")
+    );
+    assert!(
+        !n.contains(&"gravity")
+            && !n.contains(&"marker_update")
+            && !n.contains(&"joubert2020_body_loads")
+    );
     assert!(!n.contains(&"joubert2020_gradients") && !n.contains(&"particle_shifting"));
     let full = tank(
         "[effects]\nviscosity = \"laminar\"\nartificial_viscosity = 0.1\ngradient_correction = true\nparticle_shifting = 0.05\n[[bodies]]\nname = \"s\"\nshape.sphere.radius = 0.02\ndensity = 1200.0\nposition = [0.1, 0.2, 0.1]",
@@ -104,33 +110,82 @@ fn buoyancy_of_a_marker_sphere() {
             }
         })
         .collect();
-    let state = BodyState { position: centre, body: 0, motion: 2, orientation: [0.0, 0.0, 0.0, 1.0], ..Default::default() };
+    let state = BodyState {
+        position: centre,
+        body: 0,
+        motion: 2,
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        ..Default::default()
+    };
     solver.set_bodies(&gpu, &[state], &points).unwrap();
     assert_eq!(solver.counts().markers, n as u32);
     // One load evaluation on the initial (hydrostatic) state: after a window the markers,
     // which the uncorrected scheme treats as a dense wall inside the fluid, have already
     // disturbed the pressure around them.
     solver
-        .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort, Op::BoundaryPressure, Op::MarkerLoads, Op::ReduceBodyLoads], 1e-4, 1.0)
+        .run_ops(
+            &gpu,
+            &[
+                Op::MarkerUpdate,
+                Op::Sort,
+                Op::BoundaryPressure,
+                Op::MarkerLoads,
+                Op::ReduceBodyLoads,
+            ],
+            1e-4,
+            1.0,
+        )
         .unwrap();
     let loads = solver.loads(&gpu).unwrap();
     assert_eq!(loads.len(), 1);
     let l = loads[0];
     let v = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
     let buoyancy = 1000.0 * 9.81 * v;
-    println!("force {:?} N, moment {:?} N·m, ρ0 g V = {buoyancy:.4} N", l.force, l.moment);
-    assert!((l.force[1] - buoyancy).abs() < 0.05 * buoyancy, "F_y = {} vs ρ0 g V = {buoyancy}", l.force[1]);
+    println!(
+        "force {:?} N, moment {:?} N·m, ρ0 g V = {buoyancy:.4} N",
+        l.force, l.moment
+    );
+    assert!(
+        (l.force[1] - buoyancy).abs() < 0.05 * buoyancy,
+        "F_y = {} vs ρ0 g V = {buoyancy}",
+        l.force[1]
+    );
     assert!(l.force[0].abs() < 0.02 * buoyancy && l.force[2].abs() < 0.02 * buoyancy);
-    assert!(l.moment.iter().all(|m| m.abs() < 0.02 * buoyancy * r), "moment {:?}", l.moment);
+    assert!(
+        l.moment.iter().all(|m| m.abs() < 0.02 * buoyancy * r),
+        "moment {:?}",
+        l.moment
+    );
     // A full window through the step path (marker_update, two load evaluations per
     // step, clock, tree reduction): finite loads for the one body.
     let substeps = solver.advance(&gpu, 0.002, None).unwrap();
     let after = solver.loads(&gpu).unwrap();
-    println!("after a window of {substeps} substeps: force {:?} N", after[0].force);
-    assert!(after.len() == 1 && after[0].force.iter().chain(&after[0].moment).all(|x| x.is_finite()));
+    println!(
+        "after a window of {substeps} substeps: force {:?} N",
+        after[0].force
+    );
+    assert!(
+        after.len() == 1
+            && after[0]
+                .force
+                .iter()
+                .chain(&after[0].moment)
+                .all(|x| x.is_finite())
+    );
     // Later windows must keep the marker count.
-    let err = solver.set_bodies(&gpu, &[state], &points[..10]).unwrap_err();
-    assert!(matches!(err, FluidError::MarkerCount { got: 10, capacity: 400 }), "{err}");
+    let err = solver
+        .set_bodies(&gpu, &[state], &points[..10])
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            FluidError::MarkerCount {
+                got: 10,
+                capacity: 400
+            }
+        ),
+        "{err}"
+    );
 }
 
 /// A fluid particle with a non-finite velocity is reported at the end of the window
@@ -169,5 +224,8 @@ fn snapshot_is_fluid_in_id_order() {
     assert_eq!(snap.len(), solver.counts().fluid as usize);
     // Id 0 is the first lattice point of the block (x, z = δ/2), at the bottom.
     assert!((snap[0].position[0] - 0.01).abs() < 1e-6 && (snap[0].position[2] - 0.01).abs() < 1e-6);
-    assert!(snap.iter().all(|p| p.position[1] > 0.0 && p.position[1] < 0.3));
+    assert!(
+        snap.iter()
+            .all(|p| p.position[1] > 0.0 && p.position[1] < 0.3)
+    );
 }

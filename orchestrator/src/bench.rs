@@ -2,7 +2,7 @@
 //! particles, neighbours per particle, fluid steps/s, particle-steps/s, pair
 //! interactions/s, time per GPU stage, and the exchange's share of a coupling window.
 
-use crate::run::{resolve_scene, run, RunError, RunOptions};
+use crate::run::{RunError, RunOptions, resolve_scene, run};
 use couplet_fluid::gpu::Gpu;
 use couplet_fluid::solver::FluidSolver;
 use couplet_fluid::timing::StageTimer;
@@ -25,7 +25,11 @@ pub enum BenchError {
 /// Warm-up steps before timing: the first dispatches compile pipelines lazily on some drivers.
 const WARMUP_STEPS: u32 = 3;
 
-pub fn bench(scene_path: &Path, steps: u32, overrides: &[(String, String)]) -> Result<String, BenchError> {
+pub fn bench(
+    scene_path: &Path,
+    steps: u32,
+    overrides: &[(String, String)],
+) -> Result<String, BenchError> {
     let (scene, _) = resolve_scene(scene_path, overrides)?;
     if scene.fluid.is_none() {
         return Err(BenchError::NoFluid);
@@ -41,10 +45,11 @@ pub fn bench(scene_path: &Path, steps: u32, overrides: &[(String, String)]) -> R
             what: "creating the DEM engine for the bench".into(),
             source: std::io::Error::other(e.to_string()),
         })?;
-        let markers = couplet_dem::markers::MarkerSet::from_scene(&scene).map_err(|e| RunError::Io {
-            what: "generating markers for the bench".into(),
-            source: std::io::Error::other(e.to_string()),
-        })?;
+        let markers =
+            couplet_dem::markers::MarkerSet::from_scene(&scene).map_err(|e| RunError::Io {
+                what: "generating markers for the bench".into(),
+                source: std::io::Error::other(e.to_string()),
+            })?;
         let mut states = Vec::new();
         engine.states(&mut states);
         let mut points = Vec::new();
@@ -75,20 +80,52 @@ pub fn bench(scene_path: &Path, steps: u32, overrides: &[(String, String)]) -> R
     let steps_f = steps as f64;
     let mut o = String::new();
     let w = &mut o;
-    let _ = writeln!(w, "scene: {} (δ = {} m)", scene.meta.name, scene.fluid.as_ref().map_or(0.0, |f| f.spacing));
+    let _ = writeln!(
+        w,
+        "scene: {} (δ = {} m)",
+        scene.meta.name,
+        scene.fluid.as_ref().map_or(0.0, |f| f.spacing)
+    );
     let _ = writeln!(w, "adapter: {}", gpu.describe());
-    let _ = writeln!(w, "precision: f32; neighbour build (counting sort) included in every step");
-    let _ = writeln!(w, "particles: {} ({} fluid, {} wall, {} markers)", total, counts.fluid, counts.wall, counts.markers);
-    let _ = writeln!(w, "neighbours per fluid particle (inside the support): {neighbours:.1}");
+    let _ = writeln!(
+        w,
+        "precision: f32; neighbour build (counting sort) included in every step"
+    );
+    let _ = writeln!(
+        w,
+        "particles: {} ({} fluid, {} wall, {} markers)",
+        total, counts.fluid, counts.wall, counts.markers
+    );
+    let _ = writeln!(
+        w,
+        "neighbours per fluid particle (inside the support): {neighbours:.1}"
+    );
     let _ = writeln!(w, "neighbour passes per step: {passes}");
     let _ = writeln!(w, "steps timed: {steps}, wall {wall:.3} s");
     let _ = writeln!(w, "fluid steps/s: {:.2}", steps_f / wall);
     let _ = writeln!(w, "particle-steps/s: {:.3e}", total * steps_f / wall);
-    let _ = writeln!(w, "pair-interactions/s: {:.3e}", total * neighbours * passes * steps_f / wall);
-    let _ = writeln!(w, "\ntime per stage ({}), per step:", if gpu.timestamps { "GPU timestamp queries" } else { "wall time per submitted pass" });
+    let _ = writeln!(
+        w,
+        "pair-interactions/s: {:.3e}",
+        total * neighbours * passes * steps_f / wall
+    );
+    let _ = writeln!(
+        w,
+        "\ntime per stage ({}), per step:",
+        if gpu.timestamps {
+            "GPU timestamp queries"
+        } else {
+            "wall time per submitted pass"
+        }
+    );
     let stage_total: f64 = stages.iter().map(|s| s.1).sum();
     for (name, secs) in &stages {
-        let _ = writeln!(w, "  {name:<24} {:>10.3} ms  {:>5.1} %", secs / steps_f * 1e3, 100.0 * secs / stage_total.max(1e-30));
+        let _ = writeln!(
+            w,
+            "  {name:<24} {:>10.3} ms  {:>5.1} %",
+            secs / steps_f * 1e3,
+            100.0 * secs / stage_total.max(1e-30)
+        );
     }
 
     if scene.needs_dem() {
@@ -103,13 +140,29 @@ pub fn bench(scene_path: &Path, steps: u32, overrides: &[(String, String)]) -> R
             progress: false,
         })?;
         let _ = std::fs::remove_dir_all(&out);
-        let _ = writeln!(w, "\ncoupled exchange over {} windows (separate processes, iceoryx2):", s.windows);
+        let _ = writeln!(
+            w,
+            "\ncoupled exchange over {} windows (separate processes, iceoryx2):",
+            s.windows
+        );
         let _ = writeln!(w, "  window wall time       {:>10.1} µs", s.window_wall_us);
-        let _ = writeln!(w, "  fluid compute          {:>10.1} µs", s.fluid_compute_us);
+        let _ = writeln!(
+            w,
+            "  fluid compute          {:>10.1} µs",
+            s.fluid_compute_us
+        );
         let _ = writeln!(w, "  DEM compute            {:>10.1} µs", s.dem_compute_us);
-        let _ = writeln!(w, "  exchange (both ways)   {:>10.1} µs  = {:.2} % of the window", s.exchange_us, 100.0 * s.exchange_us / s.window_wall_us.max(1e-30));
+        let _ = writeln!(
+            w,
+            "  exchange (both ways)   {:>10.1} µs  = {:.2} % of the window",
+            s.exchange_us,
+            100.0 * s.exchange_us / s.window_wall_us.max(1e-30)
+        );
     } else {
-        let _ = writeln!(w, "\nexchange: none (no DEM server for this scene: nothing crosses between processes)");
+        let _ = writeln!(
+            w,
+            "\nexchange: none (no DEM server for this scene: nothing crosses between processes)"
+        );
     }
     Ok(o)
 }

@@ -3,14 +3,18 @@
 //! the library so that the cross-process tests can build the same CLI as their own
 //! binary (`tests/src/bin/couplet-cli.rs`).
 
-use crate::{bench, plan, run, RunOptions, RunSummary};
+use crate::{RunOptions, RunSummary, bench, plan, run, validate};
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "couplet", version, about = "SPH fluid (GPU) + DEM co-simulation")]
+#[command(
+    name = "couplet",
+    version,
+    about = "SPH fluid (GPU) + DEM co-simulation"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Cmd,
@@ -35,9 +39,9 @@ impl Overrides {
             out.push(("fluid.spacing".to_owned(), format!("{s:e}")));
         }
         for kv in &self.set {
-            let (k, v) = kv
-                .split_once('=')
-                .ok_or_else(|| anyhow::anyhow!("--set {kv}: expected PATH=VALUE, e.g. time.end=0.5"))?;
+            let (k, v) = kv.split_once('=').ok_or_else(|| {
+                anyhow::anyhow!("--set {kv}: expected PATH=VALUE, e.g. time.end=0.5")
+            })?;
             out.push((k.trim().to_owned(), v.trim().to_owned()));
         }
         Ok(out)
@@ -73,6 +77,27 @@ enum Cmd {
         #[command(flatten)]
         overrides: Overrides,
     },
+    /// Run a validation case and compare it with its reference: prints a markdown table
+    /// and writes it with CSV series and SVG plots to OUT; fails when a judged row fails.
+    Validate {
+        /// The case (`--list` names them).
+        #[arg(required_unless_present = "list")]
+        name: Option<String>,
+        /// List the cases.
+        #[arg(long)]
+        list: bool,
+        /// The CI-sized version (minutes on a CPU) instead of the full case.
+        #[arg(long)]
+        quick: bool,
+        /// Output folder. Default: out/validate/<name>.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Folder of the scene files. Default: ./scenes, else the repository's.
+        #[arg(long)]
+        scenes: Option<PathBuf>,
+        #[command(flatten)]
+        overrides: Overrides,
+    },
     /// (internal) Serve the fluid side of a run.
     #[command(name = "fluid-server", hide = true)]
     FluidServer { run_id: String, scene: PathBuf },
@@ -95,7 +120,12 @@ pub fn main() -> ExitCode {
 
 fn real_main(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Cmd::Run { scene, out, overrides, windows } => {
+        Cmd::Run {
+            scene,
+            out,
+            overrides,
+            windows,
+        } => {
             let s = run(&RunOptions {
                 scene: scene.clone(),
                 out,
@@ -108,7 +138,47 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             println!("{}", summary_text(&s));
         }
         Cmd::Plan { scene, overrides } => print!("{}", plan::plan(&scene, &overrides.list()?)?),
-        Cmd::Bench { scene, steps, overrides } => print!("{}", bench::bench(&scene, steps, &overrides.list()?)?),
+        Cmd::Bench {
+            scene,
+            steps,
+            overrides,
+        } => print!("{}", bench::bench(&scene, steps, &overrides.list()?)?),
+        Cmd::Validate { list: true, .. } => {
+            for c in validate::cases() {
+                println!(
+                    "{:<18} {}\n{:<18} --quick: {}",
+                    c.name, c.about, "", c.quick_why
+                );
+            }
+        }
+        Cmd::Validate {
+            name,
+            quick,
+            out,
+            scenes,
+            overrides,
+            ..
+        } => {
+            let name = name.unwrap_or_default();
+            let r = validate::validate(
+                &name,
+                quick,
+                out,
+                &overrides.list()?,
+                scenes.as_deref(),
+                true,
+            )
+            .with_context(|| format!("validating {name}"))?;
+            println!("{}", r.markdown());
+            println!("report, CSV and SVG: {}", r.out.display());
+            if !r.passed() {
+                anyhow::bail!(
+                    "{name}: {} of {} judged rows failed",
+                    r.rows.iter().filter(|r| r.pass == Some(false)).count(),
+                    r.rows.iter().filter(|r| r.pass.is_some()).count()
+                );
+            }
+        }
         Cmd::FluidServer { run_id, scene } => {
             let s = couplet_protocol::Scene::load(&scene)?;
             couplet_fluid::server::serve(&run_id, &s).context("fluid-server")?;

@@ -14,24 +14,40 @@ pub struct Server {
 #[derive(Debug, thiserror::Error)]
 pub enum LaunchError {
     #[error("cannot start the {role}: {source}")]
-    Spawn { role: &'static str, source: std::io::Error },
+    Spawn {
+        role: &'static str,
+        source: std::io::Error,
+    },
     #[error("the {role} (pid {pid}) exited with {status}")]
-    Died { role: &'static str, pid: u32, status: ExitStatus },
+    Died {
+        role: &'static str,
+        pid: u32,
+        status: ExitStatus,
+    },
     #[error("cannot query the {role}: {source}")]
-    Query { role: &'static str, source: std::io::Error },
+    Query {
+        role: &'static str,
+        source: std::io::Error,
+    },
 }
 
 impl Server {
     /// Starts this executable in `role` (`couplet fluid-server RUN_ID SCENE`).
     pub fn spawn(role: Role, run_id: &str, scene: &Path) -> Result<Self, LaunchError> {
-        let exe = std::env::current_exe().map_err(|source| LaunchError::Spawn { role: role.name(), source })?;
+        let exe = std::env::current_exe().map_err(|source| LaunchError::Spawn {
+            role: role.name(),
+            source,
+        })?;
         let child = Command::new(exe)
             .arg(role.name())
             .arg(run_id)
             .arg(scene)
             .stdin(Stdio::null())
             .spawn()
-            .map_err(|source| LaunchError::Spawn { role: role.name(), source })?;
+            .map_err(|source| LaunchError::Spawn {
+                role: role.name(),
+                source,
+            })?;
         Ok(Self { role, child })
     }
 
@@ -43,8 +59,15 @@ impl Server {
     pub fn check(&mut self) -> Result<(), LaunchError> {
         match self.child.try_wait() {
             Ok(None) => Ok(()),
-            Ok(Some(status)) => Err(LaunchError::Died { role: self.role.name(), pid: self.child.id(), status }),
-            Err(source) => Err(LaunchError::Query { role: self.role.name(), source }),
+            Ok(Some(status)) => Err(LaunchError::Died {
+                role: self.role.name(),
+                pid: self.child.id(),
+                status,
+            }),
+            Err(source) => Err(LaunchError::Query {
+                role: self.role.name(),
+                source,
+            }),
         }
     }
 

@@ -1,8 +1,8 @@
 //! The `couplet` orchestrator: launches the fluid and DEM servers, keeps them in lockstep
 //! window by window, records runs to MCAP, plans and benchmarks scenes.
 
-pub use run::{run, RunError, RunOptions, RunSummary};
-pub use window::{choose_window, WindowPlan};
+pub use run::{RunError, RunOptions, RunSummary, run};
+pub use window::{WindowPlan, choose_window};
 
 pub mod bench;
 pub mod cli;
@@ -10,4 +10,5 @@ pub mod launch;
 pub mod plan;
 pub mod record;
 pub mod run;
+pub mod validate;
 pub mod window;

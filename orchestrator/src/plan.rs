@@ -1,7 +1,7 @@
 //! `couplet plan`: what a scene will run and why — processes, GPU stages, time-step
 //! limits, window and substeps — without running it.
 
-use crate::run::{resolve_scene, RunError};
+use crate::run::{RunError, resolve_scene};
 use crate::window::choose_window;
 use std::fmt::Write;
 use std::path::Path;
@@ -29,50 +29,104 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
             let _ = writeln!(w, "  fluid-server: no — the scene has no [fluid] section");
         }
     }
-    let obstacles: Vec<&str> =
-        scene.bodies.iter().filter(|b| scene.is_fluid_obstacle(b)).map(|b| b.name.as_str()).collect();
+    let obstacles: Vec<&str> = scene
+        .bodies
+        .iter()
+        .filter(|b| scene.is_fluid_obstacle(b))
+        .map(|b| b.name.as_str())
+        .collect();
     if scene.needs_dem() {
-        let movers: Vec<&str> =
-            scene.bodies.iter().filter(|b| !scene.is_fluid_obstacle(b)).map(|b| b.name.as_str()).collect();
-        let _ = writeln!(w, "  dem-server:   yes — engine `{}` for bodies {movers:?}", scene.dem.engine);
+        let movers: Vec<&str> = scene
+            .bodies
+            .iter()
+            .filter(|b| !scene.is_fluid_obstacle(b))
+            .map(|b| b.name.as_str())
+            .collect();
+        let _ = writeln!(
+            w,
+            "  dem-server:   yes — engine `{}` for bodies {movers:?}",
+            scene.dem.engine
+        );
     } else {
         let _ = writeln!(w, "  dem-server:   no — no body moves or needs markers");
     }
     if !obstacles.is_empty() {
-        let _ = writeln!(w, "  fixed boxes {obstacles:?} are wall particles in the fluid (obstacles), no DEM needed for them");
+        let _ = writeln!(
+            w,
+            "  fixed boxes {obstacles:?} are wall particles in the fluid (obstacles), no DEM needed for them"
+        );
     }
 
     if let Some(f) = &scene.fluid {
-        let consts = couplet_fluid::constants::SphConstants::from_scene(&scene).map_err(fluid_err)?;
-        let set = couplet_fluid::particles::initial_particles(&scene, &consts).map_err(fluid_err)?;
+        let consts =
+            couplet_fluid::constants::SphConstants::from_scene(&scene).map_err(fluid_err)?;
+        let set =
+            couplet_fluid::particles::initial_particles(&scene, &consts).map_err(fluid_err)?;
         let markers = couplet_dem::markers::MarkerSet::from_scene(&scene)
-            .map_err(|e| RunError::Io { what: "generating markers".into(), source: std::io::Error::other(e.to_string()) })?
+            .map_err(|e| RunError::Io {
+                what: "generating markers".into(),
+                source: std::io::Error::other(e.to_string()),
+            })?
             .len();
-        let _ = writeln!(w, "\nfluid: δ = {} m, kernel {:?}, support {} δ (h = {:.3e} m), c_s = {} m/s, ν = {} m²/s",
-            f.spacing, f.kernel, f.support, f.smoothing_length(), f.sound_speed, f.kinematic_viscosity);
-        let _ = writeln!(w, "  particles: {} fluid, {} wall, {} body markers", set.kinds.n_fluid, set.kinds.n_wall, markers);
+        let _ = writeln!(
+            w,
+            "\nfluid: δ = {} m, kernel {:?}, support {} δ (h = {:.3e} m), c_s = {} m/s, ν = {} m²/s",
+            f.spacing,
+            f.kernel,
+            f.support,
+            f.smoothing_length(),
+            f.sound_speed,
+            f.kinematic_viscosity
+        );
+        let _ = writeln!(
+            w,
+            "  particles: {} fluid, {} wall, {} body markers",
+            set.kinds.n_fluid, set.kinds.n_wall, markers
+        );
         let _ = writeln!(w, "\nGPU stages (in dispatch order):");
         let stages = couplet_fluid::plan::stages(&scene);
         let width = stages.iter().map(|s| s.name.len()).max().unwrap_or(0);
         for s in stages {
             let _ = writeln!(w, "  {:<width$}  {}", s.name, s.reason);
         }
-        let _ = writeln!(w, "  (an effect that is off dispatches nothing and allocates nothing)");
+        let _ = writeln!(
+            w,
+            "  (an effect that is off dispatches nothing and allocates nothing)"
+        );
     }
 
     let _ = writeln!(w, "\ntime-step limits:");
     if let Some(l) = &fluid_limits {
-        let _ = writeln!(w, "  fluid acoustic CFL   {:.3e} s  (Joubert eq. 24: s δ/(c_s + u_max), s = {}, u_max = c_s/10)", l.dt_acoustic, scene.time.cfl);
-        let _ = writeln!(w, "  fluid viscous        {:.3e} s  (Joubert eq. 24: s δ²/ν)", l.dt_viscous);
+        let _ = writeln!(
+            w,
+            "  fluid acoustic CFL   {:.3e} s  (Joubert eq. 24: s δ/(c_s + u_max), s = {}, u_max = c_s/10)",
+            l.dt_acoustic, scene.time.cfl
+        );
+        let _ = writeln!(
+            w,
+            "  fluid viscous        {:.3e} s  (Joubert eq. 24: s δ²/ν)",
+            l.dt_viscous
+        );
         let _ = writeln!(w, "  fluid step           {:.3e} s", l.dt);
     }
     let dem_dt = scene.needs_dem().then_some(scene.dem.max_dt);
     if let Some(dt) = dem_dt {
-        let _ = writeln!(w, "  DEM step             {dt:.3e} s  (dem.max_dt; rapier's constraint solver is stable for contacts at any step)");
+        let _ = writeln!(
+            w,
+            "  DEM step             {dt:.3e} s  (dem.max_dt; rapier's constraint solver is stable for contacts at any step)"
+        );
     }
     let p = choose_window(&scene, fluid_limits.as_ref().map(|l| l.dt), dem_dt);
-    let _ = writeln!(w, "\ncoupling: {:?}, window {:.3e} s set by {}", scene.coupling.scheme, p.window, p.reason);
-    let _ = writeln!(w, "  {} windows to t = {} s; substeps per window: fluid {}, DEM {}", p.windows, scene.time.end, p.fluid_substeps, p.dem_substeps);
+    let _ = writeln!(
+        w,
+        "\ncoupling: {:?}, window {:.3e} s set by {}",
+        scene.coupling.scheme, p.window, p.reason
+    );
+    let _ = writeln!(
+        w,
+        "  {} windows to t = {} s; substeps per window: fluid {}, DEM {}",
+        p.windows, scene.time.end, p.fluid_substeps, p.dem_substeps
+    );
     let _ = writeln!(w, "  output every {} s", scene.time.output_interval);
 
     let _ = writeln!(w, "\nadapter:");
@@ -88,5 +142,8 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
 }
 
 fn fluid_err(e: couplet_fluid::error::FluidError) -> RunError {
-    RunError::Io { what: "preparing the fluid".into(), source: std::io::Error::other(e.to_string()) }
+    RunError::Io {
+        what: "preparing the fluid".into(),
+        source: std::io::Error::other(e.to_string()),
+    }
 }

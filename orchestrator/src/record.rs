@@ -16,7 +16,9 @@
 
 use couplet_protocol::{BodyLoad, BodyState, ParticleRecord, SideReport};
 use foxglove::messages::packed_element_field::NumericType;
-use foxglove::messages::{PackedElementField, PointCloud, Pose, PosesInFrame, Quaternion, Timestamp, Vector3};
+use foxglove::messages::{
+    PackedElementField, PointCloud, Pose, PosesInFrame, Quaternion, Timestamp, Vector3,
+};
 use foxglove::{Channel, Context, McapWriterHandle, RawChannel, Schema};
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -65,14 +67,25 @@ impl Recorder {
     /// Creates `path` (replacing an earlier recording there: re-running into the same
     /// output folder is the usual way to redo a run) and attaches `scene_text`.
     pub fn create(path: &Path, scene_name: &str, scene_text: &str) -> Result<Self, RecordError> {
-        let err = |e: foxglove::FoxgloveError| RecordError::Mcap { path: path.to_owned(), detail: e.to_string() };
+        let err = |e: foxglove::FoxgloveError| RecordError::Mcap {
+            path: path.to_owned(),
+            detail: e.to_string(),
+        };
         match std::fs::remove_file(path) {
             Ok(()) => {}
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(RecordError::Mcap { path: path.to_owned(), detail: format!("cannot replace it: {e}") }),
+            Err(e) => {
+                return Err(RecordError::Mcap {
+                    path: path.to_owned(),
+                    detail: format!("cannot replace it: {e}"),
+                });
+            }
         }
         let ctx = Context::new();
-        let writer = ctx.mcap_writer().create_new_buffered_file(path).map_err(err)?;
+        let writer = ctx
+            .mcap_writer()
+            .create_new_buffered_file(path)
+            .map_err(err)?;
         let raw = |topic: &str, name: &str, schema: &str| {
             ctx.channel_builder(topic)
                 .message_encoding("json")
@@ -80,9 +93,21 @@ impl Recorder {
                 .build_raw()
                 .map_err(err)
         };
-        let states = raw(TOPIC_STATES, "couplet.BodyStates", r#"{"type":"object","properties":{"time":{"type":"number"},"bodies":{"type":"array","items":{"type":"object","properties":{"body":{"type":"integer"},"position":{"type":"array"},"orientation":{"type":"array"},"velocity":{"type":"array"},"angular_velocity":{"type":"array"},"mass":{"type":"number"}}}}}}"#)?;
-        let loads = raw(TOPIC_LOADS, "couplet.BodyLoads", r#"{"type":"object","properties":{"time":{"type":"number"},"loads":{"type":"array","items":{"type":"object","properties":{"body":{"type":"integer"},"force":{"type":"array"},"moment":{"type":"array"}}}}}}"#)?;
-        let windows = raw(TOPIC_WINDOWS, "couplet.Window", r#"{"type":"object","properties":{"step":{"type":"integer"},"time":{"type":"number"},"window":{"type":"number"},"fluid":{"type":"object"},"dem":{"type":"object"}}}"#)?;
+        let states = raw(
+            TOPIC_STATES,
+            "couplet.BodyStates",
+            r#"{"type":"object","properties":{"time":{"type":"number"},"bodies":{"type":"array","items":{"type":"object","properties":{"body":{"type":"integer"},"position":{"type":"array"},"orientation":{"type":"array"},"velocity":{"type":"array"},"angular_velocity":{"type":"array"},"mass":{"type":"number"}}}}}}"#,
+        )?;
+        let loads = raw(
+            TOPIC_LOADS,
+            "couplet.BodyLoads",
+            r#"{"type":"object","properties":{"time":{"type":"number"},"loads":{"type":"array","items":{"type":"object","properties":{"body":{"type":"integer"},"force":{"type":"array"},"moment":{"type":"array"}}}}}}"#,
+        )?;
+        let windows = raw(
+            TOPIC_WINDOWS,
+            "couplet.Window",
+            r#"{"type":"object","properties":{"step":{"type":"integer"},"time":{"type":"number"},"window":{"type":"number"},"fluid":{"type":"object"},"dem":{"type":"object"}}}"#,
+        )?;
         let particles = ctx.channel_builder(TOPIC_PARTICLES).build::<PointCloud>();
         let poses = ctx.channel_builder(TOPIC_POSES).build::<PosesInFrame>();
         writer
@@ -98,7 +123,16 @@ impl Recorder {
         meta.insert("scene".into(), scene_name.into());
         meta.insert("couplet_version".into(), env!("CARGO_PKG_VERSION").into());
         writer.write_metadata("couplet", meta).map_err(err)?;
-        Ok(Self { path: path.to_owned(), _ctx: ctx, writer: Some(writer), particles, poses, states, loads, windows })
+        Ok(Self {
+            path: path.to_owned(),
+            _ctx: ctx,
+            writer: Some(writer),
+            particles,
+            poses,
+            states,
+            loads,
+            windows,
+        })
     }
 
     pub fn path(&self) -> &Path {
@@ -110,7 +144,11 @@ impl Recorder {
         let fields = FIELDS
             .iter()
             .enumerate()
-            .map(|(i, n)| PackedElementField { name: (*n).into(), offset: 4 * i as u32, r#type: NumericType::Float32 as i32 })
+            .map(|(i, n)| PackedElementField {
+                name: (*n).into(),
+                offset: 4 * i as u32,
+                r#type: NumericType::Float32 as i32,
+            })
             .collect();
         let data: Vec<u8> = bytemuck_cast(particles);
         let msg = PointCloud {
@@ -128,11 +166,27 @@ impl Recorder {
         let poses = states
             .iter()
             .map(|s| Pose {
-                position: Some(Vector3 { x: s.position[0], y: s.position[1], z: s.position[2] }),
-                orientation: Some(Quaternion { x: s.orientation[0], y: s.orientation[1], z: s.orientation[2], w: s.orientation[3] }),
+                position: Some(Vector3 {
+                    x: s.position[0],
+                    y: s.position[1],
+                    z: s.position[2],
+                }),
+                orientation: Some(Quaternion {
+                    x: s.orientation[0],
+                    y: s.orientation[1],
+                    z: s.orientation[2],
+                    w: s.orientation[3],
+                }),
             })
             .collect();
-        self.poses.log_with_time(&PosesInFrame { timestamp: Some(stamp(time)), frame_id: "world".into(), poses }, ns(time));
+        self.poses.log_with_time(
+            &PosesInFrame {
+                timestamp: Some(stamp(time)),
+                frame_id: "world".into(),
+                poses,
+            },
+            ns(time),
+        );
         let bodies: Vec<serde_json::Value> = states
             .iter()
             .map(|s| {
@@ -142,7 +196,11 @@ impl Recorder {
                 })
             })
             .collect();
-        self.log_json(&self.states, time, &serde_json::json!({ "time": time, "bodies": bodies }));
+        self.log_json(
+            &self.states,
+            time,
+            &serde_json::json!({ "time": time, "bodies": bodies }),
+        );
     }
 
     pub fn loads(&self, time: f64, loads: &[BodyLoad]) {
@@ -150,10 +208,21 @@ impl Recorder {
             .iter()
             .map(|l| serde_json::json!({ "body": l.body, "force": l.force, "moment": l.moment }))
             .collect();
-        self.log_json(&self.loads, time, &serde_json::json!({ "time": time, "loads": loads }));
+        self.log_json(
+            &self.loads,
+            time,
+            &serde_json::json!({ "time": time, "loads": loads }),
+        );
     }
 
-    pub fn window(&self, step: u64, time: f64, window: f64, fluid: Option<&SideReport>, dem: Option<&SideReport>) {
+    pub fn window(
+        &self,
+        step: u64,
+        time: f64,
+        window: f64,
+        fluid: Option<&SideReport>,
+        dem: Option<&SideReport>,
+    ) {
         let side = |r: Option<&SideReport>| {
             r.map(|r| {
                 serde_json::json!({ "substeps": r.substeps, "compute_us": r.compute_us, "wait_us": r.wait_us, "exchange_us": r.exchange_us, "near_singular": r.near_singular })
@@ -167,13 +236,21 @@ impl Recorder {
     }
 
     fn log_json(&self, channel: &RawChannel, time: f64, value: &serde_json::Value) {
-        channel.log_with_meta(value.to_string().as_bytes(), foxglove::PartialMetadata { log_time: Some(ns(time)) });
+        channel.log_with_meta(
+            value.to_string().as_bytes(),
+            foxglove::PartialMetadata {
+                log_time: Some(ns(time)),
+            },
+        );
     }
 
     /// Flushes and writes the summary; the file is complete and indexed afterwards.
     pub fn close(&mut self) -> Result<(), RecordError> {
         if let Some(w) = self.writer.take() {
-            w.close().map_err(|e| RecordError::Mcap { path: self.path.clone(), detail: e.to_string() })?;
+            w.close().map_err(|e| RecordError::Mcap {
+                path: self.path.clone(),
+                detail: e.to_string(),
+            })?;
         }
         Ok(())
     }
@@ -188,17 +265,132 @@ impl Drop for Recorder {
 
 fn identity_pose() -> Pose {
     Pose {
-        position: Some(Vector3 { x: 0.0, y: 0.0, z: 0.0 }),
-        orientation: Some(Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 }),
+        position: Some(Vector3 {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+        }),
+        orientation: Some(Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }),
     }
 }
 
 fn bytemuck_cast(p: &[ParticleRecord]) -> Vec<u8> {
     let mut out = Vec::with_capacity(p.len() * 32);
     for r in p {
-        for v in r.position.iter().chain([r.pressure].iter()).chain(r.velocity.iter()).chain([r.density].iter()) {
+        for v in r
+            .position
+            .iter()
+            .chain([r.pressure].iter())
+            .chain(r.velocity.iter())
+            .chain([r.density].iter())
+        {
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
     out
+}
+
+// ---- reading a recording back (validation and tests) ----
+
+/// One body at one time, from `/bodies/states`.
+#[derive(Debug, Clone, Copy)]
+pub struct BodySample {
+    pub time: f64,
+    pub body: usize,
+    pub position: [f64; 3],
+    pub orientation: [f64; 4],
+    pub velocity: [f64; 3],
+}
+
+/// A particle of a `/fluid/particles` snapshot: x y z pressure vx vy vz density.
+pub type Particle = [f32; 8];
+
+/// What a recording holds, decoded.
+#[derive(Debug, Default)]
+pub struct Recording {
+    pub snapshots: Vec<(f64, Vec<Particle>)>,
+    pub bodies: Vec<BodySample>,
+    pub loads: usize,
+    pub windows: usize,
+    /// The file ends with a summary and footer (it was closed properly).
+    pub has_summary: bool,
+}
+
+fn arr<const N: usize>(v: &serde_json::Value) -> [f64; N] {
+    let mut out = [f64::NAN; N];
+    if let Some(a) = v.as_array() {
+        for (o, x) in out.iter_mut().zip(a) {
+            *o = x.as_f64().unwrap_or(f64::NAN);
+        }
+    }
+    out
+}
+
+/// Reads and decodes a recording; errors if any record is unreadable.
+pub fn read_recording(path: &Path) -> Result<Recording, String> {
+    use foxglove::Decode;
+    let buf = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut rec = Recording {
+        has_summary: mcap::Summary::read(&buf)
+            .map_err(|e| e.to_string())?
+            .is_some(),
+        ..Default::default()
+    };
+    for m in mcap::MessageStream::new(&buf).map_err(|e| e.to_string())? {
+        let m = m.map_err(|e| format!("{}: {e}", path.display()))?;
+        let time = m.log_time as f64 * 1e-9;
+        match m.channel.topic.as_str() {
+            "/fluid/particles" => {
+                let pc = PointCloud::decode(&m.data[..]).map_err(|e| e.to_string())?;
+                let p = pc
+                    .data
+                    .chunks_exact(32)
+                    .map(|c| {
+                        let mut r = [0f32; 8];
+                        for (k, v) in r.iter_mut().enumerate() {
+                            *v = f32::from_le_bytes([
+                                c[4 * k],
+                                c[4 * k + 1],
+                                c[4 * k + 2],
+                                c[4 * k + 3],
+                            ]);
+                        }
+                        r
+                    })
+                    .collect();
+                rec.snapshots.push((time, p));
+            }
+            "/bodies/states" => {
+                let v: serde_json::Value =
+                    serde_json::from_slice(&m.data).map_err(|e| e.to_string())?;
+                for b in v["bodies"].as_array().into_iter().flatten() {
+                    rec.bodies.push(BodySample {
+                        time: v["time"].as_f64().unwrap_or(f64::NAN),
+                        body: b["body"].as_u64().unwrap_or(u64::MAX) as usize,
+                        position: arr(&b["position"]),
+                        orientation: arr(&b["orientation"]),
+                        velocity: arr(&b["velocity"]),
+                    });
+                }
+            }
+            "/bodies/loads" => rec.loads += 1,
+            "/run/windows" => rec.windows += 1,
+            _ => {}
+        }
+    }
+    Ok(rec)
+}
+
+/// The states of one body over time.
+pub fn track(rec: &Recording, body: usize) -> Vec<BodySample> {
+    rec.bodies
+        .iter()
+        .filter(|b| b.body == body)
+        .copied()
+        .collect()
 }

@@ -9,11 +9,11 @@
 
 use crate::launch::{LaunchError, Server};
 use crate::record::{RecordError, Recorder};
-use crate::window::{choose_window, WindowPlan};
+use crate::window::{WindowPlan, choose_window};
 use couplet_protocol::transport::{Endpoint, TransportError, ValueReceiver};
 use couplet_protocol::{
-    check_hello, HandshakeError, BodyLoad, BodyState, Command, CommandKind, Hello, ParticleRecord, Role, Scene, SceneError,
-    ServiceLeaf, SideReport, PROTOCOL_VERSION,
+    BodyLoad, BodyState, Command, CommandKind, HandshakeError, Hello, PROTOCOL_VERSION,
+    ParticleRecord, Role, Scene, SceneError, ServiceLeaf, SideReport, check_hello,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -36,7 +36,10 @@ pub enum RunError {
     #[error(transparent)]
     Handshake(#[from] HandshakeError),
     #[error("{what}: {source}")]
-    Io { what: String, source: std::io::Error },
+    Io {
+        what: String,
+        source: std::io::Error,
+    },
     #[error("the scene has neither fluid nor bodies: nothing to simulate")]
     Empty,
 }
@@ -85,9 +88,16 @@ pub struct RunSummary {
 
 /// Loads a scene and applies the command-line overrides; returns the scene and the TOML
 /// text the servers will load (written next to the recording).
-pub fn resolve_scene(path: &Path, overrides: &[(String, String)]) -> Result<(Scene, String), RunError> {
-    let mut text = std::fs::read_to_string(path)
-        .map_err(|source| RunError::Scene(SceneError::Io { file: path.to_owned(), source }))?;
+pub fn resolve_scene(
+    path: &Path,
+    overrides: &[(String, String)],
+) -> Result<(Scene, String), RunError> {
+    let mut text = std::fs::read_to_string(path).map_err(|source| {
+        RunError::Scene(SceneError::Io {
+            file: path.to_owned(),
+            source,
+        })
+    })?;
     for (field, value) in overrides {
         text = couplet_protocol::scene::override_field(&text, path, field, value)?;
     }
@@ -102,8 +112,12 @@ struct Peers {
 
 impl Peers {
     fn check(&mut self) -> Result<(), TransportError> {
-        for s in [self.fluid.as_mut(), self.dem.as_mut()].into_iter().flatten() {
-            s.check().map_err(|e| TransportError::PeerGone(e.to_string()))?;
+        for s in [self.fluid.as_mut(), self.dem.as_mut()]
+            .into_iter()
+            .flatten()
+        {
+            s.check()
+                .map_err(|e| TransportError::PeerGone(e.to_string()))?;
         }
         Ok(())
     }
@@ -117,12 +131,25 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
     if !has_fluid && !has_dem {
         return Err(RunError::Empty);
     }
-    let out = opts.out.clone().unwrap_or_else(|| PathBuf::from("out").join(&scene.meta.name));
-    std::fs::create_dir_all(&out).map_err(|source| RunError::Io { what: format!("creating {}", out.display()), source })?;
+    let out = opts
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&scene.meta.name));
+    std::fs::create_dir_all(&out).map_err(|source| RunError::Io {
+        what: format!("creating {}", out.display()),
+        source,
+    })?;
     let scene_path = out.join("scene.toml");
-    std::fs::write(&scene_path, &text).map_err(|source| RunError::Io { what: format!("writing {}", scene_path.display()), source })?;
+    std::fs::write(&scene_path, &text).map_err(|source| RunError::Io {
+        what: format!("writing {}", scene_path.display()),
+        source,
+    })?;
 
-    let run_id = format!("{}-{}", std::process::id(), couplet_protocol::monotonic_ns() % 1_000_000_000);
+    let run_id = format!(
+        "{}-{}",
+        std::process::id(),
+        couplet_protocol::monotonic_ns() % 1_000_000_000
+    );
     let ep = Endpoint::new(&run_id)?;
     let commands = ep.value_sender::<Command>(ServiceLeaf::Command)?;
     let hellos = ep.value_receiver::<Hello>(ServiceLeaf::Hello)?;
@@ -135,28 +162,64 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
     let wake_dem = ep.waker(ServiceLeaf::DemWake)?;
 
     let mut recorder = if opts.record {
-        Some(Recorder::create(&out.join("run.mcap"), &scene.meta.name, &text)?)
+        Some(Recorder::create(
+            &out.join("run.mcap"),
+            &scene.meta.name,
+            &text,
+        )?)
     } else {
         None
     };
 
     let mut peers = Peers {
-        fluid: if has_fluid { Some(Server::spawn(Role::Fluid, &run_id, &scene_path)?) } else { None },
-        dem: if has_dem { Some(Server::spawn(Role::Dem, &run_id, &scene_path)?) } else { None },
+        fluid: if has_fluid {
+            Some(Server::spawn(Role::Fluid, &run_id, &scene_path)?)
+        } else {
+            None
+        },
+        dem: if has_dem {
+            Some(Server::spawn(Role::Dem, &run_id, &scene_path)?)
+        } else {
+            None
+        },
     };
-    let result = drive(&scene, opts, &mut peers, &mut recorder, Ports {
-        commands: &commands, hellos: &hellos, reports: &reports, bodies_rx: &bodies_rx, loads_rx: &loads_rx,
-        particles_rx: &particles_rx, wake: &wake, wake_fluid: &wake_fluid, wake_dem: &wake_dem,
-    });
+    let result = drive(
+        &scene,
+        opts,
+        &mut peers,
+        &mut recorder,
+        Ports {
+            commands: &commands,
+            hellos: &hellos,
+            reports: &reports,
+            bodies_rx: &bodies_rx,
+            loads_rx: &loads_rx,
+            particles_rx: &particles_rx,
+            wake: &wake,
+            wake_fluid: &wake_fluid,
+            wake_dem: &wake_dem,
+        },
+    );
 
     // On success the servers are told to shut down and given time to exit cleanly; on
     // failure the run is lost and the survivors are killed at once (one may be blocked
     // waiting for data from the dead one), so the error surfaces within a second.
-    let grace = if result.is_ok() { Duration::from_secs(5) } else { Duration::ZERO };
-    let _ = commands.send(Command { protocol_version: PROTOCOL_VERSION, kind: CommandKind::Shutdown as u32, ..Default::default() });
+    let grace = if result.is_ok() {
+        Duration::from_secs(5)
+    } else {
+        Duration::ZERO
+    };
+    let _ = commands.send(Command {
+        protocol_version: PROTOCOL_VERSION,
+        kind: CommandKind::Shutdown as u32,
+        ..Default::default()
+    });
     let _ = wake_fluid.wake();
     let _ = wake_dem.wake();
-    for s in [peers.fluid.as_mut(), peers.dem.as_mut()].into_iter().flatten() {
+    for s in [peers.fluid.as_mut(), peers.dem.as_mut()]
+        .into_iter()
+        .flatten()
+    {
         s.finish(grace);
     }
     let recording = recorder.as_ref().map(|r| r.path().to_owned());
@@ -193,24 +256,41 @@ fn drive(
     let expect_dem = peers.dem.is_some();
     let start = Instant::now();
     while (expect_fluid && fluid_hello.is_none()) || (expect_dem && dem_hello.is_none()) {
-        let h = p.wake.wait_for(|| p.hellos.try_next(), || {
-            peers.check()?;
-            if start.elapsed() > HELLO_TIMEOUT {
-                return Err(TransportError::PeerGone(format!("no hello within {HELLO_TIMEOUT:?}")));
-            }
-            Ok(())
-        })?;
+        let h = p.wake.wait_for(
+            || p.hellos.try_next(),
+            || {
+                peers.check()?;
+                if start.elapsed() > HELLO_TIMEOUT {
+                    return Err(TransportError::PeerGone(format!(
+                        "no hello within {HELLO_TIMEOUT:?}"
+                    )));
+                }
+                Ok(())
+            },
+        )?;
         match check_hello(&h)? {
             Role::Dem => dem_hello = Some(h),
             _ => fluid_hello = Some(h),
         }
     }
 
-    let plan = choose_window(scene, fluid_hello.map(|h| h.dt_limit), dem_hello.map(|h| h.dt_limit));
-    let windows = opts.max_windows.map_or(plan.windows, |m| m.min(plan.windows));
-    let bar = progress_bar(opts.progress, scene.time.end.min(windows as f64 * plan.window));
+    let plan = choose_window(
+        scene,
+        fluid_hello.map(|h| h.dt_limit),
+        dem_hello.map(|h| h.dt_limit),
+    );
+    let windows = opts
+        .max_windows
+        .map_or(plan.windows, |m| m.min(plan.windows));
+    let bar = progress_bar(
+        opts.progress,
+        scene.time.end.min(windows as f64 * plan.window),
+    );
 
-    let mut summary = RunSummary { plan: Some(plan.clone()), ..Default::default() };
+    let mut summary = RunSummary {
+        plan: Some(plan.clone()),
+        ..Default::default()
+    };
     let mut next_output = scene.time.output_interval;
     let run_start = Instant::now();
     let (mut fluid_compute, mut dem_compute, mut exchange, mut window_wall) = (0.0, 0.0, 0.0, 0.0);
@@ -248,7 +328,11 @@ fn drive(
             || {
                 while let Some(r) = p.reports.try_next()? {
                     if r.step != step {
-                        return Err(TransportError::OutOfSequence { service: "report".into(), expected: step, got: r.step });
+                        return Err(TransportError::OutOfSequence {
+                            service: "report".into(),
+                            expected: step,
+                            got: r.step,
+                        });
                     }
                     match Role::from_u32(r.role) {
                         Some(Role::Fluid) => fluid_report = Some(r),
@@ -256,7 +340,9 @@ fn drive(
                         _ => {}
                     }
                 }
-                Ok(((!expect_fluid || fluid_report.is_some()) && (!expect_dem || dem_report.is_some())).then_some(()))
+                Ok(((!expect_fluid || fluid_report.is_some())
+                    && (!expect_dem || dem_report.is_some()))
+                .then_some(()))
             },
             || peers.check(),
         )?;
@@ -296,13 +382,21 @@ fn drive(
             }
         }
         if snapshot {
-            let s = p.wake.wait_for(|| p.particles_rx.try_step(step), || peers.check())?;
+            let s = p
+                .wake
+                .wait_for(|| p.particles_rx.try_step(step), || peers.check())?;
             if let Some(r) = recorder.as_ref() {
                 r.particles(s.user_header().time, s.payload());
             }
         }
         if let Some(r) = recorder.as_ref() {
-            r.window(step, time, plan.window, fluid_report.as_ref(), dem_report.as_ref());
+            r.window(
+                step,
+                time,
+                plan.window,
+                fluid_report.as_ref(),
+                dem_report.as_ref(),
+            );
         }
         bar.set_position((end * 1e6) as u64);
         bar.set_message(format!("{end:.4}"));
@@ -310,7 +404,11 @@ fn drive(
         summary.sim_time = end;
     }
     bar.finish_and_clear();
-    let n = if summary.windows > 1 { summary.windows - 1 } else { 1 } as f64;
+    let n = if summary.windows > 1 {
+        summary.windows - 1
+    } else {
+        1
+    } as f64;
     summary.wall_s = run_start.elapsed().as_secs_f64();
     summary.fluid_compute_us = fluid_compute / n;
     summary.dem_compute_us = dem_compute / n;

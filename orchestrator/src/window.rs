@@ -29,14 +29,20 @@ pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) 
         // orchestrator only hears from it when there is something to record.
     } else if let Some(dt) = fluid_dt {
         let k = scene.coupling.window_substeps;
-        candidates.push((dt * k as f64, format!("fluid stable step {dt:.3e} s × {k} fluid step(s) per window")));
+        candidates.push((
+            dt * k as f64,
+            format!("fluid stable step {dt:.3e} s × {k} fluid step(s) per window"),
+        ));
     } else if let Some(dt) = dem_dt {
         candidates.push((dt, format!("DEM step {dt:.3e} s (no fluid)")));
     }
     if let Some(w) = scene.time.max_window {
         candidates.push((w, format!("time.max_window {w:.3e} s")));
     }
-    candidates.push((scene.time.output_interval, format!("output interval {:.3e} s", scene.time.output_interval)));
+    candidates.push((
+        scene.time.output_interval,
+        format!("output interval {:.3e} s", scene.time.output_interval),
+    ));
     candidates.push((scene.time.end, format!("end time {:.3e} s", scene.time.end)));
     let (w_max, reason) = candidates
         .into_iter()
@@ -44,7 +50,8 @@ pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) 
         .unwrap_or((scene.time.end, "end time".into()));
     let windows = (scene.time.end / w_max).ceil().max(1.0) as u64;
     let window = scene.time.end / windows as f64;
-    let substeps = |dt: Option<f64>| dt.map_or(0, |dt| (window / dt * (1.0 - 1e-12)).ceil().max(1.0) as u32);
+    let substeps =
+        |dt: Option<f64>| dt.map_or(0, |dt| (window / dt * (1.0 - 1e-12)).ceil().max(1.0) as u32);
     WindowPlan {
         window,
         windows,

@@ -1,18 +1,18 @@
 //! The contract between couplet's processes: scene schema, zero-copy payloads,
 //! iceoryx2 service names, protocol version and handshake, validation of received data.
 
+pub use handshake::{HandshakeError, check_hello};
 pub use payload::{
-    BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, ParticleRecord, Role,
-    SideReport, WindowHeader, monotonic_ns, PROTOCOL_VERSION,
+    BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION,
+    ParticleRecord, Role, SideReport, WindowHeader, monotonic_ns,
 };
-pub use handshake::{check_hello, HandshakeError};
 pub use scene::{
     BodySpec, CouplingMode, CouplingScheme, DemSpec, Domain, EffectsSpec, FluidBlock, FluidSpec,
     GravitySpec, KernelKind, Meta, Motion, Scene, SceneError, Shape, TimeSpec, ViscosityModel,
     WallKind,
 };
-pub use service::{service_name, ServiceLeaf};
-pub use validate::{validate_loads, validate_points, validate_states, ValidationError};
+pub use service::{ServiceLeaf, service_name};
+pub use validate::{ValidationError, validate_loads, validate_points, validate_states};
 
 pub mod handshake;
 pub mod payload;

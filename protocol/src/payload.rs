@@ -30,13 +30,23 @@ pub struct WindowHeader {
 
 impl WindowHeader {
     pub fn new(step: u64, time: f64, window: f64, count: usize) -> Self {
-        Self { protocol_version: PROTOCOL_VERSION, count: count as u32, step, time, window, sent_ns: 0 }
+        Self {
+            protocol_version: PROTOCOL_VERSION,
+            count: count as u32,
+            step,
+            time,
+            window,
+            sent_ns: 0,
+        }
     }
 }
 
 /// CLOCK_MONOTONIC, ns: comparable between processes on one host (unlike `Instant`).
 pub fn monotonic_ns() -> u64 {
-    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
     // SAFETY: clock_gettime writes into the timespec we own; CLOCK_MONOTONIC always exists on Linux.
     unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
     ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64

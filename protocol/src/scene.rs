@@ -10,11 +10,24 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     #[error("{file}: cannot read: {source}")]
-    Io { file: PathBuf, source: std::io::Error },
+    Io {
+        file: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{file}:{line}:{column}: {message}")]
-    Parse { file: PathBuf, line: usize, column: usize, message: String },
+    Parse {
+        file: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
     #[error("{file}: {field} = {value}: {why}")]
-    Invalid { file: PathBuf, field: String, value: String, why: String },
+    Invalid {
+        file: PathBuf,
+        field: String,
+        value: String,
+        why: String,
+    },
 }
 
 /// A whole scene.
@@ -196,7 +209,10 @@ pub struct GravitySpec {
 
 impl Default for GravitySpec {
     fn default() -> Self {
-        Self { vector: default_g(), on_fluid: true }
+        Self {
+            vector: default_g(),
+            on_fluid: true,
+        }
     }
 }
 
@@ -262,7 +278,13 @@ fn default_viscosity() -> ViscosityModel {
 
 impl Default for EffectsSpec {
     fn default() -> Self {
-        Self { viscosity: default_viscosity(), artificial_viscosity: 0.0, gradient_correction: false, particle_shifting: 0.0, density_diffusion: 0.0 }
+        Self {
+            viscosity: default_viscosity(),
+            artificial_viscosity: 0.0,
+            gradient_correction: false,
+            particle_shifting: 0.0,
+            density_diffusion: 0.0,
+        }
     }
 }
 
@@ -289,7 +311,10 @@ fn default_dem_dt() -> f64 {
 
 impl Default for DemSpec {
     fn default() -> Self {
-        Self { engine: default_engine(), max_dt: default_dem_dt() }
+        Self {
+            engine: default_engine(),
+            max_dt: default_dem_dt(),
+        }
     }
 }
 
@@ -416,7 +441,10 @@ fn default_window_substeps() -> u32 {
 
 impl Default for CouplingSpec {
     fn default() -> Self {
-        Self { scheme: default_scheme(), window_substeps: default_window_substeps() }
+        Self {
+            scheme: default_scheme(),
+            window_substeps: default_window_substeps(),
+        }
     }
 }
 
@@ -424,10 +452,20 @@ impl Default for CouplingSpec {
 /// set to `value`, a TOML value (`0.02`, `"quintic"`, `true`): the command line's
 /// `--set` overrides. Intermediate tables must exist; comments are not kept. The result
 /// is the scene the servers load, written next to the recording.
-pub fn override_field(text: &str, file: &Path, path: &str, value: &str) -> Result<String, SceneError> {
+pub fn override_field(
+    text: &str,
+    file: &Path,
+    path: &str,
+    value: &str,
+) -> Result<String, SceneError> {
     let parse_err = |e: toml::de::Error, text: &str| {
         let (line, column) = e.span().map_or((0, 0), |s| line_col(text, s.start));
-        SceneError::Parse { file: file.to_owned(), line, column, message: e.message().to_owned() }
+        SceneError::Parse {
+            file: file.to_owned(),
+            line,
+            column,
+            message: e.message().to_owned(),
+        }
     };
     let invalid = |why: &str| SceneError::Invalid {
         file: file.to_owned(),
@@ -437,12 +475,18 @@ pub fn override_field(text: &str, file: &Path, path: &str, value: &str) -> Resul
     };
     let table: toml::Table = toml::from_str(text).map_err(|e| parse_err(e, text))?;
     let wrapped = format!("v = {value}");
-    let parsed: toml::Table = toml::from_str(&wrapped).map_err(|_| invalid("is not a TOML value"))?;
-    let new = parsed.get("v").cloned().ok_or_else(|| invalid("is not a TOML value"))?;
+    let parsed: toml::Table =
+        toml::from_str(&wrapped).map_err(|_| invalid("is not a TOML value"))?;
+    let new = parsed
+        .get("v")
+        .cloned()
+        .ok_or_else(|| invalid("is not a TOML value"))?;
     // Walk the path: a name enters a table, a number an array (`bodies.0.position`).
     let keys: Vec<&str> = path.split('.').collect();
     if keys.iter().any(|k| k.is_empty()) {
-        return Err(invalid("needs a dotted path such as fluid.spacing or bodies.0.position"));
+        return Err(invalid(
+            "needs a dotted path such as fluid.spacing or bodies.0.position",
+        ));
     }
     let mut node = toml::Value::Table(table);
     let mut cur = &mut node;
@@ -457,15 +501,21 @@ pub fn override_field(text: &str, file: &Path, path: &str, value: &str) -> Resul
             // still rejects a misspelt name as an unknown field.
             toml::Value::Table(t) => {
                 if keys[i + 1].parse::<usize>().is_err() {
-                    t.entry((*k).to_owned()).or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                    t.entry((*k).to_owned())
+                        .or_insert_with(|| toml::Value::Table(toml::Table::new()))
                 } else {
-                    t.get_mut(*k).ok_or_else(|| invalid(&format!("the scene has no `{k}` on that path")))?
+                    t.get_mut(*k)
+                        .ok_or_else(|| invalid(&format!("the scene has no `{k}` on that path")))?
                 }
             }
             toml::Value::Array(a) => {
-                let idx: usize = k.parse().map_err(|_| invalid(&format!("`{k}` must be an index into an array")))?;
+                let idx: usize = k
+                    .parse()
+                    .map_err(|_| invalid(&format!("`{k}` must be an index into an array")))?;
                 let len = a.len();
-                let slot = a.get_mut(idx).ok_or_else(|| invalid(&format!("index {idx} is past the array's {len} entries")))?;
+                let slot = a.get_mut(idx).ok_or_else(|| {
+                    invalid(&format!("index {idx} is past the array's {len} entries"))
+                })?;
                 if last {
                     *slot = new;
                     break;
@@ -491,8 +541,10 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 impl Scene {
     /// Reads, parses and checks a scene file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| SceneError::Io { file: path.to_owned(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            file: path.to_owned(),
+            source,
+        })?;
         Self::parse(&text, path)
     }
 
@@ -500,7 +552,12 @@ impl Scene {
     pub fn parse(text: &str, file: &Path) -> Result<Self, SceneError> {
         let scene: Scene = toml::from_str(text).map_err(|e| {
             let (line, column) = e.span().map_or((0, 0), |s| line_col(text, s.start));
-            SceneError::Parse { file: file.to_owned(), line, column, message: e.message().to_owned() }
+            SceneError::Parse {
+                file: file.to_owned(),
+                line,
+                column,
+                message: e.message().to_owned(),
+            }
         })?;
         scene.check(file)?;
         Ok(scene)
@@ -515,7 +572,9 @@ impl Scene {
     /// with wall particles, like the domain walls (the SPHERIC dam-break box): it needs
     /// no markers and no DEM server of its own. Loads on it are not reported.
     pub fn is_fluid_obstacle(&self, body: &BodySpec) -> bool {
-        self.fluid.is_some() && body.motion == Motion::Fixed && matches!(body.shape, Shape::Box { .. })
+        self.fluid.is_some()
+            && body.motion == Motion::Fixed
+            && matches!(body.shape, Shape::Box { .. })
     }
 
     /// Whether a DEM server runs: some body is more than a fluid obstacle. A scene
@@ -526,7 +585,9 @@ impl Scene {
 
     /// Whether the fluid and the DEM exchange markers and loads every window.
     pub fn is_marker_coupled(&self, body: &BodySpec) -> bool {
-        self.fluid.is_some() && body.coupling == CouplingMode::Resolved && !self.is_fluid_obstacle(body)
+        self.fluid.is_some()
+            && body.coupling == CouplingMode::Resolved
+            && !self.is_fluid_obstacle(body)
     }
 
     /// Whether any body exchanges markers and loads with the fluid.
@@ -536,30 +597,59 @@ impl Scene {
 
     fn check(&self, file: &Path) -> Result<(), SceneError> {
         let bad = |field: String, value: String, why: &str| {
-            Err(SceneError::Invalid { file: file.to_owned(), field, value, why: why.to_owned() })
+            Err(SceneError::Invalid {
+                file: file.to_owned(),
+                field,
+                value,
+                why: why.to_owned(),
+            })
         };
         let pos = |field: &str, v: f64| {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { bad(field.into(), v.to_string(), "must be a positive finite number") }
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                bad(
+                    field.into(),
+                    v.to_string(),
+                    "must be a positive finite number",
+                )
+            }
         };
         pos("time.end", self.time.end)?;
         pos("time.output_interval", self.time.output_interval)?;
         if !(self.time.cfl > 0.0 && self.time.cfl <= 1.0) {
-            return bad("time.cfl".into(), self.time.cfl.to_string(), "must lie in (0, 1] (Joubert eq. 24)");
+            return bad(
+                "time.cfl".into(),
+                self.time.cfl.to_string(),
+                "must lie in (0, 1] (Joubert eq. 24)",
+            );
         }
         if let Some(w) = self.time.max_window {
             pos("time.max_window", w)?;
         }
         pos("dem.max_dt", self.dem.max_dt)?;
         if self.coupling.window_substeps == 0 {
-            return bad("coupling.window_substeps".into(), "0".into(), "must be at least 1");
+            return bad(
+                "coupling.window_substeps".into(),
+                "0".into(),
+                "must be at least 1",
+            );
         }
         for k in 0..3 {
             if !(self.domain.min[k] < self.domain.max[k]) {
-                return bad(format!("domain.max[{k}]"), self.domain.max[k].to_string(), "must exceed domain.min");
+                return bad(
+                    format!("domain.max[{k}]"),
+                    self.domain.max[k].to_string(),
+                    "must exceed domain.min",
+                );
             }
         }
         if self.gravity.vector.iter().any(|g| !g.is_finite()) {
-            return bad("gravity.vector".into(), format!("{:?}", self.gravity.vector), "must be finite");
+            return bad(
+                "gravity.vector".into(),
+                format!("{:?}", self.gravity.vector),
+                "must be finite",
+            );
         }
         if let Some(f) = &self.fluid {
             pos("fluid.density", f.density)?;
@@ -567,17 +657,32 @@ impl Scene {
             pos("fluid.spacing", f.spacing)?;
             pos("fluid.gamma", f.gamma)?;
             if !(f.kinematic_viscosity >= 0.0 && f.kinematic_viscosity.is_finite()) {
-                return bad("fluid.kinematic_viscosity".into(), f.kinematic_viscosity.to_string(), "must be ≥ 0");
+                return bad(
+                    "fluid.kinematic_viscosity".into(),
+                    f.kinematic_viscosity.to_string(),
+                    "must be ≥ 0",
+                );
             }
             if !(f.support >= 1.5 && f.support <= 6.0) {
-                return bad("fluid.support".into(), f.support.to_string(), "must lie in [1.5, 6] spacings");
+                return bad(
+                    "fluid.support".into(),
+                    f.support.to_string(),
+                    "must lie in [1.5, 6] spacings",
+                );
             }
             if f.blocks.is_empty() {
-                return bad("fluid.blocks".into(), "[]".into(), "needs at least one block");
+                return bad(
+                    "fluid.blocks".into(),
+                    "[]".into(),
+                    "needs at least one block",
+                );
             }
             for (i, b) in f.blocks.iter().enumerate() {
                 for k in 0..3 {
-                    if !(b.min[k] < b.max[k]) || b.min[k] < self.domain.min[k] || b.max[k] > self.domain.max[k] {
+                    if !(b.min[k] < b.max[k])
+                        || b.min[k] < self.domain.min[k]
+                        || b.max[k] > self.domain.max[k]
+                    {
                         return bad(
                             format!("fluid.blocks[{i}]"),
                             format!("min {:?} max {:?}", b.min, b.max),
@@ -588,11 +693,19 @@ impl Scene {
             }
         }
         if self.effects.artificial_viscosity < 0.0 {
-            return bad("effects.artificial_viscosity".into(), self.effects.artificial_viscosity.to_string(), "must be ≥ 0");
+            return bad(
+                "effects.artificial_viscosity".into(),
+                self.effects.artificial_viscosity.to_string(),
+                "must be ≥ 0",
+            );
         }
         let delta = self.effects.density_diffusion;
         if !(0.0..=1.0).contains(&delta) {
-            return bad("effects.density_diffusion".into(), delta.to_string(), "must be 0 (off) or within (0, 1] (Antuono et al. 2010 use 0.1)");
+            return bad(
+                "effects.density_diffusion".into(),
+                delta.to_string(),
+                "must be 0 (off) or within (0, 1] (Antuono et al. 2010 use 0.1)",
+            );
         }
         let beta = self.effects.particle_shifting;
         if beta != 0.0 && !(0.001..=0.1).contains(&beta) {
@@ -607,23 +720,44 @@ impl Scene {
             let ok = match &b.shape {
                 Shape::Sphere { radius } => *radius > 0.0,
                 Shape::Box { half_extents } => half_extents.iter().all(|h| *h > 0.0),
-                Shape::Cylinder { radius, half_height } => *radius > 0.0 && *half_height > 0.0,
+                Shape::Cylinder {
+                    radius,
+                    half_height,
+                } => *radius > 0.0 && *half_height > 0.0,
                 Shape::Convex { vertices } => vertices.len() >= 4,
-                Shape::Compound { parts } => !parts.is_empty() && parts.iter().all(|p| p.len() >= 4),
+                Shape::Compound { parts } => {
+                    !parts.is_empty() && parts.iter().all(|p| p.len() >= 4)
+                }
             };
             if !ok {
-                return bad(format!("bodies[{i}].shape"), format!("{:?}", b.shape), "dimensions must be positive; a hull needs at least 4 vertices");
+                return bad(
+                    format!("bodies[{i}].shape"),
+                    format!("{:?}", b.shape),
+                    "dimensions must be positive; a hull needs at least 4 vertices",
+                );
             }
             for k in 0..3 {
                 if b.position[k] <= self.domain.min[k] || b.position[k] >= self.domain.max[k] {
-                    return bad(format!("bodies[{i}].position"), format!("{:?}", b.position), "must lie inside the domain");
+                    return bad(
+                        format!("bodies[{i}].position"),
+                        format!("{:?}", b.position),
+                        "must lie inside the domain",
+                    );
                 }
             }
             if !(0.0..=1.0).contains(&b.restitution) {
-                return bad(format!("bodies[{i}].restitution"), b.restitution.to_string(), "must lie in [0, 1]");
+                return bad(
+                    format!("bodies[{i}].restitution"),
+                    b.restitution.to_string(),
+                    "must lie in [0, 1]",
+                );
             }
             if b.friction < 0.0 {
-                return bad(format!("bodies[{i}].friction"), b.friction.to_string(), "must be ≥ 0");
+                return bad(
+                    format!("bodies[{i}].friction"),
+                    b.friction.to_string(),
+                    "must be ≥ 0",
+                );
             }
         }
         Ok(())
@@ -677,7 +811,9 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
     #[test]
     fn invalid_value_names_field() {
         let text = MINIMAL.replace("spacing = 0.05", "spacing = -0.05");
-        let e = Scene::parse(&text, Path::new("x.toml")).unwrap_err().to_string();
+        let e = Scene::parse(&text, Path::new("x.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("fluid.spacing") && e.contains("-0.05"), "{e}");
     }
 
@@ -687,17 +823,52 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         let s = Scene::parse(&text, Path::new("t.toml")).unwrap();
         assert_eq!(s.fluid.unwrap().spacing, 0.1);
         let text = override_field(MINIMAL, Path::new("t.toml"), "time.end", "2").unwrap();
-        assert!(matches!(Scene::parse(&text, Path::new("t.toml")).unwrap().time.end, e if e == 2.0));
+        assert!(
+            matches!(Scene::parse(&text, Path::new("t.toml")).unwrap().time.end, e if e == 2.0)
+        );
         // A table the file leaves out is created; a misspelt one is refused by the parse.
-        let text = override_field(MINIMAL, Path::new("t.toml"), "effects.particle_shifting", "0.05").unwrap();
-        assert_eq!(Scene::parse(&text, Path::new("t.toml")).unwrap().effects.particle_shifting, 0.05);
+        let text = override_field(
+            MINIMAL,
+            Path::new("t.toml"),
+            "effects.particle_shifting",
+            "0.05",
+        )
+        .unwrap();
+        assert_eq!(
+            Scene::parse(&text, Path::new("t.toml"))
+                .unwrap()
+                .effects
+                .particle_shifting,
+            0.05
+        );
         let text = override_field(MINIMAL, Path::new("t.toml"), "nope.x", "1").unwrap();
-        let e = Scene::parse(&text, Path::new("t.toml")).unwrap_err().to_string();
+        let e = Scene::parse(&text, Path::new("t.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("nope"), "{e}");
-        let e = override_field(MINIMAL, Path::new("t.toml"), "bodies.0.density", "1").unwrap_err().to_string();
-        assert!(e.contains("bodies.0.density") && e.contains("no `bodies`"), "{e}");
-        let text = override_field(MINIMAL, Path::new("t.toml"), "fluid.blocks.0.max", "[1, 0.25, 1]").unwrap();
-        assert_eq!(Scene::parse(&text, Path::new("t.toml")).unwrap().fluid.unwrap().blocks[0].max, [1.0, 0.25, 1.0]);
+        let e = override_field(MINIMAL, Path::new("t.toml"), "bodies.0.density", "1")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bodies.0.density") && e.contains("no `bodies`"),
+            "{e}"
+        );
+        let text = override_field(
+            MINIMAL,
+            Path::new("t.toml"),
+            "fluid.blocks.0.max",
+            "[1, 0.25, 1]",
+        )
+        .unwrap();
+        assert_eq!(
+            Scene::parse(&text, Path::new("t.toml"))
+                .unwrap()
+                .fluid
+                .unwrap()
+                .blocks[0]
+                .max,
+            [1.0, 0.25, 1.0]
+        );
         assert!(override_field(MINIMAL, Path::new("t.toml"), "fluid.blocks.3.max", "1").is_err());
         // An override is checked like the file: a typo is rejected when parsed.
         let text = override_field(MINIMAL, Path::new("t.toml"), "fluid.spacingg", "1").unwrap();

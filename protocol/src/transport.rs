@@ -8,8 +8,8 @@
 //! arrives between a poll and the block is not lost.
 
 use crate::payload::{Command, Hello, SideReport, WindowHeader};
-use crate::service::{service_name, ServiceLeaf};
-use crate::validate::{validate_header, ValidationError};
+use crate::service::{ServiceLeaf, service_name};
+use crate::validate::{ValidationError, validate_header};
 use core::fmt::Debug;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
@@ -38,17 +38,35 @@ const BUFFER: usize = 4;
 #[derive(Debug, thiserror::Error)]
 pub enum TransportError {
     #[error("iceoryx2 {what} on `{service}`: {detail}")]
-    Ipc { what: &'static str, service: String, detail: String },
+    Ipc {
+        what: &'static str,
+        service: String,
+        detail: String,
+    },
     #[error("invalid message on `{service}`: {source}")]
-    Invalid { service: String, source: ValidationError },
+    Invalid {
+        service: String,
+        source: ValidationError,
+    },
     #[error("`{service}`: expected window {expected}, received {got}")]
-    OutOfSequence { service: String, expected: u64, got: u64 },
+    OutOfSequence {
+        service: String,
+        expected: u64,
+        got: u64,
+    },
     #[error("{0}")]
     PeerGone(String),
 }
 
-fn ipc<'a, E: Debug>(what: &'static str, service: &'a str) -> impl FnOnce(E) -> TransportError + 'a {
-    move |e| TransportError::Ipc { what, service: service.to_owned(), detail: format!("{e:?}") }
+fn ipc<'a, E: Debug>(
+    what: &'static str,
+    service: &'a str,
+) -> impl FnOnce(E) -> TransportError + 'a {
+    move |e| TransportError::Ipc {
+        what,
+        service: service.to_owned(),
+        detail: format!("{e:?}"),
+    }
 }
 
 /// One process's iceoryx2 node plus the run id its services live under.
@@ -67,7 +85,10 @@ impl Endpoint {
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<Svc>()
             .map_err(ipc("node creation", run_id))?;
-        Ok(Self { node, run_id: run_id.to_owned() })
+        Ok(Self {
+            node,
+            run_id: run_id.to_owned(),
+        })
     }
 
     fn name(&self, leaf: ServiceLeaf) -> Result<(String, ServiceName), TransportError> {
@@ -98,7 +119,10 @@ impl Endpoint {
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .create()
             .map_err(ipc("publisher creation", &s))?;
-        Ok(SliceSender { publisher, service: s })
+        Ok(SliceSender {
+            publisher,
+            service: s,
+        })
     }
 
     pub fn slice_receiver<T: ZeroCopySend + Debug + Copy + 'static>(
@@ -114,8 +138,14 @@ impl Endpoint {
             .subscriber_max_buffer_size(BUFFER)
             .open_or_create()
             .map_err(ipc("open service", &s))?;
-        let subscriber = service.subscriber_builder().create().map_err(ipc("subscriber creation", &s))?;
-        Ok(SliceReceiver { subscriber, service: s })
+        let subscriber = service
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscriber creation", &s))?;
+        Ok(SliceReceiver {
+            subscriber,
+            service: s,
+        })
     }
 
     pub fn value_sender<T: ZeroCopySend + Debug + Copy + 'static>(
@@ -131,8 +161,14 @@ impl Endpoint {
             .max_publishers(4)
             .open_or_create()
             .map_err(ipc("open service", &s))?;
-        let publisher = service.publisher_builder().create().map_err(ipc("publisher creation", &s))?;
-        Ok(ValueSender { publisher, service: s })
+        let publisher = service
+            .publisher_builder()
+            .create()
+            .map_err(ipc("publisher creation", &s))?;
+        Ok(ValueSender {
+            publisher,
+            service: s,
+        })
     }
 
     pub fn value_receiver<T: ZeroCopySend + Debug + Copy + 'static>(
@@ -148,25 +184,53 @@ impl Endpoint {
             .max_publishers(4)
             .open_or_create()
             .map_err(ipc("open service", &s))?;
-        let subscriber = service.subscriber_builder().create().map_err(ipc("subscriber creation", &s))?;
-        Ok(ValueReceiver { subscriber, service: s })
+        let subscriber = service
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscriber creation", &s))?;
+        Ok(ValueReceiver {
+            subscriber,
+            service: s,
+        })
     }
 
     /// The wake event of a process (`leaf` is one of the `*Wake` leaves): a listener
     /// for its owner.
     pub fn wake_listener(&self, leaf: ServiceLeaf) -> Result<WakeListener, TransportError> {
         let (s, n) = self.name(leaf)?;
-        let event = self.node.service_builder(&n).event().open_or_create().map_err(ipc("open event", &s))?;
-        let listener = event.listener_builder().create().map_err(ipc("listener creation", &s))?;
-        Ok(WakeListener { listener, service: s })
+        let event = self
+            .node
+            .service_builder(&n)
+            .event()
+            .open_or_create()
+            .map_err(ipc("open event", &s))?;
+        let listener = event
+            .listener_builder()
+            .create()
+            .map_err(ipc("listener creation", &s))?;
+        Ok(WakeListener {
+            listener,
+            service: s,
+        })
     }
 
     /// A notifier that wakes the owner of `leaf`.
     pub fn waker(&self, leaf: ServiceLeaf) -> Result<Waker, TransportError> {
         let (s, n) = self.name(leaf)?;
-        let event = self.node.service_builder(&n).event().open_or_create().map_err(ipc("open event", &s))?;
-        let notifier = event.notifier_builder().create().map_err(ipc("notifier creation", &s))?;
-        Ok(Waker { notifier, service: s })
+        let event = self
+            .node
+            .service_builder(&n)
+            .event()
+            .open_or_create()
+            .map_err(ipc("open event", &s))?;
+        let notifier = event
+            .notifier_builder()
+            .create()
+            .map_err(ipc("notifier creation", &s))?;
+        Ok(Waker {
+            notifier,
+            service: s,
+        })
     }
 }
 
@@ -181,8 +245,10 @@ impl<T: ZeroCopySend + Debug + Copy + 'static> SliceSender<T> {
     pub fn send(&self, mut header: WindowHeader, data: &[T]) -> Result<(), TransportError> {
         header.count = data.len() as u32;
         header.sent_ns = crate::payload::monotonic_ns();
-        let mut sample =
-            self.publisher.loan_slice_uninit(data.len()).map_err(ipc("loan", &self.service))?;
+        let mut sample = self
+            .publisher
+            .loan_slice_uninit(data.len())
+            .map_err(ipc("loan", &self.service))?;
         *sample.user_header_mut() = header;
         let sample = sample.write_from_slice(data);
         sample.send().map_err(ipc("send", &self.service))?;
@@ -202,12 +268,20 @@ impl<T: ZeroCopySend + Debug + Copy + 'static> SliceReceiver<T> {
     /// The newest sample, if any arrived, with its header checked (version, count).
     pub fn try_latest(&self) -> Result<Option<SliceSample<T>>, TransportError> {
         let mut latest = None;
-        while let Some(s) = self.subscriber.receive().map_err(ipc("receive", &self.service))? {
+        while let Some(s) = self
+            .subscriber
+            .receive()
+            .map_err(ipc("receive", &self.service))?
+        {
             latest = Some(s);
         }
         if let Some(s) = &latest {
-            validate_header(leaf_of(&self.service), s.user_header(), s.payload().len())
-                .map_err(|source| TransportError::Invalid { service: self.service.clone(), source })?;
+            validate_header(leaf_of(&self.service), s.user_header(), s.payload().len()).map_err(
+                |source| TransportError::Invalid {
+                    service: self.service.clone(),
+                    source,
+                },
+            )?;
         }
         Ok(latest)
     }
@@ -245,7 +319,9 @@ pub struct ValueSender<T: ZeroCopySend + Debug + Copy + 'static> {
 
 impl<T: ZeroCopySend + Debug + Copy + 'static> ValueSender<T> {
     pub fn send(&self, value: T) -> Result<(), TransportError> {
-        self.publisher.send_copy(value).map_err(ipc("send", &self.service))?;
+        self.publisher
+            .send_copy(value)
+            .map_err(ipc("send", &self.service))?;
         Ok(())
     }
 }
@@ -257,7 +333,11 @@ pub struct ValueReceiver<T: ZeroCopySend + Debug + Copy + 'static> {
 
 impl<T: ZeroCopySend + Debug + Copy + 'static> ValueReceiver<T> {
     pub fn try_next(&self) -> Result<Option<T>, TransportError> {
-        Ok(self.subscriber.receive().map_err(ipc("receive", &self.service))?.map(|s| *s.payload()))
+        Ok(self
+            .subscriber
+            .receive()
+            .map_err(ipc("receive", &self.service))?
+            .map(|s| *s.payload()))
     }
 }
 
@@ -268,7 +348,9 @@ pub struct Waker {
 
 impl Waker {
     pub fn wake(&self) -> Result<(), TransportError> {
-        self.notifier.notify().map_err(ipc("notify", &self.service))?;
+        self.notifier
+            .notify()
+            .map_err(ipc("notify", &self.service))?;
         Ok(())
     }
 }
@@ -297,7 +379,9 @@ impl WakeListener {
                 core::hint::spin_loop();
                 continue;
             }
-            self.listener.timed_wait(|_| {}, BLOCK_SLICE).map_err(ipc("wait", &self.service))?;
+            self.listener
+                .timed_wait(|_| {}, BLOCK_SLICE)
+                .map_err(ipc("wait", &self.service))?;
             alive()?;
         }
     }
@@ -324,6 +408,8 @@ pub fn parent_alive(original_parent: u32) -> Result<(), TransportError> {
     if std::os::unix::process::parent_id() == original_parent {
         Ok(())
     } else {
-        Err(TransportError::PeerGone(format!("the orchestrator (pid {original_parent}) has exited")))
+        Err(TransportError::PeerGone(format!(
+            "the orchestrator (pid {original_parent}) has exited"
+        )))
     }
 }

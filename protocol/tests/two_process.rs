@@ -26,13 +26,31 @@ fn point(i: usize) -> CouplingPoint {
     }
 }
 fn state(i: usize) -> BodyState {
-    BodyState { position: [i as f64, 2.0, 3.0], body: i as u32, motion: 2, orientation: [0.0, 0.0, 0.0, 1.0], mass: 1.5, volume: 1e-3, ..Default::default() }
+    BodyState {
+        position: [i as f64, 2.0, 3.0],
+        body: i as u32,
+        motion: 2,
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        mass: 1.5,
+        volume: 1e-3,
+        ..Default::default()
+    }
 }
 fn load(i: usize) -> BodyLoad {
-    BodyLoad { force: [i as f64, -1.0, 0.5], body: i as u32, _pad: 0, moment: [0.0, 0.25, i as f64] }
+    BodyLoad {
+        force: [i as f64, -1.0, 0.5],
+        body: i as u32,
+        _pad: 0,
+        moment: [0.0, 0.25, i as f64],
+    }
 }
 fn particle(i: usize) -> ParticleRecord {
-    ParticleRecord { position: [i as f32; 3], pressure: 10.0 * i as f32, velocity: [1.0, 2.0, 3.0], density: 1000.0 }
+    ParticleRecord {
+        position: [i as f32; 3],
+        pressure: 10.0 * i as f32,
+        velocity: [1.0, 2.0, 3.0],
+        density: 1000.0,
+    }
 }
 
 /// Starts this test binary as the peer in `mode`.
@@ -47,7 +65,11 @@ fn spawn_peer(run_id: &str, mode: &str) -> std::process::Child {
 }
 
 fn run_id(tag: &str) -> String {
-    format!("test-{tag}-{}-{}", std::process::id(), monotonic_ns() % 1_000_000_000)
+    format!(
+        "test-{tag}-{}-{}",
+        std::process::id(),
+        monotonic_ns() % 1_000_000_000
+    )
 }
 
 /// Polls `f` until it yields or 30 s pass.
@@ -57,7 +79,10 @@ fn within<T>(mut f: impl FnMut() -> Option<T>) -> T {
         if let Some(t) = f() {
             return t;
         }
-        assert!(start.elapsed() < Duration::from_secs(30), "timed out waiting for the peer");
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "timed out waiting for the peer"
+        );
         std::thread::sleep(Duration::from_micros(200));
     }
 }
@@ -66,20 +91,41 @@ fn within<T>(mut f: impl FnMut() -> Option<T>) -> T {
 /// sees it return at once.
 #[test]
 fn peer_process() {
-    let Ok(spec) = std::env::var("COUPLET_TEST_PEER") else { return };
+    let Ok(spec) = std::env::var("COUPLET_TEST_PEER") else {
+        return;
+    };
     let (run, mode) = spec.split_once(':').unwrap();
     let ep = Endpoint::new(run).unwrap();
-    let points = ep.slice_sender::<CouplingPoint>(ServiceLeaf::Points, N_POINTS).unwrap();
-    let bodies = ep.slice_sender::<BodyState>(ServiceLeaf::Bodies, N_BODIES).unwrap();
-    let loads = ep.slice_sender::<BodyLoad>(ServiceLeaf::Loads, N_BODIES).unwrap();
-    let particles = ep.slice_sender::<ParticleRecord>(ServiceLeaf::Particles, 16).unwrap();
+    let points = ep
+        .slice_sender::<CouplingPoint>(ServiceLeaf::Points, N_POINTS)
+        .unwrap();
+    let bodies = ep
+        .slice_sender::<BodyState>(ServiceLeaf::Bodies, N_BODIES)
+        .unwrap();
+    let loads = ep
+        .slice_sender::<BodyLoad>(ServiceLeaf::Loads, N_BODIES)
+        .unwrap();
+    let particles = ep
+        .slice_sender::<ParticleRecord>(ServiceLeaf::Particles, 16)
+        .unwrap();
     let hello = ep.value_sender::<Hello>(ServiceLeaf::Hello).unwrap();
     let report = ep.value_sender::<SideReport>(ServiceLeaf::Report).unwrap();
     let commands = ep.value_receiver::<Command>(ServiceLeaf::Command).unwrap();
     let back = ep.slice_receiver::<BodyLoad>(ServiceLeaf::Loads).unwrap();
-    let version = if mode == "old-version" { PROTOCOL_VERSION + 1 } else { PROTOCOL_VERSION };
+    let version = if mode == "old-version" {
+        PROTOCOL_VERSION + 1
+    } else {
+        PROTOCOL_VERSION
+    };
     hello
-        .send(Hello { protocol_version: version, role: Role::Dem as u32, pid: std::process::id(), dt_limit: 1e-3, count: N_BODIES as u64, ..Default::default() })
+        .send(Hello {
+            protocol_version: version,
+            role: Role::Dem as u32,
+            pid: std::process::id(),
+            dt_limit: 1e-3,
+            count: N_BODIES as u64,
+            ..Default::default()
+        })
         .unwrap();
     // Wait for the go (the parent's subscribers exist by then).
     let go = within(|| commands.try_next().unwrap());
@@ -95,9 +141,21 @@ fn peer_process() {
             loads.send(h(l.len()), &l).unwrap();
             let r: Vec<_> = (0..16).map(particle).collect();
             particles.send(h(r.len()), &r).unwrap();
-            report.send(SideReport { protocol_version: PROTOCOL_VERSION, role: Role::Dem as u32, step: go.step, substeps: 7, ..Default::default() }).unwrap();
+            report
+                .send(SideReport {
+                    protocol_version: PROTOCOL_VERSION,
+                    role: Role::Dem as u32,
+                    step: go.step,
+                    substeps: 7,
+                    ..Default::default()
+                })
+                .unwrap();
             // And the parent's loads coming back.
-            let got = within(|| back.try_step(go.step + 1).unwrap().map(|s| s.payload().to_vec()));
+            let got = within(|| {
+                back.try_step(go.step + 1)
+                    .unwrap()
+                    .map(|s| s.payload().to_vec())
+            });
             let want: Vec<_> = (0..N_BODIES).map(|i| load(10 + i)).collect();
             if got != want {
                 std::process::exit(3);
@@ -128,12 +186,24 @@ fn parent(run: &str) -> Parent {
     let ep = Endpoint::new(run).unwrap();
     let commands = ep.value_sender::<Command>(ServiceLeaf::Command).unwrap();
     let hellos = ep.value_receiver::<Hello>(ServiceLeaf::Hello).unwrap();
-    Parent { ep, commands, hellos }
+    Parent {
+        ep,
+        commands,
+        hellos,
+    }
 }
 
 fn go(p: &Parent) {
     p.commands
-        .send(Command { protocol_version: PROTOCOL_VERSION, kind: CommandKind::Advance as u32, step: 5, time: 0.25, window: 1e-4, snapshot: 0, _pad: 0 })
+        .send(Command {
+            protocol_version: PROTOCOL_VERSION,
+            kind: CommandKind::Advance as u32,
+            step: 5,
+            time: 0.25,
+            window: 1e-4,
+            snapshot: 0,
+            _pad: 0,
+        })
         .unwrap();
 }
 
@@ -143,12 +213,22 @@ fn go(p: &Parent) {
 fn every_payload_type_crosses_between_processes() {
     let run = run_id("all");
     let p = parent(&run);
-    let points = p.ep.slice_receiver::<CouplingPoint>(ServiceLeaf::Points).unwrap();
-    let bodies = p.ep.slice_receiver::<BodyState>(ServiceLeaf::Bodies).unwrap();
+    let points =
+        p.ep.slice_receiver::<CouplingPoint>(ServiceLeaf::Points)
+            .unwrap();
+    let bodies =
+        p.ep.slice_receiver::<BodyState>(ServiceLeaf::Bodies)
+            .unwrap();
     let loads = p.ep.slice_receiver::<BodyLoad>(ServiceLeaf::Loads).unwrap();
-    let particles = p.ep.slice_receiver::<ParticleRecord>(ServiceLeaf::Particles).unwrap();
-    let reports = p.ep.value_receiver::<SideReport>(ServiceLeaf::Report).unwrap();
-    let loads_back = p.ep.slice_sender::<BodyLoad>(ServiceLeaf::Loads, N_BODIES).unwrap();
+    let particles =
+        p.ep.slice_receiver::<ParticleRecord>(ServiceLeaf::Particles)
+            .unwrap();
+    let reports =
+        p.ep.value_receiver::<SideReport>(ServiceLeaf::Report)
+            .unwrap();
+    let loads_back =
+        p.ep.slice_sender::<BodyLoad>(ServiceLeaf::Loads, N_BODIES)
+            .unwrap();
     let mut child = spawn_peer(&run, "all");
 
     let hello = within(|| p.hellos.try_next().unwrap());
@@ -167,9 +247,14 @@ fn every_payload_type_crosses_between_processes() {
     assert_eq!((r.step, r.substeps), (5, 7));
 
     let back: Vec<_> = (0..N_BODIES).map(|i| load(10 + i)).collect();
-    loads_back.send(WindowHeader::new(6, 0.3, 1e-4, back.len()), &back).unwrap();
+    loads_back
+        .send(WindowHeader::new(6, 0.3, 1e-4, back.len()), &back)
+        .unwrap();
     let status = child.wait().unwrap();
-    assert!(status.success(), "the peer did not receive the loads intact: {status}");
+    assert!(
+        status.success(),
+        "the peer did not receive the loads intact: {status}"
+    );
 }
 
 /// A peer that speaks another protocol version is refused at the handshake, and the
@@ -181,8 +266,19 @@ fn peer_with_other_protocol_version_is_refused() {
     let mut child = spawn_peer(&run, "old-version");
     let hello = within(|| p.hellos.try_next().unwrap());
     let err = check_hello(&hello).unwrap_err();
-    assert_eq!(err, HandshakeError::Version { role: "dem-server", pid: child.id(), got: PROTOCOL_VERSION + 1 });
-    assert!(err.to_string().contains(&format!("version {}", PROTOCOL_VERSION + 1)), "{err}");
+    assert_eq!(
+        err,
+        HandshakeError::Version {
+            role: "dem-server",
+            pid: child.id(),
+            got: PROTOCOL_VERSION + 1
+        }
+    );
+    assert!(
+        err.to_string()
+            .contains(&format!("version {}", PROTOCOL_VERSION + 1)),
+        "{err}"
+    );
     child.kill().unwrap();
     let _ = child.wait();
 }
@@ -193,17 +289,37 @@ fn peer_with_other_protocol_version_is_refused() {
 fn nan_and_out_of_range_body_are_rejected() {
     let run = run_id("nan");
     let p = parent(&run);
-    let points = p.ep.slice_receiver::<CouplingPoint>(ServiceLeaf::Points).unwrap();
+    let points =
+        p.ep.slice_receiver::<CouplingPoint>(ServiceLeaf::Points)
+            .unwrap();
     let loads = p.ep.slice_receiver::<BodyLoad>(ServiceLeaf::Loads).unwrap();
     let mut child = spawn_peer(&run, "nan");
     within(|| p.hellos.try_next().unwrap());
     go(&p);
     let pts = within(|| points.try_step(5).unwrap().map(|s| s.payload().to_vec()));
     let e = validate_points(&pts, N_BODIES).unwrap_err();
-    assert!(matches!(e, ValidationError::NonFinite { index: 17, field: "velocity", .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            ValidationError::NonFinite {
+                index: 17,
+                field: "velocity",
+                ..
+            }
+        ),
+        "{e}"
+    );
     assert!(e.to_string().contains("coupling_point[17].velocity"), "{e}");
     let l = within(|| loads.try_step(5).unwrap().map(|s| s.payload().to_vec()));
     let e = validate_loads(&l, N_BODIES).unwrap_err();
-    assert_eq!(e, ValidationError::BodyIndex { what: "body_load", index: 1, body: 99, bodies: N_BODIES });
+    assert_eq!(
+        e,
+        ValidationError::BodyIndex {
+            what: "body_load",
+            index: 1,
+            body: 99,
+            bodies: N_BODIES
+        }
+    );
     assert!(child.wait().unwrap().success());
 }

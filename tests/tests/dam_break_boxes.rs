@@ -33,7 +33,19 @@ fn corners() -> impl Iterator<Item = Vector> {
 #[test]
 fn boxes_are_pushed_and_stay_apart_and_inside() {
     let out = tempfile::tempdir().unwrap();
-    let o = couplet_run(CLI, &scene("dam-break-boxes"), out.path(), &["--spacing", "0.02", "--set", "fluid.support=2.4", "--set", "time.end=0.35"]);
+    let o = couplet_run(
+        CLI,
+        &scene("dam-break-boxes"),
+        out.path(),
+        &[
+            "--spacing",
+            "0.02",
+            "--set",
+            "fluid.support=2.4",
+            "--set",
+            "time.end=0.35",
+        ],
+    );
     assert!(o.status.success());
     let rec = read_recording(&out.path().join("run.mcap")).unwrap();
     let tracks: Vec<_> = (0..3).map(|b| track(&rec, b)).collect();
@@ -42,7 +54,10 @@ fn boxes_are_pushed_and_stay_apart_and_inside() {
     let cube = Cuboid::new(Vector::splat(H as f32));
     for (b, t) in tracks.iter().enumerate() {
         let (first, last) = (t.first().unwrap(), t.last().unwrap());
-        let moved = (0..3).map(|k| (last.position[k] - first.position[k]).powi(2)).sum::<f64>().sqrt();
+        let moved = (0..3)
+            .map(|k| (last.position[k] - first.position[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
         eprintln!("box {b}: moved {moved:.3} m, final {:?}", last.position);
         assert!(moved > 0.02, "box {b} moved only {moved} m");
     }
@@ -56,20 +71,36 @@ fn boxes_are_pushed_and_stay_apart_and_inside() {
                 let (lo, hi) = ([0.0, 0.0, 0.0], [0.6, 0.4, 0.1]);
                 for k in 0..3 {
                     assert!(
-                        (w[k] as f64) > lo[k] - PENETRATION_TOLERANCE && (w[k] as f64) < hi[k] + PENETRATION_TOLERANCE,
-                        "box {a} corner {w:?} outside the domain at t = {}", sa.time
+                        (w[k] as f64) > lo[k] - PENETRATION_TOLERANCE
+                            && (w[k] as f64) < hi[k] + PENETRATION_TOLERANCE,
+                        "box {a} corner {w:?} outside the domain at t = {}",
+                        sa.time
                     );
                 }
             }
             for b in a + 1..3 {
                 let sb = tracks[b][i];
-                let d = parry3d::query::distance(&pa, &cube, &pose(sb.position, sb.orientation), &cube).unwrap();
-                let depth = if d.distance > 0.0 { 0.0 } else {
-                    parry3d::query::contact(&pa, &cube, &pose(sb.position, sb.orientation), &cube, 0.0)
-                        .unwrap()
-                        .map_or(0.0, |c| -c.dist)
+                let d =
+                    parry3d::query::distance(&pa, &cube, &pose(sb.position, sb.orientation), &cube)
+                        .unwrap();
+                let depth = if d.distance > 0.0 {
+                    0.0
+                } else {
+                    parry3d::query::contact(
+                        &pa,
+                        &cube,
+                        &pose(sb.position, sb.orientation),
+                        &cube,
+                        0.0,
+                    )
+                    .unwrap()
+                    .map_or(0.0, |c| -c.dist)
                 };
-                assert!((depth as f64) < PENETRATION_TOLERANCE, "boxes {a} and {b} overlap by {depth} m at t = {}", sa.time);
+                assert!(
+                    (depth as f64) < PENETRATION_TOLERANCE,
+                    "boxes {a} and {b} overlap by {depth} m at t = {}",
+                    sa.time
+                );
             }
         }
     }

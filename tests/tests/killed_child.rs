@@ -43,14 +43,29 @@ fn kill_one_child_and_time_exit(victim: &str) {
         if c.len() == 2 && recording > 0 && start.elapsed() > Duration::from_secs(3) {
             break c;
         }
-        assert!(cli.try_wait().unwrap().is_none(), "couplet run ended before the test could kill a child");
-        assert!(start.elapsed() < Duration::from_secs(120), "servers did not start");
+        assert!(
+            cli.try_wait().unwrap().is_none(),
+            "couplet run ended before the test could kill a child"
+        );
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "servers did not start"
+        );
         std::thread::sleep(Duration::from_millis(50));
     };
     // The fluid server is started first (see orchestrator/src/run.rs).
-    let pid = if victim == "fluid" { children[0] } else { children[1] };
-    let cmdline = std::fs::read_to_string(format!("/proc/{pid}/cmdline")).unwrap().replace('\0', " ");
-    assert!(cmdline.contains(&format!("{victim}-server")), "pid {pid} is `{cmdline}`, not the {victim} server");
+    let pid = if victim == "fluid" {
+        children[0]
+    } else {
+        children[1]
+    };
+    let cmdline = std::fs::read_to_string(format!("/proc/{pid}/cmdline"))
+        .unwrap()
+        .replace('\0', " ");
+    assert!(
+        cmdline.contains(&format!("{victim}-server")),
+        "pid {pid} is `{cmdline}`, not the {victim} server"
+    );
     // SAFETY: kill(2) on a pid we just read from our own child's child list.
     unsafe { libc::kill(pid as i32, libc::SIGKILL) };
     let killed = Instant::now();
@@ -58,7 +73,10 @@ fn kill_one_child_and_time_exit(victim: &str) {
         if let Some(s) = cli.try_wait().unwrap() {
             break s;
         }
-        assert!(killed.elapsed() < Duration::from_secs(10), "couplet run did not notice the dead {victim} server");
+        assert!(
+            killed.elapsed() < Duration::from_secs(10),
+            "couplet run did not notice the dead {victim} server"
+        );
         std::thread::sleep(Duration::from_millis(5));
     };
     let took = killed.elapsed();
@@ -67,7 +85,10 @@ fn kill_one_child_and_time_exit(victim: &str) {
     eprintln!("{stderr}\nexit {status} {took:?} after SIGKILL of the {victim} server");
     assert!(!status.success());
     assert!(took < Duration::from_secs(1), "took {took:?}");
-    assert!(stderr.contains(&format!("{victim}-server")) && stderr.contains("signal: 9"), "error must name the child and its status: {stderr}");
+    assert!(
+        stderr.contains(&format!("{victim}-server")) && stderr.contains("signal: 9"),
+        "error must name the child and its status: {stderr}"
+    );
     let rec = read_recording(&out.path().join("run.mcap")).unwrap();
     assert!(rec.has_summary, "the recording was not closed");
     assert!(rec.windows > 0 && !rec.bodies.is_empty(), "{rec:?}");

@@ -40,7 +40,13 @@ pub fn sphere(name: &str, radius: f64, density: f64, position: [f64; 3], extra: 
 }
 
 /// `[[bodies]]` table of a box.
-pub fn cuboid(name: &str, half_extents: [f64; 3], density: f64, position: [f64; 3], extra: &str) -> String {
+pub fn cuboid(
+    name: &str,
+    half_extents: [f64; 3],
+    density: f64,
+    position: [f64; 3],
+    extra: &str,
+) -> String {
     format!(
         "[[bodies]]\nname = \"{name}\"\nshape.box.half_extents = {half_extents:?}\ndensity = {density:?}\nposition = {position:?}\n{extra}\n"
     )

@@ -39,7 +39,14 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, 0.2, 0.2] }}]
 /// first `n_fluid` fluid, the rest wall, each position perturbed by up to `jitter`·δ,
 /// random velocities (|u| ≲ u_scale) and densities ρ0 (1 ± 1 %), pressures from the EOS
 /// (walls: random around the fluid's).
-pub fn random_set(c: &SphConstants, n_side: usize, wall_fraction: f64, jitter: f64, u_scale: f64, seed: u64) -> ParticleSet {
+pub fn random_set(
+    c: &SphConstants,
+    n_side: usize,
+    wall_fraction: f64,
+    jitter: f64,
+    u_scale: f64,
+    seed: u64,
+) -> ParticleSet {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let d = c.spacing;
     let n = n_side * n_side * n_side;
@@ -54,7 +61,11 @@ pub fn random_set(c: &SphConstants, n_side: usize, wall_fraction: f64, jitter: f
     for &k in &idx {
         let (x, y, z) = (k % n_side, (k / n_side) % n_side, k / (n_side * n_side));
         let mut jit = || (rng.random::<f64>() - 0.5) * 2.0 * jitter * d;
-        let p = [0.02 + (x as f64 + 0.5) * d + jit(), 0.02 + (y as f64 + 0.5) * d + jit(), 0.02 + (z as f64 + 0.5) * d + jit()];
+        let p = [
+            0.02 + (x as f64 + 0.5) * d + jit(),
+            0.02 + (y as f64 + 0.5) * d + jit(),
+            0.02 + (z as f64 + 0.5) * d + jit(),
+        ];
         set.pos.push(p);
     }
     let n_fluid = n - n_wall;
@@ -70,11 +81,17 @@ pub fn random_set(c: &SphConstants, n_side: usize, wall_fraction: f64, jitter: f
         set.press.push(c.pressure(rho));
         set.id.push(i as u32);
     }
-    set.kinds = ParticleKinds { n_fluid, n_wall, n_markers: 0 };
+    set.kinds = ParticleKinds {
+        n_fluid,
+        n_wall,
+        n_markers: 0,
+    };
     set
 }
 
 /// Largest |a − b| and largest |b| over pairs of scalars.
 pub fn max_err(pairs: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
-    pairs.fold((0.0, 0.0), |(e, m), (a, b)| (f64::max(e, (a - b).abs()), f64::max(m, b.abs())))
+    pairs.fold((0.0, 0.0), |(e, m), (a, b)| {
+        (f64::max(e, (a - b).abs()), f64::max(m, b.abs()))
+    })
 }

@@ -1,0 +1,727 @@
+//! `couplet validate`: the named validation cases (DESIGN.md, "Validation cases and
+//! reports"). A case is a shipped scene, the overrides of its CI-sized `--quick` version,
+//! and the comparison of its recording with a reference. A run prints a markdown table
+//! (quantity, measured, reference, tolerance, PASS/FAIL) with the wall time, writes it
+//! to `OUT/report.md` with CSV time series and SVG plots, and fails when a judged row
+//! fails. Rows without a tolerance are reported, not judged (for instance a coarse run's
+//! distance from a correlation that only a finer resolution can meet).
+
+use crate::record::{Particle, Recording, read_recording, track};
+use crate::run::{RunError, RunOptions, resolve_scene, run};
+use couplet_protocol::Scene;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Why a validation could not run (a failed comparison is a [`Report`], not an error).
+#[derive(Debug, thiserror::Error)]
+pub enum ValidateError {
+    #[error("no validation case `{0}`; `couplet validate --list` names them")]
+    Unknown(String),
+    #[error("scene file {0} not found (run from the repository root, or pass --scenes DIR)")]
+    NoScene(PathBuf),
+    #[error(transparent)]
+    Run(#[from] RunError),
+    #[error("reading the recording: {0}")]
+    Recording(String),
+    #[error("{what}: {source}")]
+    Io {
+        what: String,
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Analysis(String),
+}
+
+/// One named case.
+pub struct Case {
+    pub name: &'static str,
+    /// The scene file in `scenes/`.
+    pub scene: &'static str,
+    /// What is compared with what.
+    pub about: &'static str,
+    /// Overrides of the `--quick` (CI) version, `PATH=VALUE`, and why.
+    pub quick: &'static [&'static str],
+    pub quick_why: &'static str,
+    analyse: fn(&Scene, &Recording, &mut Report) -> Result<(), String>,
+}
+
+/// One line of the report.
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub quantity: String,
+    pub measured: String,
+    pub reference: String,
+    pub tolerance: String,
+    /// `None`: reported, not judged.
+    pub pass: Option<bool>,
+}
+
+/// A time series written as CSV (and plotted against `reference` when it has one).
+#[derive(Debug, Clone, Default)]
+pub struct Series {
+    pub name: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub points: Vec<(f64, f64)>,
+    /// Reference points drawn as markers.
+    pub reference: Vec<(f64, f64)>,
+}
+
+/// The outcome of a case.
+#[derive(Debug, Clone, Default)]
+pub struct Report {
+    pub case: String,
+    pub quick: bool,
+    pub rows: Vec<Row>,
+    pub series: Vec<Series>,
+    pub wall_s: f64,
+    pub out: PathBuf,
+}
+
+impl Report {
+    fn judge(
+        &mut self,
+        quantity: impl Into<String>,
+        measured: String,
+        reference: String,
+        tolerance: String,
+        pass: Option<bool>,
+    ) {
+        self.rows.push(Row {
+            quantity: quantity.into(),
+            measured,
+            reference,
+            tolerance,
+            pass,
+        });
+    }
+
+    /// Every judged row passed.
+    pub fn passed(&self) -> bool {
+        self.rows.iter().all(|r| r.pass != Some(false))
+    }
+
+    pub fn markdown(&self) -> String {
+        let mut t = format!(
+            "## {} ({}), wall time {:.1} s\n\n| quantity | measured | reference | tolerance | result |\n|---|---|---|---|---|\n",
+            self.case,
+            if self.quick { "quick" } else { "full" },
+            self.wall_s
+        );
+        for r in &self.rows {
+            let verdict = match r.pass {
+                Some(true) => "PASS",
+                Some(false) => "FAIL",
+                None => "reported",
+            };
+            let _ = writeln!(
+                t,
+                "| {} | {} | {} | {} | {verdict} |",
+                r.quantity, r.measured, r.reference, r.tolerance
+            );
+        }
+        t
+    }
+}
+
+/// The cases, in `--list` order.
+pub fn cases() -> &'static [Case] {
+    &CASES
+}
+
+static CASES: [Case; 3] = [
+    Case {
+        name: "hydrostatic-tank",
+        scene: "hydrostatic-tank.toml",
+        about: "water at rest in a closed box: time-averaged pressure against ρ0 g (H − y) away from walls and surface; fluid mass",
+        quick: &[
+            "fluid.spacing=0.02",
+            "fluid.support=2.0",
+            "fluid.sound_speed=17.5",
+            "effects.artificial_viscosity=0.2",
+            "fluid.kinematic_viscosity=0.0",
+            "time.end=0.3",
+            "time.output_interval=0.01",
+        ],
+        quick_why: "δ = 0.02 m with support 2δ (the in-process test's settings) to t = 0.3 s: about a minute on lavapipe",
+        analyse: hydrostatic,
+    },
+    Case {
+        name: "settling-sphere",
+        scene: "settling-sphere.toml",
+        about: "Joubert §4.2: a sphere settling in a closed box — plateau, landing, rest; plateau velocity against Joubert eqs. (37)–(38)",
+        quick: &[
+            "fluid.spacing=1e-3",
+            "fluid.support=2.4",
+            "domain.max=[0.015, 0.03, 0.015]",
+            "fluid.blocks.0.max=[0.015, 0.03, 0.015]",
+            "bodies.0.position=[0.0075, 0.02, 0.0075]",
+            "time.end=0.6",
+        ],
+        quick_why: "δ = 1 mm (r = 1.25 δ), support 2.4 δ, box cut to 30 mm with the release at 20 mm: about six minutes on lavapipe",
+        analyse: settling_sphere,
+    },
+    Case {
+        name: "dam-break",
+        scene: "dam-break.toml",
+        about: "water column of width a and height 2a collapsing on a dry floor: surge front Z = x/a against T = t √(2g/a), Martin & Moyce (1952)",
+        quick: &["fluid.spacing=0.01", "time.output_interval=0.01"],
+        quick_why: "δ = a/10: a few minutes on lavapipe",
+        analyse: dam_break,
+    },
+];
+
+/// Where the scenes are: `scenes_dir`, else `./scenes`, else the repository's.
+fn scene_path(case: &Case, scenes_dir: Option<&Path>) -> Result<PathBuf, ValidateError> {
+    let candidates = match scenes_dir {
+        Some(d) => vec![d.join(case.scene)],
+        None => vec![
+            PathBuf::from("scenes").join(case.scene),
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("..")
+                .join("scenes")
+                .join(case.scene),
+        ],
+    };
+    candidates
+        .iter()
+        .find(|p| p.is_file())
+        .cloned()
+        .ok_or_else(|| ValidateError::NoScene(candidates[0].clone()))
+}
+
+/// Runs case `name` (`quick`: its CI-sized version) with `extra` overrides after the
+/// case's own, into `out` (default `out/validate/NAME`), and writes the report there.
+pub fn validate(
+    name: &str,
+    quick: bool,
+    out: Option<PathBuf>,
+    extra: &[(String, String)],
+    scenes_dir: Option<&Path>,
+    progress: bool,
+) -> Result<Report, ValidateError> {
+    let case = cases()
+        .iter()
+        .find(|c| c.name == name)
+        .ok_or_else(|| ValidateError::Unknown(name.to_owned()))?;
+    let scene_file = scene_path(case, scenes_dir)?;
+    let mut overrides: Vec<(String, String)> = Vec::new();
+    if quick {
+        for kv in case.quick {
+            let (k, v) = kv.split_once('=').expect("case overrides are PATH=VALUE");
+            overrides.push((k.to_owned(), v.to_owned()));
+        }
+    }
+    overrides.extend_from_slice(extra);
+    let out = out.unwrap_or_else(|| PathBuf::from("out").join("validate").join(name));
+    let (scene, _) = resolve_scene(&scene_file, &overrides)?;
+    let t0 = Instant::now();
+    run(&RunOptions {
+        scene: scene_file,
+        out: Some(out.clone()),
+        overrides,
+        max_windows: None,
+        record: true,
+        progress,
+    })?;
+    let wall_s = t0.elapsed().as_secs_f64();
+    let rec = read_recording(&out.join("run.mcap")).map_err(ValidateError::Recording)?;
+    let mut report = Report {
+        case: name.to_owned(),
+        quick,
+        wall_s,
+        out: out.clone(),
+        ..Default::default()
+    };
+    report.judge(
+        "recording closed properly",
+        rec.has_summary.to_string(),
+        "true".into(),
+        "exact".into(),
+        Some(rec.has_summary),
+    );
+    (case.analyse)(&scene, &rec, &mut report).map_err(ValidateError::Analysis)?;
+    write_outputs(&report)?;
+    Ok(report)
+}
+
+fn write_outputs(r: &Report) -> Result<(), ValidateError> {
+    let io = |what: String| move |source| ValidateError::Io { what, source };
+    let md = r.out.join("report.md");
+    std::fs::write(&md, r.markdown()).map_err(io(format!("writing {}", md.display())))?;
+    for s in &r.series {
+        let mut csv = format!("{},{}\n", s.x_label, s.y_label);
+        for (x, y) in &s.points {
+            let _ = writeln!(csv, "{x:e},{y:e}");
+        }
+        let path = r.out.join(format!("{}.csv", s.name));
+        std::fs::write(&path, csv).map_err(io(format!("writing {}", path.display())))?;
+        let path = r.out.join(format!("{}.svg", s.name));
+        std::fs::write(&path, svg_plot(s)).map_err(io(format!("writing {}", path.display())))?;
+    }
+    Ok(())
+}
+
+/// A line plot of `s.points` with `s.reference` as markers, axes from zero.
+fn svg_plot(s: &Series) -> String {
+    let (w, h, m) = (640.0, 420.0, 60.0);
+    let all = s.points.iter().chain(&s.reference);
+    let x_max = all.clone().map(|p| p.0).fold(0.0, f64::max).max(1e-30);
+    let y_max = all.map(|p| p.1).fold(0.0, f64::max).max(1e-30);
+    let px = |x: f64| m + (w - 2.0 * m) * x / x_max;
+    let py = |y: f64| h - m - (h - 2.0 * m) * y / y_max;
+    let mut t = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
+         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
+         <line x1=\"{m}\" y1=\"{b}\" x2=\"{r}\" y2=\"{b}\" stroke=\"black\"/><line x1=\"{m}\" y1=\"{m}\" x2=\"{m}\" y2=\"{b}\" stroke=\"black\"/>\n\
+         <text x=\"{cx}\" y=\"{tb}\" text-anchor=\"middle\">{xl} (0 … {x_max:.3})</text>\n\
+         <text x=\"14\" y=\"{cy}\" transform=\"rotate(-90 14 {cy})\" text-anchor=\"middle\">{yl} (0 … {y_max:.3})</text>\n\
+         <text x=\"{cx}\" y=\"24\" text-anchor=\"middle\">{name}: line = couplet, circles = reference</text>\n",
+        b = h - m,
+        r = w - m,
+        cx = w / 2.0,
+        tb = h - 20.0,
+        cy = h / 2.0,
+        xl = s.x_label,
+        yl = s.y_label,
+        name = s.name,
+    );
+    let path: Vec<String> = s
+        .points
+        .iter()
+        .map(|(x, y)| format!("{:.1},{:.1}", px(*x), py(*y)))
+        .collect();
+    let _ = writeln!(
+        t,
+        "<polyline fill=\"none\" stroke=\"#1f77b4\" stroke-width=\"2\" points=\"{}\"/>",
+        path.join(" ")
+    );
+    for (x, y) in &s.reference {
+        let _ = writeln!(
+            t,
+            "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"4\" fill=\"none\" stroke=\"#d62728\"/>",
+            px(*x),
+            py(*y)
+        );
+    }
+    t + "</svg>\n"
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.2} %", 100.0 * x)
+}
+
+/// Each fluid particle averaged over the snapshots of the last `span` seconds.
+fn time_average(rec: &Recording, span: f64) -> Result<Vec<Particle>, String> {
+    let (t_last, _) = rec.snapshots.last().ok_or("no particle snapshots")?;
+    let tail: Vec<&Vec<Particle>> = rec
+        .snapshots
+        .iter()
+        .filter(|(t, _)| *t > t_last - span + 1e-9)
+        .map(|(_, s)| s)
+        .collect();
+    let n = tail[0].len();
+    Ok((0..n)
+        .map(|i| {
+            let mut a = [0f32; 8];
+            for s in &tail {
+                for (k, v) in a.iter_mut().enumerate() {
+                    *v += s[i][k] / tail.len() as f32;
+                }
+            }
+            a
+        })
+        .collect())
+}
+
+/// Hydrostatic tank: the pressure of particles farther than the support from the walls
+/// and the free surface, averaged over the last 0.1 s (longer than the column's acoustic
+/// period 4H/c, which WCSPH leaves weakly damped), against ρ0 g (H − y), H the mean
+/// height of the top row plus δ/2; 2 % of ρ0 g H for the standard scheme (issue 2), 1 %
+/// with the gradient correction or δ-SPH (issue 3). The fluid mass is the count
+/// times the constant particle mass: conserved exactly.
+fn hydrostatic(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), String> {
+    let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
+    let (rho0, g) = (f.density, -scene.gravity.vector[1]);
+    // Issue 2 holds the standard scheme to 2 %; issue 3 the corrected scheme and δ-SPH to 1 %.
+    let e = &scene.effects;
+    let tolerance = if e.gradient_correction || e.density_diffusion > 0.0 {
+        0.01
+    } else {
+        0.02
+    };
+    let (dx, support) = (f.spacing, f.support_radius());
+    let n0 = rec
+        .snapshots
+        .first()
+        .ok_or("no particle snapshots")?
+        .1
+        .len();
+    let kept = rec.snapshots.iter().all(|(_, s)| s.len() == n0);
+    report.judge(
+        "fluid particles (mass / m)",
+        format!("{n0} throughout: {kept}"),
+        format!("{n0}"),
+        "exact".into(),
+        Some(kept),
+    );
+    let finite = rec
+        .snapshots
+        .iter()
+        .all(|(_, s)| s.iter().all(|p| p.iter().all(|v| v.is_finite())));
+    report.judge(
+        "all values finite",
+        finite.to_string(),
+        "true".into(),
+        "exact".into(),
+        Some(finite),
+    );
+    let mean = time_average(rec, 0.1)?;
+    let top = mean
+        .iter()
+        .map(|p| f64::from(p[1]))
+        .fold(f64::MIN, f64::max);
+    let row: Vec<f64> = mean
+        .iter()
+        .map(|p| f64::from(p[1]))
+        .filter(|y| *y > top - 0.5 * dx)
+        .collect();
+    let surface = row.iter().sum::<f64>() / row.len() as f64 + 0.5 * dx;
+    let (lo, hi) = (scene.domain.min, scene.domain.max);
+    let p_bottom = rho0 * g * (surface - lo[1]);
+    let (mut worst, mut n, mut profile) = (0.0f64, 0, Vec::new());
+    for p in &mean {
+        let x = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
+        let inside = (0..3).all(|k| x[k] > lo[k] + support && (k == 1 || x[k] < hi[k] - support));
+        if inside && x[1] < surface - support {
+            let want = rho0 * g * (surface - x[1]);
+            worst = worst.max((f64::from(p[3]) - want).abs() / p_bottom);
+            n += 1;
+            profile.push((surface - x[1], f64::from(p[3])));
+        }
+    }
+    if n == 0 {
+        return Err("no particle farther than the support from walls and surface".into());
+    }
+    report.judge(
+        format!("largest deviation of p̄ from ρ0 g (H − y), over ρ0 g H ({n} interior particles, last 0.1 s)"),
+        pct(worst),
+        "0 (hydrostatics)".into(),
+        pct(tolerance),
+        Some(worst < tolerance),
+    );
+    profile.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let depth_max = profile.last().map_or(0.0, |p| p.0);
+    report.series.push(Series {
+        name: "pressure-vs-depth".into(),
+        x_label: "depth H − y (m)".into(),
+        y_label: "time-averaged pressure (Pa)".into(),
+        points: profile,
+        reference: (0..=10)
+            .map(|k| depth_max * f64::from(k) / 10.0)
+            .map(|d| (d, rho0 * g * d))
+            .collect(),
+    });
+    Ok(())
+}
+
+/// Settling sphere (Joubert §4.2): body 0 accelerates; its velocity changes by less than
+/// 3 % over the last fifth of its fall (the fall ends two diameters above the floor,
+/// where wall effects start); it lands (final height = radius ± 10 %) and rests (vertical
+/// speed < 1 mm/s at the end, mean speed over the last 0.1 s < 5 % of the plateau: the
+/// recirculating fluid may roll it slowly). The plateau against the correlation of
+/// Joubert eqs. (37)–(38) is reported.
+fn settling_sphere(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), String> {
+    let body = scene.bodies.first().ok_or("the scene has no body")?;
+    let couplet_protocol::Shape::Sphere { radius: r } = body.shape else {
+        return Err("body 0 is not a sphere".into());
+    };
+    let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
+    let g = scene
+        .gravity
+        .vector
+        .iter()
+        .map(|x| x * x)
+        .sum::<f64>()
+        .sqrt();
+    let d = 2.0 * r;
+    let floor = scene.domain.min[1];
+    let s = track(rec, 0);
+    if s.len() < 20 {
+        return Err(format!("only {} body states recorded", s.len()));
+    }
+    let finite = s
+        .iter()
+        .all(|b| b.position.iter().chain(&b.velocity).all(|v| v.is_finite()));
+    report.judge(
+        "body state finite",
+        finite.to_string(),
+        "true".into(),
+        "exact".into(),
+        Some(finite),
+    );
+    let early = s
+        .iter()
+        .find(|b| b.time >= 0.05)
+        .ok_or("the run ends before 0.05 s")?;
+    report.judge(
+        "accelerates: downward speed at 0.05 s",
+        format!("{:.4} m/s", -early.velocity[1]),
+        "> 0".into(),
+        "> 5 mm/s".into(),
+        Some(-early.velocity[1] > 0.005),
+    );
+    let end = s
+        .iter()
+        .position(|b| b.position[1] - floor < r + 2.0 * d)
+        .ok_or("the sphere never got near the floor")?;
+    let t_end = s[end].time;
+    let fifth: Vec<f64> = s
+        .iter()
+        .filter(|b| b.time >= 0.8 * t_end && b.time <= t_end)
+        .map(|b| -b.velocity[1])
+        .collect();
+    // Means over the first and last fifths of that stretch: single windows carry the
+    // SPH pressure noise of a sphere with few markers.
+    let k = (fifth.len() / 5).max(1);
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let (v0, v1, plateau) = (
+        mean(&fifth[..k]),
+        mean(&fifth[fifth.len() - k..]),
+        mean(&fifth),
+    );
+    let change = (v1 - v0).abs() / plateau;
+    report.judge(
+        format!("velocity change over the last fifth of the fall (t ≤ {t_end:.3} s)"),
+        pct(change),
+        "plateau (issue 2)".into(),
+        "< 3 %".into(),
+        Some(change < 0.03),
+    );
+    let correlation =
+        joubert_terminal_velocity(r, body.density, f.density, f.kinematic_viscosity, g);
+    report.judge(
+        "plateau velocity",
+        format!("{plateau:.4} m/s"),
+        format!("{correlation:.4} m/s (Joubert eqs. 37–38)"),
+        "reported".into(),
+        None,
+    );
+    let last = s.last().expect("checked above");
+    let height = last.position[1] - floor;
+    report.judge(
+        "final height of the centre",
+        format!("{height:.3e} m"),
+        format!("{r:.3e} m (radius)"),
+        "± 10 %".into(),
+        Some((height - r).abs() < 0.1 * r),
+    );
+    let vertical = last.velocity[1].abs();
+    report.judge(
+        "final vertical speed",
+        format!("{vertical:.2e} m/s"),
+        "0".into(),
+        "< 1e-3 m/s".into(),
+        Some(vertical < 1e-3),
+    );
+    let tail: Vec<f64> = s
+        .iter()
+        .filter(|b| b.time >= last.time - 0.1)
+        .map(|b| b.velocity.iter().map(|v| v * v).sum::<f64>().sqrt())
+        .collect();
+    let roll = mean(&tail);
+    report.judge(
+        "mean speed over the last 0.1 s",
+        format!("{roll:.2e} m/s"),
+        "0".into(),
+        pct(0.05) + " of the plateau",
+        Some(roll < 0.05 * plateau),
+    );
+    report.series.push(Series {
+        name: "sphere-velocity".into(),
+        x_label: "t (s)".into(),
+        y_label: "downward velocity (m/s)".into(),
+        points: s.iter().map(|b| (b.time, -b.velocity[1])).collect(),
+        reference: vec![(0.0, correlation), (t_end, correlation)],
+    });
+    Ok(())
+}
+
+/// Martin & Moyce (1952), fig. 3, n² = 2 (column height 2a): (T, Z) for the two column
+/// widths, `../shared/validation/martin_moyce1952_surge_front.csv`.
+const MARTIN_MOYCE: [(f64, f64); 17] = [
+    (0.849, 1.245),
+    (1.212, 1.443),
+    (1.602, 1.884),
+    (2.283, 2.689),
+    (2.950, 3.728),
+    (3.598, 4.528),
+    (3.905, 4.999),
+    (4.592, 5.841),
+    (4.961, 6.271),
+    (5.316, 6.717),
+    (0.832, 1.217),
+    (1.219, 1.474),
+    (1.997, 2.292),
+    (2.547, 2.995),
+    (3.345, 4.134),
+    (4.034, 4.944),
+    (4.418, 5.881),
+];
+
+/// Dam break: the surge front x_f(t) is the largest x of fluid particles within 2δ of the
+/// floor, ignoring the 0.5 % farthest (single particles thrown ahead); Z = (x_f − x_0)/a
+/// with x_0 the wall behind the column, T = t √(2g/a). Every Martin & Moyce point inside
+/// the run's T range is compared with the simulated Z at that T (linear in between
+/// snapshots): the largest deviation relative to the measured Z, 5 % (issue 3).
+fn dam_break(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), String> {
+    let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
+    let block = f.blocks.first().ok_or("the scene has no fluid block")?;
+    let (x0, a) = (block.min[0], block.max[0] - block.min[0]);
+    let g = -scene.gravity.vector[1];
+    let floor = scene.domain.min[1];
+    let scale = (2.0 * g / a).sqrt();
+    let mut front = Vec::new();
+    for (t, s) in &rec.snapshots {
+        let mut xs: Vec<f64> = s
+            .iter()
+            .filter(|p| f64::from(p[1]) - floor < 2.0 * f.spacing)
+            .map(|p| f64::from(p[0]))
+            .collect();
+        if xs.is_empty() {
+            continue;
+        }
+        xs.sort_by(f64::total_cmp);
+        let k = ((xs.len() as f64) * 0.995) as usize;
+        let xf = xs[k.min(xs.len() - 1)] + 0.5 * f.spacing;
+        front.push((t * scale, (xf - x0) / a));
+    }
+    if front.len() < 3 {
+        return Err(format!("only {} particle snapshots", front.len()));
+    }
+    let t_max = front.last().map_or(0.0, |p| p.0);
+    let mut worst = (0.0f64, 0.0, 0.0, 0.0);
+    for &(tm, zm) in MARTIN_MOYCE.iter().filter(|(t, _)| *t <= t_max) {
+        let i = front
+            .iter()
+            .position(|p| p.0 >= tm)
+            .ok_or("front series ends early")?;
+        let z = if i == 0 {
+            front[0].1
+        } else {
+            let (a0, a1) = (front[i - 1], front[i]);
+            a0.1 + (a1.1 - a0.1) * (tm - a0.0) / (a1.0 - a0.0)
+        };
+        let dev = (z - zm).abs() / zm;
+        if dev > worst.0 {
+            worst = (dev, tm, z, zm);
+        }
+    }
+    let (dev, tm, z, zm) = worst;
+    report.judge(
+        format!("surge front: largest deviation of Z from Z_MM, relative, for T ≤ {t_max:.2} (worst at T = {tm:.2}: Z = {z:.3})"),
+        pct(dev),
+        format!("Martin & Moyce 1952 (Z = {zm:.3} there)"),
+        "< 5 %".into(),
+        Some(dev < 0.05),
+    );
+    report.series.push(Series {
+        name: "surge-front".into(),
+        x_label: "T = t √(2g/a)".into(),
+        y_label: "Z = x/a".into(),
+        points: front,
+        reference: MARTIN_MOYCE
+            .iter()
+            .filter(|(t, _)| *t <= t_max)
+            .copied()
+            .collect(),
+    });
+    Ok(())
+}
+
+/// Terminal settling velocity of a sphere from the force balance of Joubert eq. (37)
+/// with the drag correlation of eq. (38), by fixed-point iteration on Re.
+pub fn joubert_terminal_velocity(radius: f64, rho_s: f64, rho_f: f64, nu: f64, g: f64) -> f64 {
+    let d = 2.0 * radius;
+    let cd = |re: f64| {
+        24.0 / re
+            + 2.6 * (re / 5.0) / (1.0 + (re / 5.0).powf(1.52))
+            + 0.411 * (re / 2.63e5).powf(-7.94) / (1.0 + (re / 2.63e5).powf(-8.0))
+            + 0.25 * (re / 1e6) / (1.0 + re / 1e6)
+    };
+    // Eq. (37): (ρs − ρf) V g = ½ C_D ρf U² A with V = πd³/6, A = πd²/4.
+    let mut u = (rho_s - rho_f) * g * d * d / (18.0 * rho_f * nu); // Stokes start
+    for _ in 0..200 {
+        let re = u * d / nu;
+        u = (4.0 * (rho_s - rho_f) * g * d / (3.0 * cd(re) * rho_f)).sqrt();
+    }
+    u
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A lattice of the shipped tank's fluid (δ = 0.02 m) at rest with pressure
+    /// `(1 + bias) ρ0 g (H − y)`, one snapshot per 0.01 s over 0.2 s.
+    fn tank_recording(bias: f64) -> (Scene, Recording) {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/hydrostatic-tank.toml");
+        let (scene, _) = resolve_scene(&path, &[("fluid.spacing".into(), "0.02".into())]).unwrap();
+        let dx = 0.02;
+        let mut snap = Vec::new();
+        for i in 0..10 {
+            for j in 0..15 {
+                for k in 0..10 {
+                    let [x, y, z] = [i, j, k].map(|n| (f64::from(n) + 0.5) * dx);
+                    let p = (1.0 + bias) * 1000.0 * 9.81 * (0.3 - y);
+                    snap.push([
+                        x as f32, y as f32, z as f32, p as f32, 0.0, 0.0, 0.0, 1000.0,
+                    ]);
+                }
+            }
+        }
+        let rec = Recording {
+            snapshots: (0..=20)
+                .map(|k| (0.01 * f64::from(k), snap.clone()))
+                .collect(),
+            has_summary: true,
+            ..Default::default()
+        };
+        (scene, rec)
+    }
+
+    /// The hydrostatic comparison passes an exact field (reference: ρ0 g (H − y) itself,
+    /// f32-rounded: error < 1e-5) and fails one 3 % too high (the standard scheme's bound
+    /// is 2 %): the judge can fail.
+    #[test]
+    fn hydrostatic_comparison_passes_exact_and_fails_biased_fields() {
+        for (bias, pass) in [(0.0, true), (0.03, false)] {
+            let (scene, rec) = tank_recording(bias);
+            let mut r = Report::default();
+            hydrostatic(&scene, &rec, &mut r).unwrap();
+            assert_eq!(r.passed(), pass, "bias {bias}: {}", r.markdown());
+            let row = r
+                .rows
+                .iter()
+                .find(|r| r.quantity.contains("ρ0 g (H − y)"))
+                .unwrap();
+            let measured: f64 = row.measured.trim_end_matches(" %").parse().unwrap();
+            let want = 100.0 * bias * (0.3 - 0.05) / 0.3; // largest at the deepest interior row
+            assert!(
+                (measured - want).abs() < 0.35,
+                "bias {bias}: measured {measured} %, about {want} % expected"
+            );
+        }
+    }
+
+    /// Stokes regime check of the correlation solver: at Re ≪ 1 eq. (38) reduces to
+    /// 24/Re (plus ≈ 0.5 Re^... small terms), so U → Stokes' (ρs−ρf) g d²/(18 μ).
+    #[test]
+    fn terminal_velocity_tends_to_stokes() {
+        let (r, rs, rf, nu, g) = (1e-5, 1250.0, 1000.0, 1e-4, 9.81);
+        let stokes = (rs - rf) * g * (2.0 * r) * (2.0 * r) / (18.0 * rf * nu);
+        let u = joubert_terminal_velocity(r, rs, rf, nu, g);
+        assert!((u / stokes - 1.0).abs() < 1e-3, "{u} vs {stokes}");
+    }
+}
