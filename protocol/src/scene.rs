@@ -253,9 +253,12 @@ pub struct EffectsSpec {
     /// matrix is near-singular (det < `couplet_fluid` `B_DET_MIN`: isolated or nearly so)
     /// keeps the uncorrected gradient and is counted in the run log. Default false: the
     /// standard scheme is the cheaper one and the foundation's tests are written for it.
-    /// Known limit: with a free surface the corrected scheme blows up within ~0.03 s
-    /// (hydrostatic tank, measured 2026-11-22; the blow-up check names the particle):
-    /// use it in enclosed flows, as Joubert does, until the free-surface treatment lands.
+    /// Known limit (measured 2026-11-22): in the hydrostatic tank (gravity on the fluid,
+    /// Adami walls, free surface) the corrected scheme blows up within 0.03–0.05 s, the
+    /// first bad particle at the floor or the surface; the difference-form pressure term
+    /// gives no wall repulsion in hydrostatic balance, and Joubert's own wall treatment
+    /// (Neumann pressure, eq. 25) is not implemented yet. Enclosed flows without gravity
+    /// on the fluid (the settling sphere) run; the blow-up check names the particle.
     #[serde(default)]
     pub gradient_correction: bool,
     /// Particle shifting of Joubert eqs. (17)–(19) (Xu et al. 2009): the decrowding
