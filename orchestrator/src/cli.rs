@@ -89,6 +89,10 @@ enum Cmd {
         /// The CI-sized version (minutes on a CPU) instead of the full case.
         #[arg(long)]
         quick: bool,
+        /// The accuracy-against-cost sweep: the quick version at the case's spacings
+        /// with each of its schemes; a table of error against wall time and particles.
+        #[arg(long, conflicts_with = "quick")]
+        sweep: bool,
         /// Output folder. Default: out/validate/<name>.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -150,6 +154,19 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                     c.name, c.about, "", c.quick_why
                 );
             }
+        }
+        Cmd::Validate {
+            name,
+            sweep: true,
+            out,
+            scenes,
+            overrides,
+            ..
+        } => {
+            let name = name.unwrap_or_default();
+            let md = validate::sweep(&name, out, &overrides.list()?, scenes.as_deref(), true)
+                .with_context(|| format!("sweeping {name}"))?;
+            println!("{md}");
         }
         Cmd::Validate {
             name,

@@ -43,6 +43,10 @@ pub struct Case {
     /// Overrides of the `--quick` (CI) version, `PATH=VALUE`, and why.
     pub quick: &'static [&'static str],
     pub quick_why: &'static str,
+    /// `--sweep`: the spacings (m) and the schemes (label, overrides) run on top of the
+    /// quick version, every pair once.
+    pub sweep_spacings: &'static [f64],
+    pub sweep_schemes: &'static [(&'static str, &'static [&'static str])],
     analyse: fn(&Scene, &Recording, &mut Report) -> Result<(), String>,
 }
 
@@ -77,6 +81,10 @@ pub struct Report {
     pub series: Vec<Series>,
     pub wall_s: f64,
     pub out: PathBuf,
+    /// The case's error measure (name, value as a fraction) for `--sweep` tables.
+    pub headline: Option<(String, f64)>,
+    /// Fluid particles of the run (first snapshot).
+    pub particles: usize,
 }
 
 impl Report {
@@ -145,6 +153,12 @@ static CASES: [Case; 3] = [
             "time.output_interval=0.01",
         ],
         quick_why: "δ = 0.02 m with support 2δ (the in-process test's settings) to t = 0.3 s: about a minute on lavapipe",
+        sweep_spacings: &[0.04, 0.02, 0.01],
+        sweep_schemes: &[
+            ("standard", &[]),
+            ("δ-SPH 0.1", &["effects.density_diffusion=0.1"]),
+            ("shifting 0.1", &["effects.particle_shifting=0.1"]),
+        ],
         analyse: hydrostatic,
     },
     Case {
@@ -160,6 +174,18 @@ static CASES: [Case; 3] = [
             "time.end=0.6",
         ],
         quick_why: "δ = 1 mm (r = 1.25 δ), support 2.4 δ, box cut to 30 mm with the release at 20 mm: about six minutes on lavapipe",
+        sweep_spacings: &[1e-3, 8e-4, 6.25e-4],
+        sweep_schemes: &[
+            ("corrected + shifting", &[]),
+            ("shifting only", &["effects.gradient_correction=false"]),
+            (
+                "standard",
+                &[
+                    "effects.gradient_correction=false",
+                    "effects.particle_shifting=0",
+                ],
+            ),
+        ],
         analyse: settling_sphere,
     },
     Case {
@@ -168,6 +194,11 @@ static CASES: [Case; 3] = [
         about: "water column of width a and height 2a collapsing on a dry floor: surge front Z = x/a against T = t √(2g/a), Martin & Moyce (1952)",
         quick: &["fluid.spacing=0.01", "time.output_interval=0.01"],
         quick_why: "δ = a/10: a few minutes on lavapipe",
+        sweep_spacings: &[0.02, 0.01, 0.005],
+        sweep_schemes: &[
+            ("δ-SPH 0.1", &[]),
+            ("standard", &["effects.density_diffusion=0"]),
+        ],
         analyse: dam_break,
     },
 ];
@@ -201,20 +232,41 @@ pub fn validate(
     scenes_dir: Option<&Path>,
     progress: bool,
 ) -> Result<Report, ValidateError> {
-    let case = cases()
-        .iter()
-        .find(|c| c.name == name)
-        .ok_or_else(|| ValidateError::Unknown(name.to_owned()))?;
-    let scene_file = scene_path(case, scenes_dir)?;
-    let mut overrides: Vec<(String, String)> = Vec::new();
-    if quick {
-        for kv in case.quick {
-            let (k, v) = kv.split_once('=').expect("case overrides are PATH=VALUE");
-            overrides.push((k.to_owned(), v.to_owned()));
-        }
-    }
+    let case = find(name)?;
+    let mut overrides = if quick { pairs(case.quick) } else { Vec::new() };
     overrides.extend_from_slice(extra);
     let out = out.unwrap_or_else(|| PathBuf::from("out").join("validate").join(name));
+    run_case(case, quick, &overrides, out, scenes_dir, progress)
+}
+
+fn find(name: &str) -> Result<&'static Case, ValidateError> {
+    cases()
+        .iter()
+        .find(|c| c.name == name)
+        .ok_or_else(|| ValidateError::Unknown(name.to_owned()))
+}
+
+fn pairs(list: &[&str]) -> Vec<(String, String)> {
+    list.iter()
+        .map(|kv| {
+            let (k, v) = kv.split_once('=').expect("case overrides are PATH=VALUE");
+            (k.to_owned(), v.to_owned())
+        })
+        .collect()
+}
+
+/// Runs `case` with `overrides` into `out`, compares, writes the report.
+fn run_case(
+    case: &Case,
+    quick: bool,
+    overrides: &[(String, String)],
+    out: PathBuf,
+    scenes_dir: Option<&Path>,
+    progress: bool,
+) -> Result<Report, ValidateError> {
+    let name = case.name;
+    let overrides = overrides.to_vec();
+    let scene_file = scene_path(case, scenes_dir)?;
     let (scene, _) = resolve_scene(&scene_file, &overrides)?;
     let t0 = Instant::now();
     run(&RunOptions {
@@ -232,6 +284,7 @@ pub fn validate(
         quick,
         wall_s,
         out: out.clone(),
+        particles: rec.snapshots.first().map_or(0, |s| s.1.len()),
         ..Default::default()
     };
     report.judge(
@@ -244,6 +297,100 @@ pub fn validate(
     (case.analyse)(&scene, &rec, &mut report).map_err(ValidateError::Analysis)?;
     write_outputs(&report)?;
     Ok(report)
+}
+
+/// One run of a sweep.
+#[derive(Debug, Clone)]
+pub struct SweepPoint {
+    pub scheme: String,
+    pub spacing: f64,
+    pub particles: usize,
+    pub wall_s: f64,
+    pub headline: Option<(String, f64)>,
+    pub passed: bool,
+}
+
+/// `couplet validate NAME --sweep`: the quick version at every spacing × scheme of the
+/// case, each into `OUT/<scheme>-<spacing>/`; the table (markdown and CSV) and a plot of
+/// the error against wall time go to `OUT`. Returns the markdown.
+pub fn sweep(
+    name: &str,
+    out: Option<PathBuf>,
+    extra: &[(String, String)],
+    scenes_dir: Option<&Path>,
+    progress: bool,
+) -> Result<String, ValidateError> {
+    let case = find(name)?;
+    let out = out.unwrap_or_else(|| {
+        PathBuf::from("out")
+            .join("validate")
+            .join(format!("{name}-sweep"))
+    });
+    let mut points = Vec::new();
+    for (label, scheme) in case.sweep_schemes {
+        for &spacing in case.sweep_spacings {
+            let mut o = pairs(case.quick);
+            o.extend(pairs(scheme));
+            o.push(("fluid.spacing".into(), format!("{spacing:e}")));
+            o.extend_from_slice(extra);
+            let dir = out.join(format!("{}-{spacing:e}", label.replace([' ', '+'], "_")));
+            eprintln!("sweep {name}: {label}, δ = {spacing:e} m …");
+            let r = run_case(case, true, &o, dir, scenes_dir, progress)?;
+            points.push(SweepPoint {
+                scheme: (*label).into(),
+                spacing,
+                particles: r.particles,
+                wall_s: r.wall_s,
+                headline: r.headline.clone(),
+                passed: r.passed(),
+            });
+        }
+    }
+    let measure = points
+        .iter()
+        .find_map(|p| p.headline.as_ref().map(|h| h.0.clone()))
+        .unwrap_or_default();
+    let mut md = format!(
+        "## {name} sweep: {measure} against cost\n\n| scheme | δ (m) | fluid particles | wall time (s) | error | all rows pass |\n|---|---|---|---|---|---|\n"
+    );
+    let mut csv = String::from("scheme,spacing_m,fluid_particles,wall_s,error,passed\n");
+    for p in &points {
+        let e = p.headline.as_ref().map_or(f64::NAN, |h| h.1);
+        let _ = writeln!(
+            md,
+            "| {} | {:e} | {} | {:.1} | {} | {} |",
+            p.scheme,
+            p.spacing,
+            p.particles,
+            p.wall_s,
+            pct(e),
+            p.passed
+        );
+        let _ = writeln!(
+            csv,
+            "{},{:e},{},{:.3},{:e},{}",
+            p.scheme, p.spacing, p.particles, p.wall_s, e, p.passed
+        );
+    }
+    let io = |what: String| move |source| ValidateError::Io { what, source };
+    std::fs::create_dir_all(&out).map_err(io(format!("creating {}", out.display())))?;
+    for (file, text) in [("sweep.md", md.clone()), ("sweep.csv", csv)] {
+        let path = out.join(file);
+        std::fs::write(&path, text).map_err(io(format!("writing {}", path.display())))?;
+    }
+    let plot = Series {
+        name: format!("{name}-sweep"),
+        x_label: "wall time (s)".into(),
+        y_label: format!("{measure} (fraction)"),
+        points: Vec::new(),
+        reference: points
+            .iter()
+            .filter_map(|p| p.headline.as_ref().map(|h| (p.wall_s, h.1)))
+            .collect(),
+    };
+    let path = out.join("sweep.svg");
+    std::fs::write(&path, svg_plot(&plot)).map_err(io(format!("writing {}", path.display())))?;
+    Ok(md)
 }
 
 fn write_outputs(r: &Report) -> Result<(), ValidateError> {
@@ -411,6 +558,7 @@ fn hydrostatic(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<()
         pct(tolerance),
         Some(worst < tolerance),
     );
+    report.headline = Some(("hydrostatic pressure error / ρ0 g H".into(), worst));
     profile.sort_by(|a, b| a.0.total_cmp(&b.0));
     let depth_max = profile.last().map_or(0.0, |p| p.0);
     report.series.push(Series {
@@ -501,6 +649,10 @@ fn settling_sphere(scene: &Scene, rec: &Recording, report: &mut Report) -> Resul
     );
     let correlation =
         joubert_terminal_velocity(r, body.density, f.density, f.kinematic_viscosity, g);
+    report.headline = Some((
+        "plateau velocity against Joubert eqs. (37)–(38)".into(),
+        (plateau - correlation).abs() / correlation,
+    ));
     report.judge(
         "plateau velocity",
         format!("{plateau:.4} m/s"),
@@ -619,6 +771,7 @@ fn dam_break(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), 
         }
     }
     let (dev, tm, z, zm) = worst;
+    report.headline = Some(("surge-front deviation from Martin & Moyce".into(), dev));
     report.judge(
         format!("surge front: largest deviation of Z from Z_MM, relative, for T ≤ {t_max:.2} (worst at T = {tm:.2}: Z = {z:.3})"),
         pct(dev),
