@@ -308,6 +308,8 @@ pub struct SweepPoint {
     pub wall_s: f64,
     pub headline: Option<(String, f64)>,
     pub passed: bool,
+    /// Why the run did not finish, if it did not.
+    pub failure: Option<String>,
 }
 
 /// `couplet validate NAME --sweep`: the quick version at every spacing × scheme of the
@@ -327,25 +329,48 @@ pub fn sweep(
             .join(format!("{name}-sweep"))
     });
     let mut points = Vec::new();
-    for (label, scheme) in case.sweep_schemes {
-        for &spacing in case.sweep_spacings {
+    let mut md = String::new();
+    // Coarse first, every scheme at each spacing: an interrupted sweep still compares
+    // the schemes at the spacings it finished.
+    for &spacing in case.sweep_spacings {
+        for (label, scheme) in case.sweep_schemes {
             let mut o = pairs(case.quick);
             o.extend(pairs(scheme));
             o.push(("fluid.spacing".into(), format!("{spacing:e}")));
             o.extend_from_slice(extra);
             let dir = out.join(format!("{}-{spacing:e}", label.replace([' ', '+'], "_")));
             eprintln!("sweep {name}: {label}, δ = {spacing:e} m …");
-            let r = run_case(case, true, &o, dir, scenes_dir, progress)?;
-            points.push(SweepPoint {
-                scheme: (*label).into(),
-                spacing,
-                particles: r.particles,
-                wall_s: r.wall_s,
-                headline: r.headline.clone(),
-                passed: r.passed(),
-            });
+            let t0 = Instant::now();
+            // A run that fails (a blow-up, say) is a result of the sweep, not its end.
+            let point = match run_case(case, true, &o, dir, scenes_dir, progress) {
+                Ok(r) => SweepPoint {
+                    scheme: (*label).into(),
+                    spacing,
+                    particles: r.particles,
+                    wall_s: r.wall_s,
+                    headline: r.headline.clone(),
+                    passed: r.passed(),
+                    failure: None,
+                },
+                Err(e) => SweepPoint {
+                    scheme: (*label).into(),
+                    spacing,
+                    particles: 0,
+                    wall_s: t0.elapsed().as_secs_f64(),
+                    headline: None,
+                    passed: false,
+                    failure: Some(e.to_string()),
+                },
+            };
+            points.push(point);
+            // Written after every run, so an interrupted sweep keeps what it measured.
+            md = write_sweep(name, &out, &points)?;
         }
     }
+    Ok(md)
+}
+
+fn write_sweep(name: &str, out: &Path, points: &[SweepPoint]) -> Result<String, ValidateError> {
     let measure = points
         .iter()
         .find_map(|p| p.headline.as_ref().map(|h| h.0.clone()))
@@ -354,17 +379,16 @@ pub fn sweep(
         "## {name} sweep: {measure} against cost\n\n| scheme | δ (m) | fluid particles | wall time (s) | error | all rows pass |\n|---|---|---|---|---|---|\n"
     );
     let mut csv = String::from("scheme,spacing_m,fluid_particles,wall_s,error,passed\n");
-    for p in &points {
+    for p in points {
         let e = p.headline.as_ref().map_or(f64::NAN, |h| h.1);
+        let error = match &p.failure {
+            Some(f) => format!("run failed: {}", f.replace('|', "/")),
+            None => pct(e),
+        };
         let _ = writeln!(
             md,
-            "| {} | {:e} | {} | {:.1} | {} | {} |",
-            p.scheme,
-            p.spacing,
-            p.particles,
-            p.wall_s,
-            pct(e),
-            p.passed
+            "| {} | {:e} | {} | {:.1} | {error} | {} |",
+            p.scheme, p.spacing, p.particles, p.wall_s, p.passed
         );
         let _ = writeln!(
             csv,
@@ -373,11 +397,7 @@ pub fn sweep(
         );
     }
     let io = |what: String| move |source| ValidateError::Io { what, source };
-    std::fs::create_dir_all(&out).map_err(io(format!("creating {}", out.display())))?;
-    for (file, text) in [("sweep.md", md.clone()), ("sweep.csv", csv)] {
-        let path = out.join(file);
-        std::fs::write(&path, text).map_err(io(format!("writing {}", path.display())))?;
-    }
+    std::fs::create_dir_all(out).map_err(io(format!("creating {}", out.display())))?;
     let plot = Series {
         name: format!("{name}-sweep"),
         x_label: "wall time (s)".into(),
@@ -388,8 +408,14 @@ pub fn sweep(
             .filter_map(|p| p.headline.as_ref().map(|h| (p.wall_s, h.1)))
             .collect(),
     };
-    let path = out.join("sweep.svg");
-    std::fs::write(&path, svg_plot(&plot)).map_err(io(format!("writing {}", path.display())))?;
+    for (file, text) in [
+        ("sweep.md", md.clone()),
+        ("sweep.csv", csv),
+        ("sweep.svg", svg_plot(&plot)),
+    ] {
+        let path = out.join(file);
+        std::fs::write(&path, text).map_err(io(format!("writing {}", path.display())))?;
+    }
     Ok(md)
 }
 
