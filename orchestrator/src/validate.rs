@@ -193,7 +193,7 @@ static CASES: [Case; 3] = [
         scene: "dam-break.toml",
         about: "water column of width a and height 2a collapsing on a dry floor: surge front Z = x/a against T = t √(2g/a), Martin & Moyce (1952)",
         quick: &["fluid.spacing=0.01", "time.output_interval=0.01"],
-        quick_why: "δ = a/10: a few minutes on lavapipe",
+        quick_why: "δ = a/10: about two minutes on lavapipe",
         sweep_spacings: &[0.02, 0.01, 0.005],
         sweep_schemes: &[
             ("δ-SPH 0.1", &[]),
