@@ -338,7 +338,7 @@ pub fn sweep(
             o.extend(pairs(scheme));
             o.push(("fluid.spacing".into(), format!("{spacing:e}")));
             o.extend_from_slice(extra);
-            let dir = out.join(format!("{}-{spacing:e}", label.replace([' ', '+'], "_")));
+            let dir = out.join(format!("{}-{spacing:e}", slug(label)));
             eprintln!("sweep {name}: {label}, δ = {spacing:e} m …");
             let t0 = Instant::now();
             // A run that fails (a blow-up, say) is a result of the sweep, not its end.
@@ -368,6 +368,15 @@ pub fn sweep(
         }
     }
     Ok(md)
+}
+
+/// A folder name for a scheme label: "corrected + shifting" → "corrected-shifting".
+fn slug(label: &str) -> String {
+    label
+        .split(|c: char| !c.is_alphanumeric() && c != '.')
+        .filter(|w| !w.is_empty())
+        .collect::<Vec<_>>()
+        .join("-")
 }
 
 fn write_sweep(name: &str, out: &Path, points: &[SweepPoint]) -> Result<String, ValidateError> {
