@@ -610,7 +610,7 @@ fn hydrostatic(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<()
 }
 
 /// Settling sphere (Joubert §4.2): body 0 accelerates; its velocity changes by less than
-/// 3 % over the last fifth of its fall (the fall ends two diameters above the floor,
+/// 3 % (quick: 8 %, see below) over the last fifth of its fall (the fall ends two diameters above the floor,
 /// where wall effects start); it lands (final height = radius ± 10 %) and rests (vertical
 /// speed < 1 mm/s at the end, mean speed over the last 0.1 s < 5 % of the plateau: the
 /// recirculating fluid may roll it slowly). The plateau against the correlation of
