@@ -24,38 +24,6 @@ const BINDINGS: &[(u32, Access)] = &[
     (pb::DRHO, Access::ReadWrite),
     (pb::DVEL, Access::ReadWrite),
 ];
-const WITH_B: &[(u32, Access)] = &[
-    (pb::POS, Access::Read),
-    (pb::VEL, Access::Read),
-    (pb::RHO, Access::Read),
-    (pb::PRESS, Access::Read),
-    (pb::ID, Access::Read),
-    (pb::DRHO, Access::ReadWrite),
-    (pb::DVEL, Access::ReadWrite),
-    (pb::BMAT, Access::Read),
-];
-const WITH_GRADS: &[(u32, Access)] = &[
-    (pb::POS, Access::Read),
-    (pb::VEL, Access::Read),
-    (pb::RHO, Access::Read),
-    (pb::PRESS, Access::Read),
-    (pb::ID, Access::Read),
-    (pb::DRHO, Access::ReadWrite),
-    (pb::DVEL, Access::ReadWrite),
-    (pb::GRADS, Access::Read),
-];
-const WITH_B_AND_GRADS: &[(u32, Access)] = &[
-    (pb::POS, Access::Read),
-    (pb::VEL, Access::Read),
-    (pb::RHO, Access::Read),
-    (pb::PRESS, Access::Read),
-    (pb::ID, Access::Read),
-    (pb::DRHO, Access::ReadWrite),
-    (pb::DVEL, Access::ReadWrite),
-    (pb::BMAT, Access::Read),
-    (pb::GRADS, Access::Read),
-];
-
 /// `grad_rho(i)`: ⟨∇ρ⟩ᶜ_i from the gradient pass, bound only with density diffusion.
 const GRAD_RHO_WGSL: &str = "@group(0) @binding(10) var<storage, read> grads: array<vec4<f32>>;
 fn grad_rho(i: u32) -> vec3<f32> {
@@ -84,12 +52,14 @@ const NO_B_MATRIX_WGSL: &str = "fn b_matrix(i: u32) -> mat3x3<f32> {
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
     let diffusion = c.density_diffusion > 0.0;
-    let bindings = match (c.gradient_correction, diffusion) {
-        (false, false) => BINDINGS,
-        (true, false) => WITH_B,
-        (false, true) => WITH_GRADS,
-        (true, true) => WITH_B_AND_GRADS,
-    };
+    // The B matrix and the gradient buffer are bound only when their effect is on.
+    let mut bindings = BINDINGS.to_vec();
+    if c.gradient_correction {
+        bindings.push((pb::BMAT, Access::Read));
+    }
+    if diffusion {
+        bindings.push((pb::GRADS, Access::Read));
+    }
     let b = if c.gradient_correction {
         B_MATRIX_WGSL
     } else {
@@ -115,7 +85,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             FLUID_RATES_WGSL,
         ],
         "fluid_rates",
-        &[(PARTICLES, bindings), (PARAMS, &[(0, Access::Uniform)])],
+        &[(PARTICLES, &bindings), (PARAMS, &[(0, Access::Uniform)])],
         Some(grid_layout),
     )
 }

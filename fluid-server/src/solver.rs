@@ -1085,14 +1085,15 @@ impl FluidSolver {
         self.time += window;
         self.steps += u64::from(substeps);
         self.loads_ready = self.data.bodies.is_some();
-        self.check(gpu)?;
-        self.near_singular = self.data.read_diag(gpu)?.map_or(0, |d| d[1]);
+        self.near_singular = self.check(gpu)?;
         Ok(substeps)
     }
 
     /// End-of-window checks: blow-up (non-finite, runaway density or speed) and
-    /// particles outside the grid.
-    fn check(&self, gpu: &Gpu) -> Result<(), FluidError> {
+    /// particles outside the grid. Returns the window's near-singular particle-steps of
+    /// the gradient pass (0 without it), copied into `status[1]` so that one readback
+    /// serves both.
+    fn check(&self, gpu: &Gpu) -> Result<u32, FluidError> {
         let d = &self.data;
         gpu.queue.write_buffer(
             &d.status,
@@ -1109,8 +1110,12 @@ impl FluidSolver {
             d.bound.find_bad.dispatch(&mut pass, d.n_total);
             d.bound.capture_bad.dispatch(&mut pass, d.n_total);
         }
+        if let Some(g) = &d.gradients {
+            encoder.copy_buffer_to_buffer(&g.diag, 4, &d.status, 4, 4);
+        }
         gpu.queue.submit([encoder.finish()]);
-        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 1)?;
+        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 2)?;
+        let near_singular = if d.gradients.is_some() { status[1] } else { 0 };
         if let Some(&id) = status.first()
             && id != blowup_check::NO_BAD_ID
         {
@@ -1154,7 +1159,7 @@ impl FluidSolver {
                 message: e.to_string(),
             });
         }
-        Ok(())
+        Ok(near_singular)
     }
 
     /// Fluid force and moment per body, averaged over the last window (Joubert eqs.

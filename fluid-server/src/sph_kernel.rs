@@ -17,7 +17,7 @@ pub enum Access {
 }
 
 /// Bindings of one group: `(binding, access)`.
-pub type GroupBindings = &'static [(u32, Access)];
+pub type GroupBindings<'a> = &'a [(u32, Access)];
 
 /// Group index of the particle arrays.
 pub const PARTICLES: u32 = 0;
@@ -80,7 +80,7 @@ pub fn library(src: &'static str) -> &'static str {
 pub struct SphKernel {
     pub label: &'static str,
     pipeline: wgpu::ComputePipeline,
-    groups: Vec<(u32, wgpu::BindGroupLayout, GroupBindings)>,
+    groups: Vec<(u32, wgpu::BindGroupLayout, Vec<(u32, Access)>)>,
     uses_grid: bool,
 }
 
@@ -100,11 +100,11 @@ impl SphKernel {
         label: &'static str,
         parts: &[&str],
         entry: &str,
-        groups: &[(u32, GroupBindings)],
+        groups: &[(u32, GroupBindings<'_>)],
         grid_layout: Option<&wgpu::BindGroupLayout>,
     ) -> SphKernel {
         let module = shaders::module(gpu, label, parts);
-        let own: Vec<(u32, wgpu::BindGroupLayout, GroupBindings)> = groups
+        let own: Vec<(u32, wgpu::BindGroupLayout, Vec<(u32, Access)>)> = groups
             .iter()
             .map(|(g, bindings)| {
                 let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
@@ -121,7 +121,7 @@ impl SphKernel {
                             label: Some(label),
                             entries: &entries,
                         });
-                (*g, layout, *bindings)
+                (*g, layout, bindings.to_vec())
             })
             .collect();
         let n_groups = own
