@@ -3,7 +3,9 @@
 //   count_cells: one thread per particle finds its cell, takes a rank inside it with
 //                one atomicAdd on the cell's counter (the only atomics of the sort);
 //   (prefix sum of the counters → cell_start)
-//   scatter:     dst = cell_start[cell] + rank; src_of[dst] = i (no atomics).
+//   scatter:     dst = cell_start[cell] + rank; src_of[dst] = i (no atomics);
+//   order_cells: one thread per cell sorts its slice of src_of ascending, so the order
+//                inside a cell is the order before the sort, not the atomics' order.
 //
 // Composed after the prelude and grid_common.wgsl (group 1 = grid). count_cells binds
 // only grid params at group 1: its counters are the cell_start buffer itself, bound
@@ -90,4 +92,34 @@ fn scatter(
     }
     let dst = cell_start[scatter_cell_of[i]] + scatter_rank[i];
     src_of[dst] = i;
+}
+
+// ORDER_MAX_SLICE is composed in from neighbour_grid::GRID_ORDER_MAX_SLICE (see there).
+
+// Makes the sort deterministic: src_of ascending inside each cell keeps the previous
+// order of the particles (a stable counting sort), so a run repeats bit for bit.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn order_cells(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let c = linear_id(wid, lid, nwg);
+    if c >= grid.n_cells {
+        return;
+    }
+    let lo = cell_start[c];
+    let hi = cell_start[c + 1u];
+    if hi - lo < 2u || hi - lo > ORDER_MAX_SLICE {
+        return;
+    }
+    for (var k = lo + 1u; k < hi; k++) {
+        let v = src_of[k];
+        var m = k;
+        while m > lo && src_of[m - 1u] > v {
+            src_of[m] = src_of[m - 1u];
+            m--;
+        }
+        src_of[m] = v;
+    }
 }

@@ -1,13 +1,18 @@
-//! Uniform neighbour grid: counting sort of the particles by cell, every step, on the GPU.
+//! Uniform neighbour grid: stable counting sort of the particles by cell, every step, on
+//! the GPU.
 //!
-//! [`NeighbourGrid::queue_sort`] records four labelled compute passes and no CPU
+//! [`NeighbourGrid::queue_sort`] records five labelled compute passes and no CPU
 //! round trip:
 //! 1. `grid: count`   — one thread per particle: cell index, rank in the cell by one
 //!    `atomicAdd` on the cell's counter (the sort's only atomics);
 //! 2. `grid: scan`    — exclusive prefix sum of the n_cells + 1 counters → `cell_start`;
 //! 3. `grid: scatter` — `src_of[cell_start[cell] + rank] = i` (order inside a cell is
-//!    whatever the atomics gave, not stable);
-//! 4. `grid: reorder` — every registered buffer gathered into one shared scratch
+//!    whatever the atomics gave);
+//! 4. `grid: order`   — one thread per cell sorts its slice of `src_of` ascending, so
+//!    particles keep their previous relative order: the sort is stable and a run
+//!    repeats bit for bit (without it, runs differed in round-off and a coarse
+//!    settling sphere's plateau varied 0.55–5.14 % between identical runs);
+//! 5. `grid: reorder` — every registered buffer gathered into one shared scratch
 //!    buffer and copied back (`copy_buffer_to_buffer`), so callers' buffers and bind
 //!    groups stay valid; one pass per buffer, timed together as one span.
 //!
@@ -44,6 +49,14 @@ const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 /// R = 1 60 + 44, R = 2 40 + 30, R = 3 40 + 31; settling sphere δ = 1e-3, R = 1
 /// 236 + 350, R = 2 137 + 202, R = 3 144 + 207 (and a 3× larger scan than R = 2).
 pub const GRID_REACH: u32 = 2;
+
+/// Longest cell slice the `grid: order` pass sorts (insertion sort, one thread per
+/// cell, O(k²)). A cell of support/[`GRID_REACH`] holds a few particles (about 2 at
+/// support 2.4 δ, 8 at 4 δ); a slice this long means the fluid has collapsed or
+/// particles outside the grid were sorted into a border cell — both reported by the
+/// host — and it keeps the atomics' order rather than stalling the GPU on a
+/// quadratic sort of a blown-up state.
+pub const GRID_ORDER_MAX_SLICE: u32 = 1024;
 
 /// Padding around the particle box, in cells: one support radius lets particles drift
 /// slightly past the domain (wall layers, a step's overshoot before the boundary
@@ -180,6 +193,7 @@ pub struct NeighbourGrid {
 
     count: wgpu::ComputePipeline,
     scatter: wgpu::ComputePipeline,
+    order: wgpu::ComputePipeline,
     gather16: wgpu::ComputePipeline,
     gather4: wgpu::ComputePipeline,
 
@@ -355,8 +369,12 @@ impl NeighbourGrid {
             ],
         );
 
-        let sort_module =
-            shaders::module(gpu, "grid: sort", &[GRID_COMMON_WGSL, NEIGHBOUR_GRID_WGSL]);
+        let max_slice = format!("const ORDER_MAX_SLICE: u32 = {GRID_ORDER_MAX_SLICE}u;\n");
+        let sort_module = shaders::module(
+            gpu,
+            "grid: sort",
+            &[GRID_COMMON_WGSL, &max_slice, NEIGHBOUR_GRID_WGSL],
+        );
         let count = shaders::compute_pipeline_with_layouts(
             gpu,
             "grid: count",
@@ -369,6 +387,13 @@ impl NeighbourGrid {
             "grid: scatter",
             &sort_module,
             "scatter",
+            &[Some(&scatter_layout), Some(&grid_layout)],
+        );
+        let order = shaders::compute_pipeline_with_layouts(
+            gpu,
+            "grid: order",
+            &sort_module,
+            "order_cells",
             &[Some(&scatter_layout), Some(&grid_layout)],
         );
         let gather_pipeline = |elem: &str| {
@@ -409,6 +434,7 @@ impl NeighbourGrid {
             scatter_bind_group,
             count,
             scatter,
+            order,
             gather16,
             gather4,
             registered: Vec::new(),
@@ -505,7 +531,7 @@ impl NeighbourGrid {
         Ok(())
     }
 
-    /// Records the sort (see the module doc): four labelled compute passes, timed when
+    /// Records the sort (see the module doc): five labelled compute passes, timed when
     /// `timer` is given. `pos` (vec4, xyz used) must be one of the registered buffers
     /// so that it ends up sorted as well.
     pub fn queue_sort(
@@ -550,6 +576,13 @@ impl NeighbourGrid {
             pass.set_bind_group(0, &self.scatter_bind_group, &[]);
             pass.set_bind_group(1, &self.grid_bind_group, &[]);
             shaders::dispatch_linear(&mut pass, n);
+        }
+        {
+            let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, "grid: order");
+            pass.set_pipeline(&self.order);
+            pass.set_bind_group(0, &self.scatter_bind_group, &[]);
+            pass.set_bind_group(1, &self.grid_bind_group, &[]);
+            shaders::dispatch_linear(&mut pass, self.params.n_cells);
         }
         if !self.registered.is_empty() {
             // Gather into the scratch, then a plain buffer copy back: a copy is a

@@ -352,8 +352,8 @@ fn grid_neighbours_match_brute_force() {
 }
 
 /// Every registered buffer is permuted by the same permutation; `cell_start` is a
-/// monotone exclusive prefix with `cell_start[n_cells] == n`, and each sorted particle
-/// lies in its cell's range. Reference: the arrays before upload (bit-exact).
+/// monotone exclusive prefix with `cell_start[n_cells] == n`, each sorted particle
+/// lies in its cell's range, and the sort is stable. Reference: the arrays before upload (bit-exact).
 #[test]
 fn grid_sort_permutes_every_registered_buffer() {
     let gpu = shared_test_gpu().unwrap();
@@ -400,6 +400,28 @@ fn grid_sort_permutes_every_registered_buffer() {
             cell_start.windows(2).all(|w| w[0] <= w[1]),
             "cell_start not monotone"
         );
+        // Stable: inside every cell the particles keep their order before the sort,
+        // so the ids (0..n before the first sort) ascend within each cell, and the
+        // second sort of already sorted data is the identity.
+        for c in 0..nc {
+            let slice = &ids[cell_start[c] as usize..cell_start[c + 1] as usize];
+            assert!(
+                slice.windows(2).all(|w| w[0] < w[1]),
+                "round {round}: cell {c} ids {slice:?} not in their previous order"
+            );
+        }
+        if round == 1 {
+            let map: Vec<u32> = gpu.read_buffer(grid.gather_map(), 0, n as u64).unwrap();
+            let moved = map
+                .iter()
+                .enumerate()
+                .filter(|(j, s)| **s != *j as u32)
+                .count();
+            assert_eq!(
+                moved, 0,
+                "re-sorting sorted particles moved {moved} of them"
+            );
+        }
         let g = &grid.params;
         for (j, p) in pos.iter().enumerate() {
             // Same f32 arithmetic as cell_coord(): (p − origin) · inv_cell_size, floor.
@@ -628,6 +650,7 @@ fn gpu_stage_timer_reports_sort_stages() {
         "grid: count",
         "grid: scan",
         "grid: scatter",
+        "grid: order",
         "grid: reorder",
     ] {
         let (_, s, count) = totals
