@@ -29,9 +29,10 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     var sum_w = 0.0;
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let js = row_range(c_i, dy, dz);
-            for (var j = js.x; j < js.y; j++) {
-                let r_wf = p_i - pos[j].xyz;
+            let rs = row_ranges(c_i, dy, dz);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let j = row_slot(rs, k);
+                let r_wf = pair_vec(p_i, pos[j].xyz);
                 let r2 = dot(r_wf, r_wf);
                 if r2 >= SUPPORT_RADIUS2 || !is_fluid(id[j]) {
                     continue;

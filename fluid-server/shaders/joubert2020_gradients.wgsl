@@ -50,9 +50,10 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     var s = vec3<f32>(0.0);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let js = row_range(c_i, dy, dz);
-            for (var j = js.x; j < js.y; j++) {
-                let r_ij = p_i - pos[j].xyz;
+            let rs = row_ranges(c_i, dy, dz);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let j = row_slot(rs, k);
+                let r_ij = pair_vec(p_i, pos[j].xyz);
                 let r2 = dot(r_ij, r_ij);
                 if r2 >= SUPPORT_RADIUS2 || j == i {
                     continue;

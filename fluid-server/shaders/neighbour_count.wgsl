@@ -25,9 +25,10 @@ fn neighbour_count(@builtin(workgroup_id) wid: vec3<u32>,
     var n = 0u;
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let js = row_range(c_i, dy, dz);
-            for (var j = js.x; j < js.y; j++) {
-                let r_ij = p_i - pos[j].xyz;
+            let rs = row_ranges(c_i, dy, dz);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let j = row_slot(rs, k);
+                let r_ij = pair_vec(p_i, pos[j].xyz);
                 if dot(r_ij, r_ij) < SUPPORT_RADIUS2 && j != i {
                     n += 1u;
                 }

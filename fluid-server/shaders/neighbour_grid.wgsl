@@ -1,7 +1,8 @@
 // Counting sort of particles by grid cell, part 1 and 3 (part 2 is prefix_sum.wgsl,
 // part 4 reorder.wgsl):
-//   count_cells: one thread per particle finds its cell, takes a rank inside it with
-//                one atomicAdd on the cell's counter (the only atomics of the sort);
+//   count_cells: one thread per particle wraps its position into the period on
+//                periodic axes, finds its cell, takes a rank inside it with one
+//                atomicAdd on the cell's counter (the only atomics of the sort);
 //   (prefix sum of the counters → cell_start)
 //   scatter:     dst = cell_start[cell] + rank; src_of[dst] = i (no atomics);
 //   order_cells: one thread per cell sorts its slice of src_of ascending, so the order
@@ -21,7 +22,8 @@ struct GridErrorRecord {
     position: vec4<f32>,
 }
 
-@group(0) @binding(0) var<storage, read> count_pos: array<vec4<f32>>;
+// Read-write: positions are wrapped into the period on periodic axes here.
+@group(0) @binding(0) var<storage, read_write> count_pos: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(2) var<storage, read_write> count_cell_of: array<u32>;
 @group(0) @binding(3) var<storage, read_write> count_rank: array<u32>;
@@ -48,11 +50,20 @@ fn count_cells(
     if i >= grid.n_particles {
         return;
     }
-    let p = count_pos[i];
-    // Same arithmetic as cell_coord(), so the sort and the pair loops agree.
-    let q = floor((p.xyz - grid.origin.xyz) * grid.inv_cell_size);
-    let dims_f = vec3<f32>(grid.dims.xyz);
+    var p = count_pos[i];
     let finite = is_finite3(p.xyz);
+    if finite && any(periodic_axes()) {
+        // Back into the period [origin, origin + period) on periodic axes (the
+        // integrator moves particles across the faces); inv_period = 0 elsewhere.
+        let wrapped = p.xyz - grid.period.xyz * floor((p.xyz - grid.origin.xyz) * grid.inv_period.xyz);
+        p = vec4<f32>(wrapped, p.w);
+        count_pos[i] = p;
+    }
+    // Same arithmetic as cell_coord(), so the sort and the pair loops agree (a position
+    // rounding onto the upper periodic face lands in cell dims, which wraps to 0).
+    let q_raw = floor((p.xyz - grid.origin.xyz) * grid.inv_cell_size.xyz);
+    let q = select(q_raw, vec3<f32>(wrap_cell(vec3<i32>(q_raw))), periodic_axes());
+    let dims_f = vec3<f32>(grid.dims.xyz);
     let inside = finite && all(q >= vec3<f32>(0.0)) && all(q < dims_f);
     var ci = 0u;
     if inside {

@@ -3,8 +3,9 @@
 //!
 //! [`NeighbourGrid::queue_sort`] records five labelled compute passes and no CPU
 //! round trip:
-//! 1. `grid: count`   — one thread per particle: cell index, rank in the cell by one
-//!    `atomicAdd` on the cell's counter (the sort's only atomics);
+//! 1. `grid: count`   — one thread per particle: position wrapped into the period on
+//!    periodic axes ([`GridBox`]), cell index, rank in the cell by one `atomicAdd` on
+//!    the cell's counter (the sort's only atomics);
 //! 2. `grid: scan`    — exclusive prefix sum of the n_cells + 1 counters → `cell_start`;
 //! 3. `grid: scatter` — `src_of[cell_start[cell] + rank] = i` (order inside a cell is
 //!    whatever the atomics gave);
@@ -32,7 +33,7 @@ use crate::shaders;
 use crate::timing::{self, StageTimer};
 
 /// WGSL for pair kernels: `GridParams`, the group-1 bindings, `cell_coord`,
-/// `cell_index`, `cell_in_grid`, `cell_range`, `row_range` and the loop pattern (see
+/// `cell_index`, `cell_in_grid`, `cell_range`, `row_ranges`, `row_slot`, `pair_vec` and the loop pattern (see
 /// the file's header).
 pub const GRID_COMMON_WGSL: &str = include_str!("../shaders/grid_common.wgsl");
 const NEIGHBOUR_GRID_WGSL: &str = include_str!("../shaders/neighbour_grid.wgsl");
@@ -63,30 +64,62 @@ pub const GRID_ORDER_MAX_SLICE: u32 = 1024;
 /// pushes back) without an error.
 pub const GRID_PAD_CELLS: f64 = GRID_REACH as f64;
 
-/// Uniform of the grid (WGSL mirror: `GridParams` in grid_common.wgsl).
+/// Uniform of the grid (WGSL mirror: `GridParams` in grid_common.wgsl). Every vec4's
+/// `[3]` is unused (0).
 #[repr(C)]
 #[derive(bytemuck::Pod, bytemuck::Zeroable, Clone, Copy, Debug, PartialEq)]
 pub struct GridParams {
-    /// Lower corner of the grid; `[3]` unused (0).
+    /// Lower corner of the grid.
     pub origin: [f32; 4],
-    pub cell_size: f32,
-    pub inv_cell_size: f32,
+    /// Cell edge per axis: support/[`GRID_REACH`], or on a periodic axis the period over
+    /// a whole number of cells (at least that).
+    pub cell_size: [f32; 4],
+    pub inv_cell_size: [f32; 4],
+    /// Cells per axis.
+    pub dims: [u32; 4],
+    /// Period per axis (m); 0 on an axis that is not periodic.
+    pub period: [f32; 4],
+    /// 1/period; 0 on an axis that is not periodic (so that the minimum image
+    /// `r − period · round(r / period)` leaves it alone without a branch).
+    pub inv_period: [f32; 4],
     pub n_particles: u32,
     pub n_cells: u32,
-    /// Cells per axis; `[3]` unused (0).
-    pub dims: [u32; 4],
+    pub _pad: [u32; 2],
 }
 
-// WGSL uniform layout: vec4 at 0, four scalars at 16..32, vec4 at 32, size 48.
+// WGSL uniform layout: six vec4 at 0..96, two scalars, padded to 112.
 const _: () = {
-    assert!(std::mem::size_of::<GridParams>() == 48);
+    assert!(std::mem::size_of::<GridParams>() == 112);
     assert!(std::mem::offset_of!(GridParams, origin) == 0);
     assert!(std::mem::offset_of!(GridParams, cell_size) == 16);
-    assert!(std::mem::offset_of!(GridParams, inv_cell_size) == 20);
-    assert!(std::mem::offset_of!(GridParams, n_particles) == 24);
-    assert!(std::mem::offset_of!(GridParams, n_cells) == 28);
-    assert!(std::mem::offset_of!(GridParams, dims) == 32);
+    assert!(std::mem::offset_of!(GridParams, inv_cell_size) == 32);
+    assert!(std::mem::offset_of!(GridParams, dims) == 48);
+    assert!(std::mem::offset_of!(GridParams, period) == 64);
+    assert!(std::mem::offset_of!(GridParams, inv_period) == 80);
+    assert!(std::mem::offset_of!(GridParams, n_particles) == 96);
+    assert!(std::mem::offset_of!(GridParams, n_cells) == 100);
 };
+
+/// The box a grid covers: particles live in `[min, max]`; on a periodic axis that
+/// interval is one period, positions are wrapped into it at every sort and pairs see
+/// each other's nearest image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridBox {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+    pub periodic: [bool; 3],
+}
+
+impl GridBox {
+    /// A box with no periodic axis.
+    pub fn closed(min: [f64; 3], max: [f64; 3]) -> GridBox {
+        GridBox {
+            min,
+            max,
+            periodic: [false; 3],
+        }
+    }
+}
 
 /// The first particle found outside the grid (WGSL mirror in neighbour_grid.wgsl).
 #[repr(C)]
@@ -111,6 +144,19 @@ pub enum GridError {
         "grid box min {min:?} / max {max:?} is invalid: need finite values with min < max on every axis"
     )]
     InvalidBox { min: [f64; 3], max: [f64; 3] },
+    #[error(
+        "periodic axis {axis} is {length} m long, shorter than {need} m: a period must hold \
+         2·GRID_REACH + 1 = {cells} cells of at least support/GRID_REACH ({support} m / \
+         {reach}), so that no pair is seen through two images; lengthen the domain along \
+         that axis or reduce the support",
+        axis = ["x", "y", "z"][*axis], cells = 2 * GRID_REACH + 1, reach = GRID_REACH
+    )]
+    PeriodTooShort {
+        axis: usize,
+        length: f64,
+        need: f64,
+        support: f64,
+    },
     #[error(
         "grid support radius {support_radius} is invalid: need a finite value > 0 (the kernel support radius)"
     )]
@@ -240,19 +286,16 @@ fn bind(
 }
 
 impl NeighbourGrid {
-    /// Grid over [min − pad, max + pad] (pad = [`GRID_PAD_CELLS`] cells) with cells of
-    /// `support_radius / GRID_REACH` (see [`GRID_REACH`]), for `n` particles.
-    pub fn new(
-        gpu: &Gpu,
-        min: [f64; 3],
-        max: [f64; 3],
-        support_radius: f64,
-        n: u32,
-    ) -> Result<Self, GridError> {
+    /// Grid for `n` particles with cells of `support_radius / GRID_REACH` (see
+    /// [`GRID_REACH`]) over [min − pad, max + pad] (pad = [`GRID_PAD_CELLS`] cells) on a
+    /// closed axis, and over exactly [min, max) in a whole number of cells (each at
+    /// least that size, at least 2·GRID_REACH + 1 of them) on a periodic axis.
+    pub fn new(gpu: &Gpu, bounds: GridBox, support_radius: f64, n: u32) -> Result<Self, GridError> {
+        let GridBox { min, max, periodic } = bounds;
         if !(support_radius.is_finite() && support_radius > 0.0) {
             return Err(GridError::InvalidSupport { support_radius });
         }
-        let cell_size = support_radius / f64::from(GRID_REACH);
+        let cell_min = support_radius / f64::from(GRID_REACH);
         if (0..3).any(|a| !(min[a].is_finite() && max[a].is_finite() && min[a] < max[a])) {
             return Err(GridError::InvalidBox { min, max });
         }
@@ -261,10 +304,33 @@ impl NeighbourGrid {
         }
         let limits = gpu.device.limits();
         let max_binding = limits.max_storage_buffer_binding_size;
-        let pad = GRID_PAD_CELLS * cell_size;
-        // floor + 1 (not ceil): a particle exactly on max + pad still has a cell.
-        let dims64: [u64; 3] =
-            std::array::from_fn(|a| ((max[a] - min[a] + 2.0 * pad) / cell_size).floor() as u64 + 1);
+        let pad = GRID_PAD_CELLS * cell_min;
+        let mut origin = [0.0f64; 3];
+        let mut cell_size = [cell_min; 3];
+        let mut dims64 = [0u64; 3];
+        for a in 0..3 {
+            let length = max[a] - min[a];
+            if periodic[a] {
+                // Whole cells over one period, no padding: cells of at least support/R.
+                let cells = (length / cell_min).floor() as u64;
+                let need = u64::from(2 * GRID_REACH + 1);
+                if cells < need {
+                    return Err(GridError::PeriodTooShort {
+                        axis: a,
+                        length,
+                        need: need as f64 * cell_min,
+                        support: support_radius,
+                    });
+                }
+                origin[a] = min[a];
+                cell_size[a] = length / cells as f64;
+                dims64[a] = cells;
+            } else {
+                origin[a] = min[a] - pad;
+                // floor + 1 (not ceil): a particle exactly on max + pad still has a cell.
+                dims64[a] = ((length + 2.0 * pad) / cell_min).floor() as u64 + 1;
+            }
+        }
         let n_cells64 = dims64.iter().product::<u64>();
         let max_cells = (max_binding / 4)
             .saturating_sub(1)
@@ -285,18 +351,19 @@ impl NeighbourGrid {
             });
         }
         let n_cells = n_cells64 as u32;
+        let vec4 = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
+        let period: [f64; 3] =
+            std::array::from_fn(|a| if periodic[a] { max[a] - min[a] } else { 0.0 });
         let params = GridParams {
-            origin: [
-                (min[0] - pad) as f32,
-                (min[1] - pad) as f32,
-                (min[2] - pad) as f32,
-                0.0,
-            ],
-            cell_size: cell_size as f32,
-            inv_cell_size: (1.0 / cell_size) as f32,
+            origin: vec4(origin),
+            cell_size: vec4(cell_size),
+            inv_cell_size: vec4(cell_size.map(|c| 1.0 / c)),
+            dims: [dims64[0] as u32, dims64[1] as u32, dims64[2] as u32, 0],
+            period: vec4(period),
+            inv_period: vec4(period.map(|l| if l > 0.0 { 1.0 / l } else { 0.0 })),
             n_particles: n,
             n_cells,
-            dims: [dims64[0] as u32, dims64[1] as u32, dims64[2] as u32, 0],
+            _pad: [0; 2],
         };
         let params_buffer = gpu
             .device
@@ -327,7 +394,7 @@ impl NeighbourGrid {
         let count_layout = layout(
             "grid: count",
             &[
-                st(0, true),
+                st(0, false),
                 st(1, false),
                 st(2, false),
                 st(3, false),
@@ -460,7 +527,7 @@ impl NeighbourGrid {
     pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
         let p = &self.params;
         let lo = [p.origin[0], p.origin[1], p.origin[2]];
-        let hi = std::array::from_fn(|a| lo[a] + p.dims[a] as f32 * p.cell_size);
+        let hi = std::array::from_fn(|a| lo[a] + p.dims[a] as f32 * p.cell_size[a]);
         (lo, hi)
     }
 

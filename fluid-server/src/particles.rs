@@ -159,8 +159,9 @@ impl Obstacle {
 /// * Fluid: each `[[fluid.blocks]]` on a cubic lattice of `spacing`, first particle at
 ///   `min + δ/2`; particles inside a fixed box obstacle are removed.
 /// * Walls: `ceil(support)` layers outside each face of the domain (the +y face only
-///   when `closed_top`), edges and corners included, on the lattice continued outward
-///   from each face (`min − δ/2 − kδ`, `max + δ/2 + kδ`).
+///   when `closed_top`; none on periodic axes), edges and corners included, on the
+///   lattice continued outward from each face (`min − δ/2 − kδ`, `max + δ/2 + kδ`).
+///   They rest, except the +y layers, which move at `domain.lid_velocity`.
 /// * Fixed box obstacles (`motion = "fixed"`, `shape.box`): wall particles on the
 ///   domain lattice inside the box, down to the support radius below its surface
 ///   (deeper ones would never see the fluid).
@@ -220,7 +221,9 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
 
     let layers = wall_layers(scene);
     // Per axis: outer layers below, the interior lattice, outer layers above.
+    // A periodic axis has no wall layers (its lattice tiles the period).
     let axis = |k: usize, upper: bool| -> (Vec<f64>, usize) {
+        let layers = if dom.periodic[k] { 0 } else { layers };
         let mut v: Vec<f64> = (0..layers)
             .rev()
             .map(|l| dom.min[k] - (l as f64 + 0.5) * delta)
@@ -313,8 +316,20 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
         .map(|r| c.pressure(*r))
         .chain(std::iter::repeat_n(0.0, n_wall))
         .collect();
+    // Walls rest, except the +y wall's layers, which slide at the lid velocity.
+    let vel = pos
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if i >= n_fluid && dom.closed_top && p[1] > dom.max[1] {
+                dom.lid_velocity
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect();
     Ok(ParticleSet {
-        vel: vec![[0.0; 3]; n],
+        vel,
         id: (0..n as u32).collect(),
         pos,
         rho,

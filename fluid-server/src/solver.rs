@@ -26,7 +26,7 @@ use crate::constants::{SphConstants, StepParams};
 use crate::gpu::Gpu;
 use crate::limits::FluidLimits;
 use crate::marker_update::{Clock, GpuBody, GpuMarker};
-use crate::neighbour_grid::NeighbourGrid;
+use crate::neighbour_grid::{GridBox, NeighbourGrid};
 use crate::particles::{Kind, ParticleKinds, ParticleSet, initial_particles, wall_layers};
 use crate::plan::Stage;
 use crate::sph_kernel::{
@@ -241,14 +241,13 @@ fn missing(what: &str) -> FluidError {
 
 impl SphData {
     /// Uploads `set` (positions relative to the origin already) and builds its grid
-    /// over `[grid_min, grid_max]` (relative).
+    /// over `bounds` (relative).
     fn new(
         gpu: &Gpu,
         c: &SphConstants,
         pipelines: &SphPipelines,
         set: &ParticleSet,
-        grid_min: [f64; 3],
-        grid_max: [f64; 3],
+        bounds: GridBox,
         body_capacity: usize,
     ) -> Result<SphData, FluidError> {
         let n = set.len();
@@ -315,7 +314,7 @@ impl SphData {
         );
         let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 32]);
 
-        let mut grid = NeighbourGrid::new(gpu, grid_min, grid_max, c.support_radius(), n as u32)?;
+        let mut grid = NeighbourGrid::new(gpu, bounds, c.support_radius(), n as u32)?;
         grid.register(gpu, &pos, 16)?;
         grid.register(gpu, &vel, 16)?;
         grid.register(gpu, &rho, 4)?;
@@ -640,8 +639,9 @@ pub struct FluidSolver {
     stages: Vec<Stage>,
     /// World position of the GPU coordinate origin (the domain centre), m.
     origin: [f64; 3],
-    grid_min: [f64; 3],
-    grid_max: [f64; 3],
+    /// The grid's box relative to `origin`: the domain plus the wall layers and a
+    /// spacing of slack on closed axes, exactly one period on periodic ones.
+    bounds: GridBox,
     n_scene_bodies: usize,
     pipelines: SphPipelines,
     data: SphData,
@@ -679,16 +679,24 @@ impl FluidSolver {
         let d = &scene.domain;
         let origin: [f64; 3] = std::array::from_fn(|k| 0.5 * (d.min[k] + d.max[k]));
         // Walls reach ceil(support) spacings outside the domain; one more spacing of
-        // slack, and the grid pads another cell.
+        // slack, and the grid pads another cell. A periodic axis is one period.
         let margin = (wall_layers(scene) as f64 + 1.0) * consts.spacing;
-        let grid_min = std::array::from_fn(|k| d.min[k] - origin[k] - margin);
-        let grid_max = std::array::from_fn(|k| d.max[k] - origin[k] + margin);
+        let periodic = d.periodic;
+        let bounds = GridBox {
+            min: std::array::from_fn(|k| {
+                d.min[k] - origin[k] - if periodic[k] { 0.0 } else { margin }
+            }),
+            max: std::array::from_fn(|k| {
+                d.max[k] - origin[k] + if periodic[k] { 0.0 } else { margin }
+            }),
+            periodic,
+        };
         for p in &mut set.pos {
             *p = std::array::from_fn(|k| p[k] - origin[k]);
         }
         // Only a throwaway grid gives the layout the pipelines are built with; wgpu
         // deduplicates identical bind group layouts, so later grids' bind groups fit.
-        let probe = NeighbourGrid::new(gpu, grid_min, grid_max, consts.support_radius(), 1)?;
+        let probe = NeighbourGrid::new(gpu, bounds, consts.support_radius(), 1)?;
         let pipelines = SphPipelines::new(
             gpu,
             &consts,
@@ -696,15 +704,7 @@ impl FluidSolver {
             scene.has_resolved_bodies(),
         );
         drop(probe);
-        let data = SphData::new(
-            gpu,
-            &consts,
-            &pipelines,
-            &set,
-            grid_min,
-            grid_max,
-            scene.bodies.len(),
-        )?;
+        let data = SphData::new(gpu, &consts, &pipelines, &set, bounds, scene.bodies.len())?;
         let step_params = StepParams {
             n_total: data.n_total,
             n_fluid: data.kinds.n_fluid as u32,
@@ -718,8 +718,7 @@ impl FluidSolver {
             limits,
             stages,
             origin,
-            grid_min,
-            grid_max,
+            bounds,
             n_scene_bodies: scene.bodies.len(),
             pipelines,
             data,
@@ -950,13 +949,7 @@ impl FluidSolver {
         set.kinds.n_markers = points.len();
         if self.pipelines.markers.is_none() {
             // A scene without resolved bodies that still receives markers (tests).
-            let probe = NeighbourGrid::new(
-                gpu,
-                self.grid_min,
-                self.grid_max,
-                self.consts.support_radius(),
-                1,
-            )?;
+            let probe = NeighbourGrid::new(gpu, self.bounds, self.consts.support_radius(), 1)?;
             self.pipelines.markers = Some(MarkerPipelines::new(
                 gpu,
                 &self.consts,
@@ -968,8 +961,7 @@ impl FluidSolver {
             &self.consts,
             &self.pipelines,
             &set,
-            self.grid_min,
-            self.grid_max,
+            self.bounds,
             body_capacity,
         )?;
         self.step_params.n_total = self.data.n_total;

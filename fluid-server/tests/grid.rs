@@ -4,7 +4,7 @@
 
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::neighbour_grid::{
-    GRID_COMMON_WGSL, GRID_REACH, GridError, GridParams, NeighbourGrid,
+    GRID_COMMON_WGSL, GRID_REACH, GridBox, GridError, GridParams, NeighbourGrid,
 };
 use couplet_fluid::shaders;
 use couplet_fluid::timing::{StageTimer, TimingMode};
@@ -153,9 +153,10 @@ fn count_neighbours(
     var id_sq = 0u;
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let js = row_range(c_i, dy, dz);
-            for (var j = js.x; j < js.y; j++) {
-                let r_ij = p_i - pos[j].xyz;
+            let rs = row_ranges(c_i, dy, dz);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let j = row_slot(rs, k);
+                let r_ij = pair_vec(p_i, pos[j].xyz);
                 let r2 = dot(r_ij, r_ij);
                 if r2 >= r2_max || j == i { continue; }
                 count += 1u;
@@ -168,11 +169,11 @@ fn count_neighbours(
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             for (var dx = -GRID_REACH; dx <= GRID_REACH; dx++) {
-                let c = c_i + vec3<i32>(dx, dy, dz);
+                let c = wrap_cell(c_i + vec3<i32>(dx, dy, dz));
                 if !cell_in_grid(c) { continue; }
                 let js = cell_range(cell_index(c));
                 for (var j = js.x; j < js.y; j++) {
-                    let r_ij = p_i - pos[j].xyz;
+                    let r_ij = pair_vec(p_i, pos[j].xyz);
                     if dot(r_ij, r_ij) >= r2_max || j == i { continue; }
                     count_cells += 1u;
                 }
@@ -183,18 +184,26 @@ fn count_neighbours(
 }
 "#;
 
+/// r_i − r_j as `pair_vec` computes it in f32 (nearest image where `period[a]` > 0;
+/// WGSL `round` is ties-to-even), without fused multiply-add.
+fn pair_vec(a: [f32; 4], b: [f32; 4], period: [f32; 4], inv_period: [f32; 4]) -> [f32; 3] {
+    std::array::from_fn(|k| {
+        let d = a[k] - b[k];
+        d - period[k] * (d * inv_period[k]).round_ties_even()
+    })
+}
+
 /// Same f32 arithmetic as the GPU's `dot` without fused multiply-add.
-fn r2(a: [f32; 4], b: [f32; 4]) -> f32 {
-    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+fn r2(d: [f32; 3]) -> f32 {
     d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
 }
 
 /// Whether `r2` involves no rounding after the subtractions (dyadic points on cell
 /// faces): then the GPU gets the same value with or without fused multiply-add, and a
 /// distance of exactly `radius` is a sure exclusion rather than a tie.
-fn exact_r2(a: [f32; 4], b: [f32; 4]) -> bool {
-    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]].map(f64::from);
-    d[0] * d[0] + d[1] * d[1] + d[2] * d[2] == f64::from(r2(a, b))
+fn exact_r2(d: [f32; 3]) -> bool {
+    let e = d.map(f64::from);
+    e[0] * e[0] + e[1] * e[1] + e[2] * e[2] == f64::from(r2(d))
 }
 
 /// Relative band around r² inside which the GPU's `dot` (possibly fused multiply-add)
@@ -214,12 +223,10 @@ const TIE_BAND: f32 = 1e-6;
 #[test]
 fn grid_neighbours_match_brute_force() {
     let gpu = shared_test_gpu().unwrap();
-    let n = 12_000;
     let h = 0.125;
-    let xyz = scene(n, 2024);
-    let parts = Particles::from_positions(&xyz);
-    let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0, 0.75, 0.5], h, n as u32).unwrap();
-    assert_eq!(grid.params.cell_size, (h / f64::from(GRID_REACH)) as f32);
+    let grid = NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]), h, 1).unwrap();
+    let cell = (h / f64::from(GRID_REACH)) as f32;
+    assert_eq!(grid.params.cell_size, [cell, cell, cell, 0.0]);
     // (extent + 2 pad) / cell + 1 per axis, pad = one support = GRID_REACH cells:
     // (1.25, 1.0, 0.75) / (h / R) + 1 = (10, 8, 6) R + 1 (11 × 9 × 7 for R = 1).
     let r = GRID_REACH;
@@ -228,6 +235,55 @@ fn grid_neighbours_match_brute_force() {
         grid.params.n_cells,
         (10 * r + 1) * (8 * r + 1) * (6 * r + 1)
     );
+    neighbours_match_brute_force(&gpu, [false; 3], 2024);
+}
+
+/// The same on a grid periodic in x and z (the axes where rows wrap and where whole
+/// rows wrap): pairs across the periodic faces are found through the nearest image,
+/// none twice. The test's points beyond the box on those axes are wrapped by the sort.
+/// Reference: brute force with the nearest image in f32.
+#[test]
+fn grid_periodic_neighbours_match_brute_force() {
+    let gpu = shared_test_gpu().unwrap();
+    let h = 0.125;
+    let periodic = [true, false, true];
+    let bounds = GridBox {
+        min: [0.0; 3],
+        max: [1.0, 0.75, 0.5],
+        periodic,
+    };
+    let grid = NeighbourGrid::new(&gpu, bounds, h, 1).unwrap();
+    let r = GRID_REACH;
+    // Periodic: length / (h / R) whole cells, no padding; closed y as above.
+    assert_eq!(grid.params.dims, [8 * r, 8 * r + 1, 4 * r, 0]);
+    assert_eq!(grid.params.period, [1.0, 0.0, 0.5, 0.0]);
+    neighbours_match_brute_force(&gpu, periodic, 77);
+    // A period shorter than 2R + 1 cells would see pairs twice: refused by name.
+    let short = GridBox {
+        min: [0.0; 3],
+        max: [1.0, 0.75, 0.25],
+        periodic,
+    };
+    let err = NeighbourGrid::new(&gpu, short, h, 1)
+        .err()
+        .expect("period too short");
+    assert!(
+        matches!(err, GridError::PeriodTooShort { axis: 2, .. }),
+        "{err}"
+    );
+}
+
+fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
+    let n = 12_000;
+    let h = 0.125;
+    let xyz = scene(n, seed);
+    let parts = Particles::from_positions(&xyz);
+    let bounds = GridBox {
+        min: [0.0; 3],
+        max: [1.0, 0.75, 0.5],
+        periodic,
+    };
+    let mut grid = NeighbourGrid::new(&gpu, bounds, h, n as u32).unwrap();
     let b = upload_and_register(&gpu, &mut grid, &parts);
     sort(&gpu, &grid, &b);
     grid.check(&gpu).unwrap();
@@ -311,12 +367,13 @@ fn grid_neighbours_match_brute_force() {
             if j == i {
                 continue;
             }
-            let d2 = r2(pos[i], pos[j]);
+            let d = pair_vec(pos[i], pos[j], grid.params.period, grid.params.inv_period);
+            let d2 = r2(d);
             if d2 < lo {
                 sure += 1;
                 id_sum = id_sum.wrapping_add(ids[j]);
                 id_sq = id_sq.wrapping_add(ids[j].wrapping_mul(ids[j]));
-            } else if d2 < hi && !exact_r2(pos[i], pos[j]) {
+            } else if d2 < hi && !exact_r2(d) {
                 tied += 1;
             }
         }
@@ -360,7 +417,13 @@ fn grid_sort_permutes_every_registered_buffer() {
     let n = 20_000;
     let xyz = scene(n, 7);
     let parts = Particles::from_positions(&xyz);
-    let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0, 0.75, 0.5], 0.125, n as u32).unwrap();
+    let mut grid = NeighbourGrid::new(
+        &gpu,
+        GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]),
+        0.125,
+        n as u32,
+    )
+    .unwrap();
     let b = upload_and_register(&gpu, &mut grid, &parts);
     assert_eq!(grid.registered(), 4);
 
@@ -426,7 +489,7 @@ fn grid_sort_permutes_every_registered_buffer() {
         for (j, p) in pos.iter().enumerate() {
             // Same f32 arithmetic as cell_coord(): (p − origin) · inv_cell_size, floor.
             let c: [u32; 3] =
-                std::array::from_fn(|a| ((p[a] - g.origin[a]) * g.inv_cell_size).floor() as u32);
+                std::array::from_fn(|a| ((p[a] - g.origin[a]) * g.inv_cell_size[a]).floor() as u32);
             let ci = (c[0] + g.dims[0] * (c[1] + g.dims[1] * c[2])) as usize;
             assert!(
                 (cell_start[ci] as usize..cell_start[ci + 1] as usize).contains(&j),
@@ -450,7 +513,8 @@ fn grid_reports_particle_outside() {
     // In the padding of one support (0.1): inside the grid, no error.
     xyz[10] = [-0.09, 1.09, 0.5];
     let parts = Particles::from_positions(&xyz);
-    let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0; 3], 0.1, n as u32).unwrap();
+    let mut grid =
+        NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0; 3]), 0.1, n as u32).unwrap();
     let b = upload_and_register(&gpu, &mut grid, &parts);
     sort(&gpu, &grid, &b);
     grid.check(&gpu).unwrap();
@@ -518,14 +582,17 @@ fn grid_reports_particle_outside() {
 #[test]
 fn grid_params_layout_agrees_with_wgsl() {
     let gpu = shared_test_gpu().unwrap();
-    let grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.0; 3], 0.5, 16).unwrap();
+    let grid = NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0; 3]), 0.5, 16).unwrap();
     let params = GridParams {
         origin: [1.5, -2.5, 3.25, 4.75],
-        cell_size: 0.125,
-        inv_cell_size: 8.0,
+        cell_size: [0.125, 0.25, 0.5, 1.0],
+        inv_cell_size: [8.0, 4.0, 2.0, 1.0],
+        dims: [7, 8, 9, 10],
+        period: [0.0, 2.0, 0.0, 3.0],
+        inv_period: [0.0, 0.5, 0.0, 1.0 / 3.0],
         n_particles: 123_456,
         n_cells: 789,
-        dims: [7, 8, 9, 10],
+        _pad: [11, 12],
     };
     let params_buffer = gpu
         .device
@@ -536,26 +603,27 @@ fn grid_params_layout_agrees_with_wgsl() {
         });
     let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("out"),
-        size: 48,
+        size: 112,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
     const WGSL: &str = r#"
-@group(0) @binding(0) var<storage, read_write> out: array<u32, 12>;
+@group(0) @binding(0) var<storage, read_write> out: array<u32, 28>;
 @compute @workgroup_size(1)
 fn main() {
-    out[0] = bitcast<u32>(grid.origin.x);
-    out[1] = bitcast<u32>(grid.origin.y);
-    out[2] = bitcast<u32>(grid.origin.z);
-    out[3] = bitcast<u32>(grid.origin.w);
-    out[4] = bitcast<u32>(grid.cell_size);
-    out[5] = bitcast<u32>(grid.inv_cell_size);
-    out[6] = grid.n_particles;
-    out[7] = grid.n_cells;
-    out[8] = grid.dims.x;
-    out[9] = grid.dims.y;
-    out[10] = grid.dims.z;
-    out[11] = grid.dims.w + cell_start[0] * 0u;
+    let f = array<vec4<f32>, 6>(grid.origin, grid.cell_size, grid.inv_cell_size,
+                                bitcast<vec4<f32>>(grid.dims), grid.period, grid.inv_period);
+    for (var k = 0u; k < 6u; k++) {
+        let v = bitcast<vec4<u32>>(f[k]);
+        out[4u * k] = v.x;
+        out[4u * k + 1u] = v.y;
+        out[4u * k + 2u] = v.z;
+        out[4u * k + 3u] = v.w;
+    }
+    out[24] = grid.n_particles;
+    out[25] = grid.n_cells;
+    out[26] = grid._pad0;
+    out[27] = grid._pad1 + cell_start[0] * 0u;
 }
 "#;
     let out_layout = gpu
@@ -588,8 +656,8 @@ fn main() {
         pass.dispatch_workgroups(1, 1, 1);
     }
     gpu.queue.submit([encoder.finish()]);
-    let got: Vec<u32> = gpu.read_buffer(&out, 0, 12).unwrap();
-    let want: [u32; 12] = bytemuck::cast(params);
+    let got: Vec<u32> = gpu.read_buffer(&out, 0, 28).unwrap();
+    let want: [u32; 28] = bytemuck::cast(params);
     assert_eq!(got, want.to_vec());
 }
 
@@ -628,7 +696,8 @@ fn gpu_stage_timer_reports_sort_stages() {
         })
         .collect();
     let parts = Particles::from_positions(&xyz);
-    let mut grid = NeighbourGrid::new(&gpu, [0.0; 3], [1.6, 0.67, 0.6], 0.03, n).unwrap();
+    let mut grid =
+        NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.6, 0.67, 0.6]), 0.03, n).unwrap();
     let b = upload_and_register(&gpu, &mut grid, &parts);
     let mut timer = StageTimer::new(&gpu, 16);
     let steps = 5;

@@ -188,6 +188,21 @@ pub struct Domain {
     /// that does is reported as an error).
     #[serde(default)]
     pub closed_top: bool,
+    /// Axes `[x, y, z]` on which the domain is periodic. Default none. A periodic axis
+    /// has no walls on its two faces: a particle leaving through one re-enters through
+    /// the other, and particles interact across the faces through their nearest image.
+    /// Each period must be a whole number of fluid spacings (the lattice tiles it
+    /// without a seam) and at least 2.5 support radii long (the fluid server names the
+    /// axis otherwise). Not with bodies (a body crossing a periodic face is not
+    /// handled), nor a periodic y with `closed_top` or with gravity along y on the fluid.
+    #[serde(default)]
+    pub periodic: [bool; 3],
+    /// Velocity of the +y wall, m/s: the lid of a driven cavity, the moving plate of
+    /// Couette flow. Default 0. The wall particles stay in place (an infinite plate
+    /// sliding in its own plane) and enter the viscous sums with this velocity.
+    /// Needs `closed_top` and no-slip walls; must be tangential (y component 0).
+    #[serde(default)]
+    pub lid_velocity: [f64; 3],
 }
 
 fn default_walls() -> WallKind {
@@ -647,6 +662,35 @@ impl Scene {
                 );
             }
         }
+        let d = &self.domain;
+        if d.periodic[1] && d.closed_top {
+            return bad(
+                "domain.closed_top".into(),
+                "true".into(),
+                "contradicts a periodic y axis (domain.periodic[1]): a periodic axis has no walls",
+            );
+        }
+        if d.periodic.iter().any(|p| *p) && !self.bodies.is_empty() {
+            return bad(
+                "domain.periodic".into(),
+                format!("{:?}", d.periodic),
+                "periodic axes are not supported with bodies yet (a body crossing a periodic face is not handled)",
+            );
+        }
+        if d.lid_velocity.iter().any(|v| !v.is_finite()) || d.lid_velocity[1] != 0.0 {
+            return bad(
+                "domain.lid_velocity".into(),
+                format!("{:?}", d.lid_velocity),
+                "must be finite and tangential to the +y wall (y component 0)",
+            );
+        }
+        if d.lid_velocity != [0.0; 3] && !(d.closed_top && d.walls == WallKind::NoSlip) {
+            return bad(
+                "domain.lid_velocity".into(),
+                format!("{:?}", d.lid_velocity),
+                "needs a +y wall (domain.closed_top = true) that is no-slip (domain.walls)",
+            );
+        }
         if self.gravity.vector.iter().any(|g| !g.is_finite()) {
             return bad(
                 "gravity.vector".into(),
@@ -671,6 +715,23 @@ impl Scene {
                     "fluid.support".into(),
                     f.support.to_string(),
                     "must lie in [1.5, 6] spacings",
+                );
+            }
+            for k in (0..3).filter(|k| d.periodic[*k]) {
+                let cells = (d.max[k] - d.min[k]) / f.spacing;
+                if (cells - cells.round()).abs() > 1e-6 * cells {
+                    return bad(
+                        format!("domain.periodic[{k}]"),
+                        format!("period {} m, spacing {} m", d.max[k] - d.min[k], f.spacing),
+                        "a period must be a whole number of fluid spacings (the lattice would leave a seam)",
+                    );
+                }
+            }
+            if d.periodic[1] && self.gravity.on_fluid && self.gravity.vector[1] != 0.0 {
+                return bad(
+                    "domain.periodic[1]".into(),
+                    "true".into(),
+                    "gravity along y on the fluid needs a floor (the initial hydrostatic state is built on it)",
                 );
             }
             if f.blocks.is_empty() {
