@@ -4,10 +4,14 @@
 // over fluid neighbours f, with g the gravity on the fluid and a_w = 0 (walls are
 // fixed; markers' accelerations are not sent by the DEM in this version). ρ_w from the
 // inverted Tait equation. No fluid neighbour: p = 0, ρ = ρ0.
+// No-slip walls also get their velocity for the viscous sums, 2 v_w − ṽ_w with
+// ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (Adami et al. 2012, §2.3), through
+// `store_wall_velocity(i, v)` (adami2012_boundary_pressure.rs: a no-op when off).
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, tait_eos (library).
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> vel: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rho: array<f32>;
 @group(0) @binding(3) var<storage, read_write> press: array<f32>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
@@ -27,6 +31,7 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     var sum_pw = 0.0;
     var sum_rho_r_w = vec3<f32>(0.0);
     var sum_w = 0.0;
+    var sum_vw = vec3<f32>(0.0);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c_i, dy, dz);
@@ -41,6 +46,7 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
                 sum_pw += press[j] * w;
                 sum_rho_r_w += rho[j] * w * r_wf;
                 sum_w += w;
+                sum_vw += vel[j].xyz * w;
             }
         }
     }
@@ -52,5 +58,9 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     } else {
         press[i] = 0.0;
         rho[i] = RHO0;
+    }
+    if is_wall(id[i]) {
+        let v_w = vel[i].xyz;
+        store_wall_velocity(i, select(v_w, 2.0 * v_w - sum_vw / sum_w, sum_w > 0.0));
     }
 }

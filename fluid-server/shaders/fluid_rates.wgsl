@@ -2,7 +2,8 @@
 // continuity.rs, momentum.rs) ----
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, continuity, momentum,
 // `b_matrix(i)` and `grad_rho(i)` (fluid_rates.rs: from the gradient pass when the scene
-// uses them, else I and 0).
+// uses them, else I and 0), `wall_velocity(j)` (a no-slip wall's velocity in the viscous
+// sums: Adami et al.'s 2 v_w − ṽ_w from the boundary pass, else its own).
 // One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
@@ -56,12 +57,14 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                     drho_i += antuono2010_diffusion_term(rho_i, rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
                 }
                 // Free-slip walls carry pressure but no shear.
-                let viscous = NO_SLIP_WALLS || !is_wall(id[j]);
+                let wall = is_wall(id[j]);
+                let viscous = NO_SLIP_WALLS || !wall;
+                let u_visc = select(u_ij, u_i - wall_velocity(j), wall);
                 if LAMINAR_VISCOSITY && viscous {
-                    acc += morris1997_viscous_term(rho_i, rho_j, r_ij, r2, u_ij, grad_w);
+                    acc += morris1997_viscous_term(rho_i, rho_j, r_ij, r2, u_visc, grad_w);
                 }
                 if ARTIFICIAL_VISCOSITY && viscous {
-                    acc += monaghan1992_artificial_viscous_term(rho_i, rho_j, r_ij, r2, u_ij, grad_w);
+                    acc += monaghan1992_artificial_viscous_term(rho_i, rho_j, r_ij, r2, u_visc, grad_w);
                 }
             }
         }

@@ -8,6 +8,11 @@
 //! are treated as moving walls without acceleration (the DEM does not send body
 //! accelerations yet). ρ_w from the inverted Tait equation; no fluid neighbour: p = 0,
 //! ρ = ρ0. WGSL: `shaders/adami2012_boundary_pressure.wgsl`.
+//!
+//! With [`SphConstants::wall_velocity_extrapolation`] the same loop gives each wall
+//! particle its velocity in the viscous sums, `2 v_w − Σ_f v_f W_wf / Σ_f W_wf`
+//! (Adami, Hu & Adams 2012, §2.3; `v_w` without fluid neighbours), in the buffer at
+//! `particle_binding::WALL_VEL`.
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
@@ -20,8 +25,32 @@ use crate::tait_eos::TAIT_EOS_WGSL;
 pub const BOUNDARY_PRESSURE_WGSL: &str =
     include_str!("../shaders/adami2012_boundary_pressure.wgsl");
 
+/// `store_wall_velocity`: writes the no-slip wall velocity, bound only when it is used.
+const STORE_WALL_VELOCITY_WGSL: &str =
+    "@group(0) @binding(11) var<storage, read_write> wall_vel: array<vec4<f32>>;
+fn store_wall_velocity(i: u32, v: vec3<f32>) {
+    wall_vel[i] = vec4<f32>(v, 0.0);
+}
+";
+/// Without a viscous no-slip wall nothing is stored (and no buffer exists).
+const NO_WALL_VELOCITY_WGSL: &str = "fn store_wall_velocity(i: u32, v: vec3<f32>) {}
+";
+
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
+    let mut particles = vec![
+        (pb::POS, Access::Read),
+        (pb::VEL, Access::Read),
+        (pb::RHO, Access::ReadWrite),
+        (pb::PRESS, Access::ReadWrite),
+        (pb::ID, Access::Read),
+    ];
+    let store = if c.wall_velocity_extrapolation {
+        particles.push((pb::WALL_VEL, Access::ReadWrite));
+        STORE_WALL_VELOCITY_WGSL
+    } else {
+        NO_WALL_VELOCITY_WGSL
+    };
     SphKernel::new(
         gpu,
         "sph: adami2012_boundary_pressure",
@@ -31,21 +60,11 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             GRID_COMMON_WGSL,
             kernel_library(),
             library(TAIT_EOS_WGSL),
+            store,
             BOUNDARY_PRESSURE_WGSL,
         ],
         "adami2012_boundary_pressure",
-        &[
-            (
-                PARTICLES,
-                &[
-                    (pb::POS, Access::Read),
-                    (pb::RHO, Access::ReadWrite),
-                    (pb::PRESS, Access::ReadWrite),
-                    (pb::ID, Access::Read),
-                ],
-            ),
-            (PARAMS, &[(0, Access::Uniform)]),
-        ],
+        &[(PARTICLES, &particles), (PARAMS, &[(0, Access::Uniform)])],
         Some(grid_layout),
     )
 }
@@ -78,4 +97,26 @@ pub fn boundary_pressure_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<
             })
         })
         .collect()
+}
+
+/// CPU twin of the no-slip wall velocity: `2 v_w − Σ_f v_f W_wf / Σ_f W_wf` for wall
+/// entry `w` (its own velocity without fluid neighbours).
+pub fn wall_velocity_cpu(c: &SphConstants, set: &ParticleSet, w: usize) -> [f64; 3] {
+    let (mut sum_vw, mut sum_w) = ([0.0; 3], 0.0);
+    for j in set.neighbours(w, c.support_radius()) {
+        if set.kinds.kind(set.id[j]) != Kind::Fluid {
+            continue;
+        }
+        let r_wf = sub(set.pos[w], set.pos[j]);
+        let wt = c.kernel.w(dot(r_wf, r_wf).sqrt());
+        for k in 0..3 {
+            sum_vw[k] += set.vel[j][k] * wt;
+        }
+        sum_w += wt;
+    }
+    if sum_w > 0.0 {
+        std::array::from_fn(|k| 2.0 * set.vel[w][k] - sum_vw[k] / sum_w)
+    } else {
+        set.vel[w]
+    }
 }

@@ -49,6 +49,19 @@ const NO_B_MATRIX_WGSL: &str = "fn b_matrix(i: u32) -> mat3x3<f32> {
 }
 ";
 
+/// `wall_velocity(j)`: a wall's velocity in the viscous sums, from the boundary pass.
+const WALL_VELOCITY_WGSL: &str =
+    "@group(0) @binding(11) var<storage, read> wall_vel: array<vec4<f32>>;
+fn wall_velocity(j: u32) -> vec3<f32> {
+    return wall_vel[j].xyz;
+}
+";
+/// Without it a wall enters with its own velocity.
+const OWN_WALL_VELOCITY_WGSL: &str = "fn wall_velocity(j: u32) -> vec3<f32> {
+    return vel[j].xyz;
+}
+";
+
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
     let diffusion = c.density_diffusion > 0.0;
@@ -60,6 +73,12 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     if diffusion {
         bindings.push((pb::GRADS, Access::Read));
     }
+    let wall_velocity = if c.wall_velocity_extrapolation {
+        bindings.push((pb::WALL_VEL, Access::Read));
+        WALL_VELOCITY_WGSL
+    } else {
+        OWN_WALL_VELOCITY_WGSL
+    };
     let b = if c.gradient_correction {
         B_MATRIX_WGSL
     } else {
@@ -82,6 +101,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             MOMENTUM_WGSL,
             b,
             g,
+            wall_velocity,
             FLUID_RATES_WGSL,
         ],
         "fluid_rates",

@@ -8,10 +8,13 @@
 //! With `effects.gradient_correction` the pressure part is Joubert eq. (13)'s
 //! `−(1/ρ_i) Σ_j V_j (p_j − p_i) B_i ∇W_ij` (`V_j = m/ρ_j`); the viscous terms stay Morris's.
 //!
-//! Free-slip walls do not enter the viscous sums; no-slip walls enter them with zero
-//! velocity; markers (body surfaces) always enter them with the body's velocity.
+//! Free-slip walls do not enter the viscous sums; no-slip walls enter them with the
+//! velocity 2 v_w − ṽ_w of Adami et al. (2012) (see
+//! [`crate::adami2012_boundary_pressure`]); markers (body surfaces) always enter them
+//! with the body's velocity.
 //! WGSL: `shaders/momentum.wgsl` (pair terms); the pair loop is [`crate::fluid_rates`].
 
+use crate::adami2012_boundary_pressure::wall_velocity_cpu;
 use crate::constants::SphConstants;
 use crate::joubert2020_gradients::{b_matrix_cpu, mat_vec};
 use crate::particles::{Kind, ParticleSet, dot, sub};
@@ -34,16 +37,22 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
             Some(b) => mat_vec(b, g).map(|x| -c.mass / (rho_i * rho_j) * (p_j - p_i) * x),
             None => g.map(|x| -c.mass * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j)) * x),
         };
-        let viscous = c.no_slip_walls || set.kinds.kind(set.id[j]) != Kind::Wall;
+        let wall = set.kinds.kind(set.id[j]) == Kind::Wall;
+        let viscous = c.no_slip_walls || !wall;
+        let u_visc = if wall && c.wall_velocity_extrapolation {
+            sub(set.vel[i], wall_velocity_cpu(c, set, j))
+        } else {
+            u_ij
+        };
         if c.laminar && viscous {
             // Morris, Fox & Zhu (1997) eq. (8).
             let f = c.mass * c.nu * (rho_i + rho_j) * dot(r_ij, g) / (rho_i * rho_j * (r2 + eta2));
             for k in 0..3 {
-                add[k] += f * u_ij[k];
+                add[k] += f * u_visc[k];
             }
         }
         if c.alpha > 0.0 && viscous {
-            let vr = dot(u_ij, r_ij);
+            let vr = dot(u_visc, r_ij);
             if vr < 0.0 {
                 // Monaghan (1992) eqs. (4.1)–(4.2), β = 0.
                 let mu_ij = c.kernel.h * vr / (r2 + eta2);

@@ -194,6 +194,10 @@ pub struct SphData {
     /// The gradient pass's outputs (see [`crate::joubert2020_gradients`]); only with
     /// the gradient correction or particle shifting.
     pub gradients: Option<GradientBuffers>,
+    /// No-slip walls' velocity in the viscous sums (one vec4 per particle; written by
+    /// the boundary pass after every sort, so not permuted), when a viscous term meets
+    /// no-slip walls ([`SphConstants::wall_velocity_extrapolation`]).
+    pub wall_vel: Option<wgpu::Buffer>,
     bound: Bound,
 }
 
@@ -326,6 +330,9 @@ impl SphData {
             grads: storage_init(gpu, "sph: corrected gradients", &vec![0u8; n * 96]),
             diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16]),
         });
+        let wall_vel = c
+            .wall_velocity_extrapolation
+            .then(|| storage_init(gpu, "sph: wall velocity", &vec![0u8; n * 16]));
         let bodies = (set.kinds.n_markers > 0).then(|| {
             let m = set.kinds.n_markers;
             let cap = body_capacity.max(1);
@@ -359,6 +366,7 @@ impl SphData {
                     pb::VEL_N => &vel_n,
                     pb::BMAT => &gradients.as_ref()?.bmat,
                     pb::GRADS => &gradients.as_ref()?.grads,
+                    pb::WALL_VEL => wall_vel.as_ref()?,
                     _ => return None,
                 })
             };
@@ -475,6 +483,7 @@ impl SphData {
             grid,
             bodies,
             gradients,
+            wall_vel,
             bound,
         })
     }

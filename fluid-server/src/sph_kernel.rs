@@ -41,8 +41,11 @@ pub mod particle_binding {
     pub const VEL_N: u32 = 8;
     /// B matrix of Joubert eq. (10), three vec4 columns per particle (gradient pass).
     pub const BMAT: u32 = 9;
-    /// Corrected ∇u_x, ∇u_y, ∇u_z, ∇p and the raw shift, five vec4 per particle.
+    /// Corrected ∇u_x, ∇u_y, ∇u_z, ∇p, the raw shift and ∇ρ, six vec4 per particle.
     pub const GRADS: u32 = 10;
+    /// No-slip walls' velocity in the viscous sums, 2 v_w − ṽ_w (Adami et al. 2012),
+    /// one vec4 per particle, written by the boundary pass (walls only).
+    pub const WALL_VEL: u32 = 11;
 }
 
 /// Bodies and markers, group 2.

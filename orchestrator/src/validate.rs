@@ -138,7 +138,7 @@ pub fn cases() -> &'static [Case] {
     &CASES
 }
 
-static CASES: [Case; 3] = [
+static CASES: [Case; 5] = [
     Case {
         name: "hydrostatic-tank",
         scene: "hydrostatic-tank.toml",
@@ -200,6 +200,32 @@ static CASES: [Case; 3] = [
             ("standard", &["effects.density_diffusion=0"]),
         ],
         analyse: dam_break,
+    },
+    Case {
+        name: "poiseuille",
+        scene: "poiseuille.toml",
+        about: "start-up plane Poiseuille flow between fixed plates: L2 error of u(y, t) against the series solution of Morris, Fox & Zhu (1997), during start-up and at the steady state",
+        quick: &[],
+        quick_why: "the scene itself (L/20, about 2 000 particles) runs in a few minutes at most on lavapipe",
+        sweep_spacings: &[5e-5, 1e-3 / 30.0, 2.5e-5],
+        sweep_schemes: &[
+            ("standard", &[]),
+            ("corrected", &["effects.gradient_correction=true"]),
+        ],
+        analyse: channel_flow,
+    },
+    Case {
+        name: "couette",
+        scene: "couette.toml",
+        about: "start-up plane Couette flow (top plate sliding at V0): L2 error of u(y, t) against the series solution of Morris, Fox & Zhu (1997), during start-up and at the steady state",
+        quick: &[],
+        quick_why: "the scene itself (L/20, about 2 000 particles) runs in a few minutes at most on lavapipe",
+        sweep_spacings: &[5e-5, 1e-3 / 30.0, 2.5e-5],
+        sweep_schemes: &[
+            ("standard", &[]),
+            ("corrected", &["effects.gradient_correction=true"]),
+        ],
+        analyse: channel_flow,
     },
 ];
 
@@ -838,6 +864,153 @@ fn dam_break(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), 
 
 /// Terminal settling velocity of a sphere from the force balance of Joubert eq. (37)
 /// with the drag correlation of eq. (38), by fixed-point iteration on Re.
+/// Start-up flow between plates at y = 0 and y = `l` (Morris, Fox & Zhu 1997, the
+/// series of `../shared/validation/morris1997_*_startup.csv`): fluid at rest at t = 0,
+/// driven by a body force `f` along x (plane Poiseuille) and by the top plate sliding
+/// at `v0` (plane Couette). The problem is linear, so the two solutions add:
+///
+///   u = F y (L − y)/(2ν) − Σ_{n≥0} 4 F L²/(ν π³ (2n+1)³) sin((2n+1) π y/L) e^{−(2n+1)² π² ν t/L²}
+///     + V0 y/L + Σ_{n≥1} 2 V0/(n π) (−1)ⁿ sin(n π y/L) e^{−n² π² ν t/L²}.
+///
+/// Terms are summed until the exponential falls below 1e-18 (t > 0); u(y, 0) = 0
+/// below the plate.
+pub fn morris_channel_velocity(y: f64, t: f64, l: f64, nu: f64, f: f64, v0: f64) -> f64 {
+    use std::f64::consts::PI;
+    if t <= 0.0 {
+        return if y >= l { v0 } else { 0.0 };
+    }
+    let a = PI * PI * nu * t / (l * l);
+    let mut u = f * y * (l - y) / (2.0 * nu) + v0 * y / l;
+    for n in 1..100_000u32 {
+        let k = f64::from(n);
+        let decay = (-k * k * a).exp();
+        if decay < 1e-18 {
+            break;
+        }
+        let s = (k * PI * y / l).sin() * decay;
+        if n % 2 == 1 {
+            // Poiseuille: odd wavenumbers k = 2m + 1.
+            u -= 4.0 * f * l * l / (nu * PI.powi(3) * k.powi(3)) * s;
+        }
+        let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
+        u += 2.0 * v0 / (k * PI) * sign * s;
+    }
+    u
+}
+
+/// Plane Poiseuille and Couette start-up (issue 3, case 2): at every snapshot after
+/// t = 0 the relative L2 error of the fluid's u_x against [`morris_channel_velocity`]
+/// at each particle's height, √(Σ (u − u_a)² / Σ u_a²). Start-up (t < ½ L²/ν) is held
+/// to 2 %, the steady state (the last snapshot, t ≥ L²/ν) to 1 %; Morris et al.'s
+/// snapshot times 0.0225, 0.045 and 0.1125 s are listed. The cross-stream velocity is
+/// reported as a fraction of the steady maximum.
+fn channel_flow(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), String> {
+    let fl = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
+    let d = &scene.domain;
+    let (y0, l, nu) = (d.min[1], d.max[1] - d.min[1], fl.kinematic_viscosity);
+    let f = if scene.gravity.on_fluid {
+        scene.gravity.vector[0]
+    } else {
+        0.0
+    };
+    let v0 = d.lid_velocity[0];
+    let u_ref = (f * l * l / (8.0 * nu)).abs().max(v0.abs());
+    if u_ref == 0.0 || nu <= 0.0 {
+        return Err("neither a body force along x nor a lid velocity drives the flow".into());
+    }
+    let errors: Vec<(f64, f64, f64)> = rec
+        .snapshots
+        .iter()
+        .filter(|(t, _)| *t > 0.0)
+        .map(|(t, s)| {
+            let (mut num, mut den, mut cross) = (0.0, 0.0, 0.0f64);
+            for p in s {
+                let ua = morris_channel_velocity(f64::from(p[1]) - y0, *t, l, nu, f, v0);
+                num += (f64::from(p[4]) - ua).powi(2);
+                den += ua * ua;
+                cross = cross.max(f64::from(p[5]).abs().max(f64::from(p[6]).abs()));
+            }
+            (*t, (num / den).sqrt(), cross / u_ref)
+        })
+        .collect();
+    let &(t_end, steady, _) = errors.last().ok_or("no snapshot after t = 0")?;
+    let t_diff = l * l / nu;
+    let finite = errors.iter().all(|e| e.1.is_finite());
+    report.judge(
+        "all values finite",
+        finite.to_string(),
+        "true".into(),
+        "exact".into(),
+        Some(finite),
+    );
+    for t_m in [0.0225, 0.045, 0.1125] {
+        if let Some(e) = errors.iter().find(|e| (e.0 - t_m).abs() < 1e-3 * t_diff) {
+            report.judge(
+                format!("L2 error of u at t = {:.4} s", e.0),
+                pct(e.1),
+                "Morris et al. (1997) series".into(),
+                "reported (start-up bound below)".into(),
+                None,
+            );
+        }
+    }
+    let startup = errors
+        .iter()
+        .filter(|e| e.0 < 0.5 * t_diff)
+        .map(|e| e.1)
+        .fold(f64::NAN, f64::max);
+    report.judge(
+        format!(
+            "largest L2 error of u during start-up (t < {:.3} s = ½ L²/ν)",
+            0.5 * t_diff
+        ),
+        pct(startup),
+        "Morris et al. (1997) series".into(),
+        "< 2 %".into(),
+        Some(startup < 0.02),
+    );
+    report.judge(
+        format!("L2 error of u at the steady state (t = {t_end:.4} s)"),
+        pct(steady),
+        "Morris et al. (1997) series".into(),
+        "< 1 %".into(),
+        Some(t_end >= t_diff && steady < 0.01),
+    );
+    let cross = errors.iter().map(|e| e.2).fold(0.0, f64::max);
+    report.judge(
+        "largest cross-stream |v|, |w| over the run",
+        format!("{} of u_max", pct(cross)),
+        "0".into(),
+        "reported".into(),
+        None,
+    );
+    report.headline = Some(("steady-state L2 error of u".into(), steady));
+    let (_, last) = rec.snapshots.last().expect("checked above");
+    let mut profile: Vec<(f64, f64)> = last
+        .iter()
+        .map(|p| (f64::from(p[1]) - y0, f64::from(p[4])))
+        .collect();
+    profile.sort_by(|a, b| a.0.total_cmp(&b.0));
+    report.series.push(Series {
+        name: "velocity-profile".into(),
+        x_label: "y (m)".into(),
+        y_label: format!("u_x at t = {t_end:.4} s (m/s)"),
+        points: profile,
+        reference: (0..=20)
+            .map(|k| l * f64::from(k) / 20.0)
+            .map(|y| (y, morris_channel_velocity(y, t_end, l, nu, f, v0)))
+            .collect(),
+    });
+    report.series.push(Series {
+        name: "l2-error".into(),
+        x_label: "t (s)".into(),
+        y_label: "relative L2 error of u_x".into(),
+        points: errors.iter().map(|e| (e.0, e.1)).collect(),
+        reference: Vec::new(),
+    });
+    Ok(())
+}
+
 pub fn joubert_terminal_velocity(radius: f64, rho_s: f64, rho_f: f64, nu: f64, g: f64) -> f64 {
     let d = 2.0 * radius;
     let cd = |re: f64| {
@@ -909,6 +1082,45 @@ mod tests {
                 "bias {bias}: measured {measured} %, about {want} % expected"
             );
         }
+    }
+
+    /// The series against rows of `../shared/validation/morris1997_poiseuille_startup.csv`
+    /// and `morris1997_couette_startup.csv` (200 and 2000 terms there, cross-checked by
+    /// Crank–Nicolson): L = 1e-3 m, ν = 1e-6 m²/s, F = 2e-4 m/s², V0 = 2.5e-5 m/s.
+    #[test]
+    fn morris_series_matches_the_reference_tables() {
+        let (l, nu) = (1e-3, 1e-6);
+        // (t, y, u) for Poiseuille (F = 2e-4) and Couette (V0 = 2.5e-5).
+        let poiseuille = [
+            (0.0225, 1e-4, 2.5091329e-6),
+            (0.0225, 5e-4, 4.465475e-6),
+            (0.045, 1e-4, 3.8720581e-6),
+            (0.045, 2e-4, 6.2563975e-6),
+        ];
+        let couette = [
+            (0.0225, 3e-4, 2.4185689e-8),
+            (0.0225, 5e-4, 4.6055314e-7),
+            (0.0225, 9e-4, 1.5933797e-5),
+        ];
+        for (t, y, u) in poiseuille {
+            let got = morris_channel_velocity(y, t, l, nu, 2e-4, 0.0);
+            assert!(
+                (got - u).abs() < 1e-6 * 2.5e-5,
+                "Poiseuille t {t} y {y}: {got} vs {u}"
+            );
+        }
+        for (t, y, u) in couette {
+            let got = morris_channel_velocity(y, t, l, nu, 0.0, 2.5e-5);
+            assert!(
+                (got - u).abs() < 1e-6 * 2.5e-5,
+                "Couette t {t} y {y}: {got} vs {u}"
+            );
+        }
+        // Steady states: F y (L − y)/(2ν) peaks at F L²/(8ν); V0 y/L.
+        let peak = morris_channel_velocity(5e-4, 1e3, l, nu, 2e-4, 0.0);
+        assert!((peak - 2.5e-5).abs() < 1e-12);
+        let lin = morris_channel_velocity(2.5e-4, 1e3, l, nu, 0.0, 2.5e-5);
+        assert!((lin - 6.25e-6).abs() < 1e-12);
     }
 
     /// Stokes regime check of the correlation solver: at Re ≪ 1 eq. (38) reduces to
