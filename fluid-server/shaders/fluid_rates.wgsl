@@ -3,7 +3,14 @@
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, continuity, momentum,
 // `b_matrix(i)` and `grad_rho(i)` (fluid_rates.rs: from the gradient pass when the scene
 // uses them, else I and 0), `wall_velocity(j)` (a no-slip wall's velocity in the viscous
-// sums: Adami et al.'s 2 v_w − ṽ_w from the boundary pass, else its own).
+// sums: Adami et al.'s 2 v_w − ṽ_w from the boundary pass, else its own), `b_hat(i)`
+// (B̂_i of the corrected Laplacian, when LAPLACIAN_CORRECTION).
+// With LAPLACIAN_CORRECTION the laminar term is Joubert eq. (13)'s
+//   2ν Σ_j V_j ((u_i − u_j)/r_ij − e_ij · ⟨∇⊗u⟩ᶜ_i) s_ij,   s_ij = B̂_i : (e_ij ⊗ ∇W_ij),
+// with ⟨∇⊗u⟩ᶜ_i = B_i Σ_j V_j ∇W_ij ⊗ (u_j − u_i) of the same loop's velocities. As
+// e_ij · ⟨∇⊗u⟩ᶜ_i does not depend on j it factors out: the loop sums
+//   A = Σ V s (u_i − u_j)/r,  Q = Σ V s e,  D = Σ V (u_j − u_i) ⊗ ∇W
+// and the term is 2ν (A − D Bᵀ Q) (D's column b holds the ∂_b part).
 // One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
@@ -32,6 +39,10 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     let grad_rho_i = grad_rho(i);
     var drho_i = 0.0;
     var acc = vec3<f32>(0.0);
+    var lap_a = vec3<f32>(0.0);
+    var lap_q = vec3<f32>(0.0);
+    var lap_d = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    let bhat_i = b_hat(i);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c_i, dy, dz);
@@ -60,7 +71,16 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 let wall = is_wall(id[j]);
                 let viscous = NO_SLIP_WALLS || !wall;
                 let u_visc = select(u_ij, u_i - wall_velocity(j), wall);
-                if LAMINAR_VISCOSITY && viscous {
+                if LAPLACIAN_CORRECTION && viscous {
+                    let r = sqrt(r2);
+                    let e = r_ij / r;
+                    let v_j = MASS / rho_j;
+                    let vs = v_j * dot(e, bhat_i * grad_w);
+                    lap_a += (vs / r) * u_visc;
+                    lap_q += vs * e;
+                    let vgw = v_j * grad_w;
+                    lap_d -= mat3x3<f32>(u_visc * vgw.x, u_visc * vgw.y, u_visc * vgw.z);
+                } else if LAMINAR_VISCOSITY && viscous {
                     acc += morris1997_viscous_term(rho_i, rho_j, r_ij, r2, u_visc, grad_w);
                 }
                 if ARTIFICIAL_VISCOSITY && viscous {
@@ -68,6 +88,9 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 }
             }
         }
+    }
+    if LAPLACIAN_CORRECTION {
+        acc += 2.0 * NU * (lap_a - lap_d * (transpose(b_i) * lap_q));
     }
     drho[i] = drho_i;
     dvel[i] = vec4<f32>(acc + GRAVITY, 0.0);

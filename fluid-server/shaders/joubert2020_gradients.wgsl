@@ -11,7 +11,139 @@
 //                                               its factor β ‖u‖max Δt
 // and the largest fluid speed of the step (diag[0], f32 bits: non-negative floats
 // order like their bit patterns).
-// Needs: prelude, SPH constants, StepParams, grid_common, kernel.
+// With LAPLACIAN_CORRECTION also B̂_i of Joubert eq. (11): with q(e) = (e_x², e_y², e_z²,
+// e_x e_y, e_x e_z, e_y e_z) and ∇W_ij = F(r) r_ij (a radial kernel),
+//   Ĉ_(cd)(mn) = Σ_j V_j F r² q_cd q_mn + R_(mn) · (B_i P_(cd)),
+//   P_(cd) = Σ_j V_j F r³ q_cd e,  R_(mn) = Σ_j V_j F r q_mn e  (vectors),
+// and B̂_i symmetric with B̂ : Ĉ = −I on symmetric Hessians: a 6 × 6 system (columns of
+// the off-diagonal B̂ entries doubled) solved by Gaussian elimination with partial
+// pivoting. Near-singular (B_i fell back to I, or a pivot below LAP_PIVOT_MIN of the
+// largest entry): B̂ = I (Morris's operator with the gradient term) and counted in
+// diag[1] with the B fallbacks; `store_bhat` writes it (joubert2020_gradients.rs).
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel, store_bhat.
+
+// Exponents (of e_x, e_y, e_z) of the symmetric pairs xx, yy, zz, xy, xz, yz: the
+// order of B̂'s entries and of the system's rows and columns.
+const PAIR_EXPONENTS = array<vec3<u32>, 6>(
+    vec3<u32>(2u, 0u, 0u), vec3<u32>(0u, 2u, 0u), vec3<u32>(0u, 0u, 2u),
+    vec3<u32>(1u, 1u, 0u), vec3<u32>(1u, 0u, 1u), vec3<u32>(0u, 1u, 1u));
+
+// The 15 quartic monomials of e in four vec4 (slots 0..14, see quartic_slot).
+fn quartic_a(e: vec3<f32>) -> vec4<f32> {
+    let x2 = e * e;
+    return vec4<f32>(x2.x * x2.x, x2.y * x2.y, x2.z * x2.z, x2.x * e.x * e.y);
+}
+fn quartic_b(e: vec3<f32>) -> vec4<f32> {
+    let x2 = e * e;
+    return vec4<f32>(x2.x * e.x * e.z, e.x * x2.y * e.y, x2.y * e.y * e.z, e.x * x2.z * e.z);
+}
+fn quartic_c(e: vec3<f32>) -> vec4<f32> {
+    let x2 = e * e;
+    return vec4<f32>(e.y * x2.z * e.z, x2.x * x2.y, x2.x * x2.z, x2.y * x2.z);
+}
+fn quartic_d(e: vec3<f32>) -> vec4<f32> {
+    let x2 = e * e;
+    return vec4<f32>(x2.x * e.y * e.z, e.x * x2.y * e.z, e.x * e.y * x2.z, 0.0);
+}
+// Slot of e_x^n.x e_y^n.y e_z^n.z (n.x + n.y + n.z = 4) in quartic_a..d.
+fn quartic_slot(n: vec3<u32>) -> u32 {
+    let key = n.x * 25u + n.y * 5u + n.z;
+    switch key {
+        case 100u: { return 0u; }   // xxxx
+        case 20u: { return 1u; }    // yyyy
+        case 4u: { return 2u; }     // zzzz
+        case 80u: { return 3u; }    // xxxy
+        case 76u: { return 4u; }    // xxxz
+        case 40u: { return 5u; }    // xyyy
+        case 16u: { return 6u; }    // yyyz
+        case 28u: { return 7u; }    // xzzz
+        case 8u: { return 8u; }     // yzzz
+        case 60u: { return 9u; }    // xxyy
+        case 52u: { return 10u; }   // xxzz
+        case 12u: { return 11u; }   // yyzz
+        case 56u: { return 12u; }   // xxyz
+        case 36u: { return 13u; }   // xyyz
+        default: { return 14u; }    // xyzz (key 32)
+    }
+}
+// The 10 cubic monomials of e in three vec4 (slots 0..9, see cubic_slot).
+fn cubic_a(e: vec3<f32>) -> vec4<f32> {
+    let x2 = e * e;
+    return vec4<f32>(x2.x * e.x, x2.y * e.y, x2.z * e.z, x2.x * e.y);
+}
+fn cubic_b(e: vec3<f32>) -> vec4<f32> {
+    let x2 = e * e;
+    return vec4<f32>(x2.x * e.z, e.x * x2.y, x2.y * e.z, e.x * x2.z);
+}
+fn cubic_c(e: vec3<f32>) -> vec4<f32> {
+    let x2 = e * e;
+    return vec4<f32>(e.y * x2.z, e.x * e.y * e.z, 0.0, 0.0);
+}
+// Slot of e_x^n.x e_y^n.y e_z^n.z (n.x + n.y + n.z = 3) in cubic_a..c.
+fn cubic_slot(n: vec3<u32>) -> u32 {
+    let key = n.x * 25u + n.y * 5u + n.z;
+    switch key {
+        case 75u: { return 0u; }    // xxx
+        case 15u: { return 1u; }    // yyy
+        case 3u: { return 2u; }     // zzz
+        case 55u: { return 3u; }    // xxy
+        case 51u: { return 4u; }    // xxz
+        case 35u: { return 5u; }    // xyy
+        case 11u: { return 6u; }    // yyz
+        case 27u: { return 7u; }    // xzz
+        case 7u: { return 8u; }     // yzz
+        default: { return 9u; }     // xyz (key 31)
+    }
+}
+
+// Solves the 6 × 6 system of the header for B̂ (entries xx, yy, zz, xy, xz, yz);
+// returns false when a pivot is below LAP_PIVOT_MIN of the largest entry.
+fn solve_bhat(a_in: array<f32, 36>, out: ptr<function, array<f32, 6>>) -> bool {
+    var a = a_in;
+    var x = array<f32, 6>(-1.0, -1.0, -1.0, 0.0, 0.0, 0.0);
+    var scale = 0.0;
+    for (var k = 0u; k < 36u; k++) {
+        scale = max(scale, abs(a[k]));
+    }
+    for (var col = 0u; col < 6u; col++) {
+        var piv = col;
+        for (var r = col + 1u; r < 6u; r++) {
+            if abs(a[6u * r + col]) > abs(a[6u * piv + col]) {
+                piv = r;
+            }
+        }
+        if !(abs(a[6u * piv + col]) > LAP_PIVOT_MIN * scale) {
+            return false;
+        }
+        if piv != col {
+            for (var k = 0u; k < 6u; k++) {
+                let t = a[6u * col + k];
+                a[6u * col + k] = a[6u * piv + k];
+                a[6u * piv + k] = t;
+            }
+            let t = x[col];
+            x[col] = x[piv];
+            x[piv] = t;
+        }
+        for (var r = col + 1u; r < 6u; r++) {
+            let f = a[6u * r + col] / a[6u * col + col];
+            for (var k = col; k < 6u; k++) {
+                a[6u * r + k] -= f * a[6u * col + k];
+            }
+            x[r] -= f * x[col];
+        }
+    }
+    for (var ci = 0u; ci < 6u; ci++) {
+        let row = 5u - ci;
+        var acc = x[row];
+        for (var k = row + 1u; k < 6u; k++) {
+            acc -= a[6u * row + k] * x[k];
+        }
+        x[row] = acc / a[6u * row + row];
+    }
+    *out = x;
+    return true;
+}
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
@@ -48,6 +180,19 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     var r_sum = 0.0;
     var count = 0.0;
     var s = vec3<f32>(0.0);
+    // Corrected Laplacian sums (header), only with LAPLACIAN_CORRECTION: C1 is fully
+    // symmetric (15 quartic monomials of e), P and R too (10 cubic ones each), so the
+    // loop keeps 10 vec4 accumulators (see quartic/cubic below).
+    var q4a = vec4<f32>(0.0);
+    var q4b = vec4<f32>(0.0);
+    var q4c = vec4<f32>(0.0);
+    var q4d = vec4<f32>(0.0);
+    var p3a = vec4<f32>(0.0);
+    var p3b = vec4<f32>(0.0);
+    var p3c = vec4<f32>(0.0);
+    var r3a = vec4<f32>(0.0);
+    var r3b = vec4<f32>(0.0);
+    var r3c = vec4<f32>(0.0);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c_i, dy, dz);
@@ -72,15 +217,70 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 r_sum += r;
                 count += 1.0;
                 s += r_ij / (r2 * r);
+                if LAPLACIAN_CORRECTION {
+                    let e = r_ij / r;
+                    let vf = (MASS / rho_j) * kernel_grad_factor(r);
+                    let w1 = vf * r2;
+                    q4a += w1 * quartic_a(e);
+                    q4b += w1 * quartic_b(e);
+                    q4c += w1 * quartic_c(e);
+                    q4d += w1 * quartic_d(e);
+                    let c3a = cubic_a(e);
+                    let c3b = cubic_b(e);
+                    let c3c = cubic_c(e);
+                    p3a += (w1 * r) * c3a;
+                    p3b += (w1 * r) * c3b;
+                    p3c += (w1 * r) * c3c;
+                    r3a += (vf * r) * c3a;
+                    r3b += (vf * r) * c3b;
+                    r3c += (vf * r) * c3c;
+                }
             }
         }
     }
     let det = determinant(m);
     var b = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
-    if det >= B_DET_MIN {
+    var singular = det < B_DET_MIN;
+    if !singular {
         // Inverse by the adjugate: the rows of M⁻¹ are the cross products of M's columns.
         b = transpose(mat3x3<f32>(cross(m[1], m[2]), cross(m[2], m[0]), cross(m[0], m[1]))) * (1.0 / det);
-    } else {
+    }
+    if LAPLACIAN_CORRECTION {
+        var bhat = array<f32, 6>(1.0, 1.0, 1.0, 0.0, 0.0, 0.0);
+        if !singular {
+            let q4 = array<f32, 16>(q4a.x, q4a.y, q4a.z, q4a.w, q4b.x, q4b.y, q4b.z, q4b.w,
+                                    q4c.x, q4c.y, q4c.z, q4c.w, q4d.x, q4d.y, q4d.z, q4d.w);
+            let p3 = array<f32, 12>(p3a.x, p3a.y, p3a.z, p3a.w, p3b.x, p3b.y, p3b.z, p3b.w,
+                                    p3c.x, p3c.y, p3c.z, p3c.w);
+            let r3 = array<f32, 12>(r3a.x, r3a.y, r3a.z, r3a.w, r3b.x, r3b.y, r3b.z, r3b.w,
+                                    r3c.x, r3c.y, r3c.z, r3c.w);
+            var a = array<f32, 36>();
+            for (var row = 0u; row < 6u; row++) {
+                let pr = PAIR_EXPONENTS[row];
+                let p_row = vec3<f32>(p3[cubic_slot(pr + vec3<u32>(1u, 0u, 0u))],
+                                      p3[cubic_slot(pr + vec3<u32>(0u, 1u, 0u))],
+                                      p3[cubic_slot(pr + vec3<u32>(0u, 0u, 1u))]);
+                let bp = b * p_row;
+                for (var col = 0u; col < 6u; col++) {
+                    let pc = PAIR_EXPONENTS[col];
+                    let r_col = vec3<f32>(r3[cubic_slot(pc + vec3<u32>(1u, 0u, 0u))],
+                                          r3[cubic_slot(pc + vec3<u32>(0u, 1u, 0u))],
+                                          r3[cubic_slot(pc + vec3<u32>(0u, 0u, 1u))]);
+                    // Off-diagonal B̂ entries appear twice in B̂ : Ĉ.
+                    let mult = select(2.0, 1.0, col < 3u);
+                    a[6u * row + col] = mult * (q4[quartic_slot(pr + pc)] + dot(r_col, bp));
+                }
+            }
+            var x = array<f32, 6>();
+            if solve_bhat(a, &x) {
+                bhat = x;
+            } else {
+                singular = true;
+            }
+        }
+        store_bhat(i, vec4<f32>(bhat[0], bhat[1], bhat[2], 0.0), vec4<f32>(bhat[3], bhat[4], bhat[5], 0.0));
+    }
+    if singular {
         atomicAdd(&diag[1], 1u);
     }
     bmat[3u * i] = vec4<f32>(b[0], 0.0);

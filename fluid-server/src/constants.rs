@@ -42,6 +42,9 @@ pub struct SphConstants {
     /// Kernel-gradient correction (Joubert eq. 10) on: the gradient pass runs and the
     /// continuity and pressure terms take the corrected difference form (eqs. 12–13).
     pub gradient_correction: bool,
+    /// Corrected Laplacian (Joubert eqs. 11, 13) in the viscous term: the gradient pass
+    /// solves B̂_i, the rates use it (only with laminar viscosity).
+    pub laplacian_correction: bool,
     /// Particle shifting decrowding factor β (Joubert eq. 17); 0: off.
     pub shifting_beta: f64,
     /// δ-SPH density diffusion coefficient δ (Antuono et al. 2010); 0: off.
@@ -84,6 +87,9 @@ impl SphConstants {
                     && f.kinematic_viscosity > 0.0)
                     || scene.effects.artificial_viscosity > 0.0),
             gradient_correction: scene.effects.gradient_correction,
+            laplacian_correction: scene.effects.laplacian_correction
+                && scene.effects.viscosity == ViscosityModel::Laminar
+                && f.kinematic_viscosity > 0.0,
             shifting_beta: scene.effects.particle_shifting,
             density_diffusion: scene.effects.density_diffusion,
         })
@@ -108,9 +114,18 @@ impl SphConstants {
     }
 
     /// The per-step gradient pass ([`crate::joubert2020_gradients`]) runs: it feeds
-    /// the gradient correction and particle shifting.
+    /// the gradient and Laplacian corrections, particle shifting and δ-SPH.
     pub fn gradient_pass(&self) -> bool {
-        self.gradient_correction || self.shifting_beta > 0.0 || self.density_diffusion > 0.0
+        self.gradient_correction
+            || self.laplacian_correction
+            || self.shifting_beta > 0.0
+            || self.density_diffusion > 0.0
+    }
+
+    /// The rates read B_i (the gradient correction, or the corrected Laplacian's
+    /// gradient term).
+    pub fn uses_b_matrix(&self) -> bool {
+        self.gradient_correction || self.laplacian_correction
     }
 
     /// Support radius, m.
@@ -145,6 +160,7 @@ impl SphConstants {
              const NO_SLIP_WALLS: bool = {no_slip};\n\
              const VISCOUS_ETA2: f32 = {eta2:e};\n\
              const GRADIENT_CORRECTION: bool = {correction};\n\
+             const LAPLACIAN_CORRECTION: bool = {laplacian};\n\
              const SHIFTING_BETA: f32 = {beta:e};\n\
              const DENSITY_DIFFUSION: bool = {diffusion};\n\
              const DIFFUSION_DELTA: f32 = {delta:e};\n\
@@ -171,6 +187,7 @@ impl SphConstants {
             no_slip = self.no_slip_walls,
             eta2 = VISCOUS_ETA2_H2 * k.h * k.h,
             correction = self.gradient_correction,
+            laplacian = self.laplacian_correction,
             beta = self.shifting_beta,
             diffusion = self.density_diffusion > 0.0,
             delta = self.density_diffusion,

@@ -49,6 +49,20 @@ const NO_B_MATRIX_WGSL: &str = "fn b_matrix(i: u32) -> mat3x3<f32> {
 }
 ";
 
+/// `b_hat(i)`: B̂_i of the corrected Laplacian from the gradient pass (symmetric).
+const B_HAT_WGSL: &str = "@group(0) @binding(12) var<storage, read> bhat: array<vec4<f32>>;
+fn b_hat(i: u32) -> mat3x3<f32> {
+    let d = bhat[2u * i];
+    let o = bhat[2u * i + 1u];
+    return mat3x3<f32>(vec3<f32>(d.x, o.x, o.y), vec3<f32>(o.x, d.y, o.z), vec3<f32>(o.y, o.z, d.z));
+}
+";
+/// Without the corrected Laplacian no B̂ exists (its branch is compiled out).
+const NO_B_HAT_WGSL: &str = "fn b_hat(i: u32) -> mat3x3<f32> {
+    return mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+}
+";
+
 /// `wall_velocity(j)`: a wall's velocity in the viscous sums, from the boundary pass.
 const WALL_VELOCITY_WGSL: &str =
     "@group(0) @binding(11) var<storage, read> wall_vel: array<vec4<f32>>;
@@ -67,7 +81,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     let diffusion = c.density_diffusion > 0.0;
     // The B matrix and the gradient buffer are bound only when their effect is on.
     let mut bindings = BINDINGS.to_vec();
-    if c.gradient_correction {
+    if c.uses_b_matrix() {
         bindings.push((pb::BMAT, Access::Read));
     }
     if diffusion {
@@ -79,10 +93,16 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     } else {
         OWN_WALL_VELOCITY_WGSL
     };
-    let b = if c.gradient_correction {
+    let b = if c.uses_b_matrix() {
         B_MATRIX_WGSL
     } else {
         NO_B_MATRIX_WGSL
+    };
+    let b_hat = if c.laplacian_correction {
+        bindings.push((pb::BHAT, Access::Read));
+        B_HAT_WGSL
+    } else {
+        NO_B_HAT_WGSL
     };
     let g = if diffusion {
         GRAD_RHO_WGSL
@@ -100,6 +120,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             CONTINUITY_WGSL,
             MOMENTUM_WGSL,
             b,
+            b_hat,
             g,
             wall_velocity,
             FLUID_RATES_WGSL,

@@ -38,9 +38,44 @@ pub const GRADIENTS_WGSL: &str = include_str!("../shaders/joubert2020_gradients.
 /// uncorrected gradient (B = I), and the solver reports how many did per window.
 pub const B_DET_MIN: f64 = 0.05;
 
+/// Smallest pivot of the corrected Laplacian's 6 × 6 system, relative to its largest
+/// entry, below which B̂_i = I and the particle is counted with the near-singular ones.
+/// A full support gives pivots of about 1/5 of the largest entry; 1e-3 leaves room for
+/// the thinnest wall-side supports while refusing the 1000× amplification of a
+/// nearly empty one.
+pub const LAP_PIVOT_MIN: f64 = 1e-3;
+
+/// `store_bhat(i, diagonal, off_diagonal)`: bound only with the corrected Laplacian.
+const STORE_BHAT_WGSL: &str =
+    "@group(0) @binding(12) var<storage, read_write> bhat: array<vec4<f32>>;
+fn store_bhat(i: u32, d: vec4<f32>, o: vec4<f32>) {
+    bhat[2u * i] = d;
+    bhat[2u * i + 1u] = o;
+}
+";
+const NO_BHAT_WGSL: &str = "fn store_bhat(i: u32, d: vec4<f32>, o: vec4<f32>) {}
+";
+
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
-    let guard = format!("const B_DET_MIN: f32 = {B_DET_MIN:e};\n");
+    let guard = format!(
+        "const B_DET_MIN: f32 = {B_DET_MIN:e};\nconst LAP_PIVOT_MIN: f32 = {LAP_PIVOT_MIN:e};\n"
+    );
+    let mut particles = vec![
+        (pb::POS, Access::Read),
+        (pb::VEL, Access::Read),
+        (pb::RHO, Access::Read),
+        (pb::PRESS, Access::Read),
+        (pb::ID, Access::Read),
+        (pb::BMAT, Access::ReadWrite),
+        (pb::GRADS, Access::ReadWrite),
+    ];
+    let store = if c.laplacian_correction {
+        particles.push((pb::BHAT, Access::ReadWrite));
+        STORE_BHAT_WGSL
+    } else {
+        NO_BHAT_WGSL
+    };
     SphKernel::new(
         gpu,
         "sph: joubert2020_gradients",
@@ -50,22 +85,12 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             STEP_PARAMS_WGSL,
             GRID_COMMON_WGSL,
             kernel_library(),
+            store,
             GRADIENTS_WGSL,
         ],
         "gradients",
         &[
-            (
-                PARTICLES,
-                &[
-                    (pb::POS, Access::Read),
-                    (pb::VEL, Access::Read),
-                    (pb::RHO, Access::Read),
-                    (pb::PRESS, Access::Read),
-                    (pb::ID, Access::Read),
-                    (pb::BMAT, Access::ReadWrite),
-                    (pb::GRADS, Access::ReadWrite),
-                ],
-            ),
+            (PARTICLES, &particles),
             (
                 PARAMS,
                 &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::ReadWrite)],
@@ -186,4 +211,86 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
             })
         })
         .collect()
+}
+
+/// CPU twin of the corrected Laplacian's truncation (Joubert eq. 11; the sums are in
+/// the WGSL header): the symmetric B̂_i with B̂ : Ĉ_i = −I on symmetric Hessians, from
+/// `b` = B_i. `(I, true)` when B_i fell back (`b_singular`) or a pivot is below
+/// [`LAP_PIVOT_MIN`] of the largest entry.
+pub fn laplacian_b_hat_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    i: usize,
+    b: &Mat3,
+    b_singular: bool,
+) -> (Mat3, bool) {
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    if b_singular {
+        return (identity, true);
+    }
+    let pairs = |e: [f64; 3]| {
+        [
+            e[0] * e[0],
+            e[1] * e[1],
+            e[2] * e[2],
+            e[0] * e[1],
+            e[0] * e[2],
+            e[1] * e[2],
+        ]
+    };
+    let (mut c1, mut p, mut r_) = ([[0.0; 6]; 6], [[0.0; 3]; 6], [[0.0; 3]; 6]);
+    for j in set.neighbours(i, c.support_radius()) {
+        let r_ij = sub(set.pos[i], set.pos[j]);
+        let r = dot(r_ij, r_ij).sqrt();
+        let e = r_ij.map(|x| x / r);
+        // ∇W = F r_ij: F = (∇W)_k / r_k on any non-zero component.
+        let g = c.kernel.grad(r_ij);
+        let f = dot(g, r_ij) / (r * r);
+        let vf = c.mass / set.rho[j] * f;
+        let q = pairs(e);
+        for a in 0..6 {
+            for b2 in 0..6 {
+                c1[a][b2] += vf * r * r * q[a] * q[b2];
+            }
+            for k in 0..3 {
+                p[a][k] += vf * r * r * r * q[a] * e[k];
+                r_[a][k] += vf * r * q[a] * e[k];
+            }
+        }
+    }
+    let mut a = [[0.0; 6]; 6];
+    for row in 0..6 {
+        let bp = mat_vec(b, p[row]);
+        for col in 0..6 {
+            let mult = if col < 3 { 1.0 } else { 2.0 };
+            a[row][col] = mult * (c1[row][col] + dot(r_[col], bp));
+        }
+    }
+    let mut x = [-1.0, -1.0, -1.0, 0.0, 0.0, 0.0];
+    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    for col in 0..6 {
+        let piv = (col..6)
+            .max_by(|&r1, &r2| a[r1][col].abs().total_cmp(&a[r2][col].abs()))
+            .expect("non-empty");
+        if !(a[piv][col].abs() > LAP_PIVOT_MIN * scale) {
+            return (identity, true);
+        }
+        a.swap(col, piv);
+        x.swap(col, piv);
+        for row in col + 1..6 {
+            let f = a[row][col] / a[col][col];
+            for k in col..6 {
+                a[row][k] -= f * a[col][k];
+            }
+            x[row] -= f * x[col];
+        }
+    }
+    for row in (0..6).rev() {
+        let tail: f64 = (row + 1..6).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (x[row] - tail) / a[row][row];
+    }
+    (
+        [[x[0], x[3], x[4]], [x[3], x[1], x[5]], [x[4], x[5], x[2]]],
+        false,
+    )
 }

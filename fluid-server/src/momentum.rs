@@ -16,7 +16,7 @@
 
 use crate::adami2012_boundary_pressure::wall_velocity_cpu;
 use crate::constants::SphConstants;
-use crate::joubert2020_gradients::{b_matrix_cpu, mat_vec};
+use crate::joubert2020_gradients::{b_matrix_cpu, laplacian_b_hat_cpu, mat_vec};
 use crate::particles::{Kind, ParticleSet, dot, sub};
 
 pub const MOMENTUM_WGSL: &str = include_str!("../shaders/momentum.wgsl");
@@ -27,6 +27,13 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
     let (rho_i, p_i) = (set.rho[i], set.press[i]);
     let eta2 = crate::constants::VISCOUS_ETA2_H2 * c.kernel.h * c.kernel.h;
     let b = c.gradient_correction.then(|| b_matrix_cpu(c, set, i).0);
+    // Corrected Laplacian (Joubert eq. 13): A = Σ V s (u_i − u_j)/r, Q = Σ V s e,
+    // D[k][b] = Σ V (u_j − u_i)_k ∇W_b, term 2ν (A − D Bᵀ Q) (see fluid_rates.wgsl).
+    let lap = c.laplacian_correction.then(|| {
+        let (bm, singular) = b_matrix_cpu(c, set, i);
+        (bm, laplacian_b_hat_cpu(c, set, i, &bm, singular).0)
+    });
+    let (mut lap_a, mut lap_q, mut lap_d) = ([0.0; 3], [0.0; 3], [[0.0; 3]; 3]);
     for j in set.neighbours(i, c.support_radius()) {
         let r_ij = sub(set.pos[i], set.pos[j]);
         let r2 = dot(r_ij, r_ij);
@@ -44,7 +51,19 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
         } else {
             u_ij
         };
-        if c.laminar && viscous {
+        if let (Some((_, bhat)), true) = (&lap, viscous) {
+            let r = r2.sqrt();
+            let e = r_ij.map(|x| x / r);
+            let v_j = c.mass / rho_j;
+            let vs = v_j * dot(e, mat_vec(bhat, g));
+            for k in 0..3 {
+                lap_a[k] += vs / r * u_visc[k];
+                lap_q[k] += vs * e[k];
+                for b2 in 0..3 {
+                    lap_d[k][b2] -= v_j * u_visc[k] * g[b2];
+                }
+            }
+        } else if c.laminar && viscous {
             // Morris, Fox & Zhu (1997) eq. (8).
             let f = c.mass * c.nu * (rho_i + rho_j) * dot(r_ij, g) / (rho_i * rho_j * (r2 + eta2));
             for k in 0..3 {
@@ -64,6 +83,13 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
         }
         for k in 0..3 {
             acc[k] += add[k];
+        }
+    }
+    if let Some((bm, _)) = &lap {
+        // Bᵀ Q, then D (Bᵀ Q).
+        let btq: [f64; 3] = std::array::from_fn(|b2| (0..3).map(|a| bm[a][b2] * lap_q[a]).sum());
+        for k in 0..3 {
+            acc[k] += 2.0 * c.nu * (lap_a[k] - dot(lap_d[k], btq));
         }
     }
     let g = c.gravity_fluid;

@@ -18,6 +18,7 @@ pub const BOUNDARY_PRESSURE: &str = "adami2012_boundary_pressure";
 pub const CONTINUITY: &str = "continuity";
 pub const MOMENTUM_PRESSURE: &str = "momentum_pressure";
 pub const MORRIS1997_VISCOSITY: &str = "morris1997_viscosity";
+pub const CORRECTED_LAPLACIAN_VISCOSITY: &str = "joubert2020_laplacian_viscosity";
 pub const MONAGHAN1992_ARTIFICIAL_VISCOSITY: &str = "monaghan1992_artificial_viscosity";
 pub const GRAVITY: &str = "gravity";
 pub const INTEGRATE: &str = "joubert2020_predictor_corrector";
@@ -37,20 +38,39 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         return out;
     };
     let mut push = |name: &'static str, reason: String| out.push(Stage { name, reason });
+    let periodic: Vec<&str> = ["x", "y", "z"]
+        .into_iter()
+        .zip(scene.domain.periodic)
+        .filter_map(|(a, p)| p.then_some(a))
+        .collect();
     push(
         NEIGHBOUR_GRID,
         format!(
-            "cell size = support/{reach} = {:.3e} m; counting sort by cell once per step",
+            "cell size ≥ support/{reach} = {:.3e} m; stable counting sort by cell once per step{}",
             f.support_radius() / f64::from(crate::neighbour_grid::GRID_REACH),
+            if periodic.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; periodic in {} (nearest-image pairs, positions wrapped at the sort)",
+                    periodic.join(", ")
+                )
+            },
             reach = crate::neighbour_grid::GRID_REACH
         ),
     );
+    let laminar = scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0;
     let correction = scene.effects.gradient_correction;
+    let laplacian = scene.effects.laplacian_correction && laminar;
     let beta = scene.effects.particle_shifting;
     let delta = scene.effects.density_diffusion;
-    if correction || beta > 0.0 || delta > 0.0 {
+    if correction || laplacian || beta > 0.0 || delta > 0.0 {
         let users: Vec<&str> = [
             (correction, "effects.gradient_correction"),
+            (
+                laplacian,
+                "effects.laplacian_correction (B̂ of eq. 11, a 6 × 6 solve)",
+            ),
             (beta > 0.0, "effects.particle_shifting (Taylor terms)"),
             (delta > 0.0, "effects.density_diffusion (renormalised ∇ρ)"),
         ]
@@ -81,13 +101,18 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     push(
         BOUNDARY_PRESSURE,
         format!(
-            "{walls} domain walls{}{}: wall pressure extrapolated from the fluid (Adami, Hu & Adams 2012), twice per step",
+            "{walls} domain walls{}{}: wall pressure extrapolated from the fluid (Adami, Hu & Adams 2012){}, twice per step",
             if obstacles > 0 {
                 format!(", {obstacles} fixed box obstacle(s)")
             } else {
                 String::new()
             },
-            if resolved { ", body markers" } else { "" }
+            if resolved { ", body markers" } else { "" },
+            if walls == "no-slip" && (laminar || scene.effects.artificial_viscosity > 0.0) {
+                "; no-slip walls' viscous velocity 2 v_w − ṽ_w"
+            } else {
+                ""
+            }
         ),
     );
     if correction {
@@ -118,7 +143,15 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
             ),
         );
     }
-    if scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0 {
+    if laplacian {
+        push(
+            CORRECTED_LAPLACIAN_VISCOSITY,
+            format!(
+                "effects.laplacian_correction: Joubert eq. (13) 2ν Σ V_j ((u_i − u_j)/r − e·⟨∇⊗u⟩ᶜ) B̂_i : (e ⊗ ∇W), ν = {:e} m²/s",
+                f.kinematic_viscosity
+            ),
+        );
+    } else if laminar {
         push(
             MORRIS1997_VISCOSITY,
             format!(

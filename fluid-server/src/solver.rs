@@ -207,6 +207,8 @@ pub struct GradientBuffers {
     pub bmat: wgpu::Buffer,
     /// ⟨∇u_x⟩ᶜ, ⟨∇u_y⟩ᶜ, ⟨∇u_z⟩ᶜ, ⟨∇p⟩ᶜ, s_i, ⟨∇ρ⟩ᶜ: six vec4 per particle.
     pub grads: wgpu::Buffer,
+    /// B̂_i of the corrected Laplacian, two vec4 per particle, when it is on.
+    pub bhat: Option<wgpu::Buffer>,
     /// [max fluid speed of the step (f32 bits), near-singular particle-steps in the
     /// window, 0, 0].
     pub diag: wgpu::Buffer,
@@ -328,6 +330,9 @@ impl SphData {
         let gradients = pipelines.gradients.is_some().then(|| GradientBuffers {
             bmat: storage_init(gpu, "sph: B matrix", &vec![0u8; n * 48]),
             grads: storage_init(gpu, "sph: corrected gradients", &vec![0u8; n * 96]),
+            bhat: c
+                .laplacian_correction
+                .then(|| storage_init(gpu, "sph: Laplacian truncation", &vec![0u8; n * 32])),
             diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16]),
         });
         let wall_vel = c
@@ -367,6 +372,7 @@ impl SphData {
                     pb::BMAT => &gradients.as_ref()?.bmat,
                     pb::GRADS => &gradients.as_ref()?.grads,
                     pb::WALL_VEL => wall_vel.as_ref()?,
+                    pb::BHAT => gradients.as_ref()?.bhat.as_ref()?,
                     _ => return None,
                 })
             };

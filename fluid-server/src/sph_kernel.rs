@@ -46,6 +46,9 @@ pub mod particle_binding {
     /// No-slip walls' velocity in the viscous sums, 2 v_w − ṽ_w (Adami et al. 2012),
     /// one vec4 per particle, written by the boundary pass (walls only).
     pub const WALL_VEL: u32 = 11;
+    /// B̂_i of the corrected Laplacian (Joubert eq. 11), symmetric: two vec4 per
+    /// particle, (B̂_xx, B̂_yy, B̂_zz, 0), (B̂_xy, B̂_xz, B̂_yz, 0) (gradient pass).
+    pub const BHAT: u32 = 12;
 }
 
 /// Bodies and markers, group 2.

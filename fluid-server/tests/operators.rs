@@ -82,6 +82,11 @@ fn boundary_pressure_matches_cpu_twin() {
 }
 
 fn check_rates(effects: &str, walls: &str, seed: u64) {
+    check_rates_within(effects, walls, seed, PAIR_RTOL);
+}
+
+/// [`check_rates`] with the momentum held to `momentum_rtol` of its largest value.
+fn check_rates_within(effects: &str, walls: &str, seed: u64, momentum_rtol: f64) {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
     let s = scene("kernel = \"wendland-c2\"", &format!("{effects}\n{walls}"));
     let c = SphConstants::from_scene(&s).unwrap();
@@ -134,7 +139,7 @@ fn check_rates(effects: &str, walls: &str, seed: u64) {
         "continuity: max |Δ| = {ec:e}, max = {mc:e}"
     );
     assert!(
-        em <= PAIR_RTOL * mm,
+        em <= momentum_rtol * mm,
         "momentum: max |Δ| = {em:e}, max = {mm:e}"
     );
 }
@@ -418,4 +423,20 @@ fn marker_loads_match_cpu_twin() {
         }
         first += m;
     }
+}
+
+/// The corrected Laplacian in the viscous term (Joubert eqs. 11, 13: B̂ from the
+/// gradient pass, the gradient term from the same loop) with moving no-slip walls:
+/// momentum rel 1e-3 of the max (measured 4e-4): the 6 × 6 solve of B̂ accepts pivots
+/// down to `LAP_PIVOT_MIN` = 1e-3 of its largest entry, and on this jittered, randomly
+/// walled set such systems amplify the f32 sums' round-off ~10× beyond the 1e-4 of
+/// the other rates.
+#[test]
+fn rates_match_cpu_twin_laplacian_corrected() {
+    check_rates_within(
+        "[effects]\nviscosity = \"laminar\"\nlaplacian_correction = true",
+        "",
+        8,
+        1e-3,
+    );
 }

@@ -55,18 +55,5 @@ pub fn report_rows(out: &Path) -> Vec<(String, String)> {
         .collect()
 }
 
-/// The measured value of the first report row whose quantity contains `quantity`, when
-/// it is a percentage ("1.62 %" → 1.62).
-pub fn report_percent(out: &Path, quantity: &str) -> Option<f64> {
-    let text = std::fs::read_to_string(out.join("report.md")).ok()?;
-    text.lines()
-        .filter(|l| l.starts_with("| "))
-        .map(|l| l.split('|').map(str::trim).collect::<Vec<_>>())
-        .find(|cells| cells.len() > 2 && cells[1].contains(quantity))?[2]
-        .strip_suffix(" %")?
-        .parse()
-        .ok()
-}
-
 pub use couplet_orchestrator::record::{BodySample, Particle, Recording, read_recording, track};
 pub use couplet_orchestrator::validate::joubert_terminal_velocity;
