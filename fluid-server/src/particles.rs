@@ -7,7 +7,7 @@
 
 use crate::constants::SphConstants;
 use crate::error::FluidError;
-use couplet_protocol::{Scene, Shape};
+use couplet_protocol::{InitialFlow, Scene, Shape};
 
 /// A particle set in world coordinates (SI units), indexed by id: the initial state of
 /// a solver, and the CPU side of the kernel twins (`f64`).
@@ -177,6 +177,8 @@ impl Obstacle {
 ///   its lattice gap to the wall (a wider gap pulls it down at ~g); the free surface
 ///   drops by H − d(H) ≈ H·ρgH/(2ρc²) (2 mm for 0.3 m at c_s = 17.5 m/s).
 ///   Without gravity on the fluid: ρ0.
+/// * `fluid.initial_flow`: the fluid's velocity and (through the inverted Tait
+///   equation) density from the analytic field.
 ///   Walls start at ρ0; the boundary-pressure stage sets them before they are used.
 pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet, FluidError> {
     let f = scene.fluid.as_ref().ok_or(FluidError::NoFluid)?;
@@ -309,15 +311,8 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
             p[1] = bottom + depth(height) - depth(s);
         }
     }
-    let n = pos.len();
-    let press = rho
-        .iter()
-        .take(n_fluid)
-        .map(|r| c.pressure(*r))
-        .chain(std::iter::repeat_n(0.0, n_wall))
-        .collect();
     // Walls rest, except the +y wall's layers, which slide at the lid velocity.
-    let vel = pos
+    let mut vel: Vec<[f64; 3]> = pos
         .iter()
         .enumerate()
         .map(|(i, p)| {
@@ -327,6 +322,31 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
                 [0.0; 3]
             }
         })
+        .collect();
+    if let Some(InitialFlow::TaylorGreen {
+        velocity: u0,
+        wavelength,
+    }) = f.initial_flow
+    {
+        // `fluid.initial_flow` (scene.rs): the Taylor–Green vortex from domain.min.
+        let k = 2.0 * std::f64::consts::PI / wavelength;
+        for i in 0..n_fluid {
+            let (x, y) = (pos[i][0] - dom.min[0], pos[i][1] - dom.min[1]);
+            vel[i] = [
+                -u0 * (k * x).cos() * (k * y).sin(),
+                u0 * (k * x).sin() * (k * y).cos(),
+                0.0,
+            ];
+            let p = -c.rho0 * u0 * u0 / 4.0 * ((2.0 * k * x).cos() + (2.0 * k * y).cos());
+            rho[i] = c.density(p);
+        }
+    }
+    let n = pos.len();
+    let press = rho
+        .iter()
+        .take(n_fluid)
+        .map(|r| c.pressure(*r))
+        .chain(std::iter::repeat_n(0.0, n_wall))
         .collect();
     Ok(ParticleSet {
         vel,

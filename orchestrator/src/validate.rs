@@ -138,7 +138,7 @@ pub fn cases() -> &'static [Case] {
     &CASES
 }
 
-static CASES: [Case; 5] = [
+static CASES: [Case; 6] = [
     Case {
         name: "hydrostatic-tank",
         scene: "hydrostatic-tank.toml",
@@ -234,6 +234,30 @@ static CASES: [Case; 5] = [
             ),
         ],
         analyse: channel_flow,
+    },
+    Case {
+        name: "taylor-green",
+        scene: "taylor-green.toml",
+        about: "Taylor–Green vortex at Re = 100, periodic in x, y and a thin z span: decay rate of the kinetic energy against the analytic 2b = −16π²ν/L²",
+        quick: &[
+            "fluid.spacing=0.04",
+            "domain.max=[1.0, 1.0, 0.32]",
+            "fluid.blocks.0.max=[1.0, 1.0, 0.32]",
+            "time.end=0.3",
+        ],
+        quick_why: "δ = L/25 (z span kept at 8 spacings) to t = 0.3 s: 5 000 particles, a few minutes on lavapipe",
+        sweep_spacings: &[0.04, 0.02],
+        sweep_schemes: &[
+            ("Joubert (corrected + shifting)", &[]),
+            (
+                "standard + shifting",
+                &[
+                    "effects.gradient_correction=false",
+                    "effects.laplacian_correction=false",
+                ],
+            ),
+        ],
+        analyse: taylor_green,
     },
 ];
 
@@ -1017,6 +1041,105 @@ fn channel_flow(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(
         reference: Vec::new(),
     });
     Ok(())
+}
+
+/// Taylor–Green vortex (issue 3, case 3): the kinetic energy E(t) = Σ ½ m |u|² of every
+/// snapshot (m = ρ0 δ³, the same for all particles) decays as e^{2bt} with
+/// b = −8π²ν/L² (`fluid.initial_flow`). The rate is the least-squares slope of ln E
+/// against t over the snapshots after the first 5 % of the run (the start-up acoustic
+/// adjustment of the lattice), held to 2 % of 2b.
+fn taylor_green(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), String> {
+    let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
+    let Some(couplet_protocol::InitialFlow::TaylorGreen {
+        velocity: u0,
+        wavelength,
+    }) = f.initial_flow
+    else {
+        return Err("the scene has no Taylor–Green initial flow".into());
+    };
+    let b = -8.0 * std::f64::consts::PI.powi(2) * f.kinematic_viscosity / (wavelength * wavelength);
+    let mass = f.density * f.spacing.powi(3);
+    let energy: Vec<(f64, f64)> = rec
+        .snapshots
+        .iter()
+        .map(|(t, s)| {
+            let e: f64 = s
+                .iter()
+                .map(|p| 0.5 * mass * (p[4..7].iter().map(|v| f64::from(*v).powi(2)).sum::<f64>()))
+                .sum();
+            (*t, e)
+        })
+        .collect();
+    let t_end = energy.last().ok_or("no particle snapshots")?.0;
+    let fit: Vec<(f64, f64)> = energy
+        .iter()
+        .filter(|(t, e)| *t >= 0.05 * t_end && *e > 0.0)
+        .map(|(t, e)| (*t, e.ln()))
+        .collect();
+    if fit.len() < 3 {
+        return Err(format!("only {} snapshots to fit the decay", fit.len()));
+    }
+    let n = fit.len() as f64;
+    let (st, sy) = fit.iter().fold((0.0, 0.0), |(a, c), (t, y)| (a + t, c + y));
+    let (mt, my) = (st / n, sy / n);
+    let (sxy, sxx) = fit.iter().fold((0.0, 0.0), |(a, c), (t, y)| {
+        (a + (t - mt) * (y - my), c + (t - mt) * (t - mt))
+    });
+    let rate = sxy / sxx;
+    let error = (rate - 2.0 * b).abs() / (2.0 * b).abs();
+    let finite = energy.iter().all(|(_, e)| e.is_finite());
+    report.judge(
+        "all values finite",
+        finite.to_string(),
+        "true".into(),
+        "exact".into(),
+        Some(finite),
+    );
+    report.judge(
+        format!(
+            "kinetic-energy decay rate d ln E/dt over t ∈ [{:.3}, {t_end:.3}] s",
+            0.05 * t_end
+        ),
+        format!("{rate:.4} 1/s"),
+        format!("{:.4} 1/s (2b = −16π²ν/L²)", 2.0 * b),
+        "± 2 %".into(),
+        Some(error < 0.02),
+    );
+    report.judge(
+        "decay-rate error",
+        pct(error),
+        "0".into(),
+        "reported".into(),
+        None,
+    );
+    let (t0, e_first) = energy[0];
+    let e_analytic = 0.25 * f.density * u0 * u0 * (2.0 * b * t0).exp();
+    report.judge(
+        format!("kinetic energy per unit volume at the first snapshot (t = {t0:.3} s)"),
+        format!("{:.4} J/m³", e_first / scene_volume(scene)),
+        format!("{e_analytic:.4} J/m³ (ρ U²/4 e^(2bt))"),
+        "reported".into(),
+        None,
+    );
+    report.headline = Some(("decay-rate error".into(), error));
+    report.series.push(Series {
+        name: "kinetic-energy".into(),
+        x_label: "t (s)".into(),
+        y_label: "E(t) / E(first snapshot)".into(),
+        points: energy.iter().map(|(t, e)| (*t, e / e_first)).collect(),
+        reference: energy
+            .iter()
+            .map(|(t, _)| (*t, (2.0 * b * (t - t0)).exp()))
+            .collect(),
+    });
+    Ok(())
+}
+
+/// Volume of the domain box, m³.
+fn scene_volume(scene: &Scene) -> f64 {
+    (0..3)
+        .map(|k| scene.domain.max[k] - scene.domain.min[k])
+        .product()
 }
 
 pub fn joubert_terminal_velocity(radius: f64, rho_s: f64, rho_f: f64, nu: f64, g: f64) -> f64 {

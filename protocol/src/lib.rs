@@ -8,8 +8,8 @@ pub use payload::{
 };
 pub use scene::{
     BodySpec, CouplingMode, CouplingScheme, DemSpec, Domain, EffectsSpec, FluidBlock, FluidSpec,
-    GravitySpec, KernelKind, Meta, Motion, Scene, SceneError, Shape, TimeSpec, ViscosityModel,
-    WallKind,
+    GravitySpec, InitialFlow, KernelKind, Meta, Motion, Scene, SceneError, Shape, TimeSpec,
+    ViscosityModel, WallKind,
 };
 pub use service::{ServiceLeaf, service_name};
 pub use validate::{ValidationError, validate_loads, validate_points, validate_states};

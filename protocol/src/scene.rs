@@ -133,6 +133,29 @@ pub struct FluidSpec {
     pub gamma: f64,
     /// Boxes filled with fluid particles on a cubic lattice of `spacing`.
     pub blocks: Vec<FluidBlock>,
+    /// `[fluid.initial_flow]`: an analytic velocity and pressure field the fluid starts
+    /// with. Default none: at rest (hydrostatic under gravity).
+    #[serde(default)]
+    pub initial_flow: Option<InitialFlow>,
+}
+
+/// `[fluid.initial_flow]`: an analytic initial state, selected by `kind`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum InitialFlow {
+    /// The Taylor–Green vortex in the x–y plane, with x, y measured from `domain.min`:
+    /// u = −U cos(2πx/L) sin(2πy/L), v = U sin(2πx/L) cos(2πy/L), w = 0,
+    /// p = −ρ0 U²/4 (cos(4πx/L) + cos(4πy/L)) (the density from the inverted Tait
+    /// equation). A solution of the Navier–Stokes equations whose amplitude decays as
+    /// e^{bt}, b = −8π²ν/L² (`../shared/validation/taylor_green_2d_decay.csv`).
+    /// Needs periodic x and y with periods that are whole wavelengths, and no gravity
+    /// on the fluid.
+    TaylorGreen {
+        /// U, m/s.
+        velocity: f64,
+        /// L, m.
+        wavelength: f64,
+    },
 }
 
 fn default_kernel() -> KernelKind {
@@ -742,6 +765,30 @@ impl Scene {
                     "true".into(),
                     "gravity along y on the fluid needs a floor (the initial hydrostatic state is built on it)",
                 );
+            }
+            if let Some(InitialFlow::TaylorGreen {
+                velocity,
+                wavelength,
+            }) = f.initial_flow
+            {
+                let whole = |k: usize| {
+                    let n = (d.max[k] - d.min[k]) / wavelength;
+                    d.periodic[k] && n >= 1.0 - 1e-9 && (n - n.round()).abs() < 1e-6 * n
+                };
+                if !(velocity.is_finite() && wavelength > 0.0 && whole(0) && whole(1)) {
+                    return bad(
+                        "fluid.initial_flow".into(),
+                        format!("{:?}", f.initial_flow),
+                        "Taylor–Green needs a finite velocity, a positive wavelength, and periodic x and y spanning whole wavelengths",
+                    );
+                }
+                if self.gravity.on_fluid && self.gravity.vector.iter().any(|g| *g != 0.0) {
+                    return bad(
+                        "fluid.initial_flow".into(),
+                        "taylor-green".into(),
+                        "is a solution without body force: set gravity.vector = [0, 0, 0] or gravity.on_fluid = false",
+                    );
+                }
             }
             if f.blocks.is_empty() {
                 return bad(
