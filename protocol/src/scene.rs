@@ -1013,4 +1013,62 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         assert_eq!(s.bodies[1].motion, Motion::Fixed);
         assert!(s.has_moving_bodies());
     }
+
+    /// Periodic axes, the lid and the Taylor–Green initial flow are refused, each naming
+    /// its field, when they contradict the rest of the scene; valid ones parse.
+    #[test]
+    fn periodic_lid_and_initial_flow_are_checked() {
+        let with = |domain: &str, extra: &str| {
+            let text =
+                MINIMAL.replace("max = [1, 1, 1]\n", &format!("max = [1, 1, 1]\n{domain}\n"));
+            Scene::parse(&format!("{text}\n{extra}"), Path::new("t.toml"))
+        };
+        let field = |r: Result<Scene, SceneError>| match r {
+            Err(SceneError::Invalid { field, .. }) => field,
+            other => panic!("expected an invalid field, got {other:?}"),
+        };
+        let ok = with("periodic = [true, false, true]", "").unwrap();
+        assert_eq!(ok.domain.periodic, [true, false, true]);
+        assert_eq!(
+            field(with(
+                "periodic = [false, true, false]\nclosed_top = true",
+                ""
+            )),
+            "domain.closed_top"
+        );
+        // Spacing 0.05 does not tile a period of 1.03.
+        let seam = MINIMAL.replace(
+            "max = [1, 1, 1]\n",
+            "max = [1.03, 1, 1]\nperiodic = [true, false, false]\n",
+        );
+        assert_eq!(
+            field(Scene::parse(&seam, Path::new("t.toml"))),
+            "domain.periodic[0]"
+        );
+        assert_eq!(
+            field(with("lid_velocity = [1.0, 0.0, 0.0]", "")),
+            "domain.lid_velocity"
+        );
+        assert_eq!(
+            field(with(
+                "closed_top = true\nlid_velocity = [1.0, 0.5, 0.0]",
+                ""
+            )),
+            "domain.lid_velocity"
+        );
+        assert!(with("closed_top = true\nlid_velocity = [1.0, 0.0, 0.0]", "").is_ok());
+        let tg = "[fluid.initial_flow]\nkind = \"taylor-green\"\nvelocity = 1.0\nwavelength = 0.5\n[gravity]\nvector = [0.0, 0.0, 0.0]";
+        let s = with("periodic = [true, true, false]", tg).unwrap();
+        assert_eq!(
+            s.fluid.unwrap().initial_flow,
+            Some(InitialFlow::TaylorGreen {
+                velocity: 1.0,
+                wavelength: 0.5
+            })
+        );
+        assert_eq!(
+            field(with("periodic = [true, false, false]", tg)),
+            "fluid.initial_flow"
+        );
+    }
 }
