@@ -98,6 +98,11 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         .iter()
         .filter(|b| scene.is_fluid_obstacle(b))
         .count();
+    let walls = if scene.domain.periodic.iter().all(|p| *p) {
+        "no"
+    } else {
+        walls
+    };
     push(
         BOUNDARY_PRESSURE,
         format!(
