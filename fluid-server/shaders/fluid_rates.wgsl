@@ -11,6 +11,10 @@
 // e_ij · ⟨∇⊗u⟩ᶜ_i does not depend on j it factors out: the loop sums
 //   A = Σ V s (u_i − u_j)/r,  Q = Σ V s e,  D = Σ V (u_j − u_i) ⊗ ∇W
 // and the term is 2ν (A − D Bᵀ Q) (D's column b holds the ∂_b part).
+// With MASS_CORRECTION continuity gains Joubert eq. (14)'s ρ_i Γ Δt (L15 − L16), the
+// same factoring: L15 = 2 (Σ V s w (p_i − p_j)/r − (Σ V s w e)·⟨∇p⟩ᶜ_i), w = 2/(ρ_i + ρ_j),
+// over every neighbour, L16 = Σ V (g_j − g_i)·B_i ∇W, g = ⟨∇p⟩ᶜ/ρ from the gradient pass (walls
+// and markers: g_j = g_i). See continuity.rs for the twin and the choices.
 // One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
@@ -43,6 +47,10 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     var lap_q = vec3<f32>(0.0);
     var lap_d = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     let bhat_i = b_hat(i);
+    let g_i = grad_p(i) / rho_i;
+    var mc_a = 0.0;
+    var mc_q = vec3<f32>(0.0);
+    var mc_div = 0.0;
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c_i, dy, dz);
@@ -63,6 +71,17 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 } else {
                     drho_i += continuity_term(u_ij, grad_w);
                     acc += pressure_term(pr_i, rho_i, press[j], rho_j, grad_w);
+                }
+                if MASS_CORRECTION {
+                    let r = sqrt(r2);
+                    let e = r_ij / r;
+                    let v_j = MASS / rho_j;
+                    let vs = v_j * dot(e, bhat_i * grad_w);
+                    let w = 2.0 / (rho_i + rho_j);
+                    mc_a += vs * w * (pr_i - press[j]) / r;
+                    mc_q += (vs * w) * e;
+                    let g_j = select(g_i, grad_p(j) / rho_j, is_fluid(id[j]));
+                    mc_div += v_j * dot(g_j - g_i, b_i * grad_w);
                 }
                 if DENSITY_DIFFUSION && is_fluid(id[j]) {
                     drho_i += antuono2010_diffusion_term(rho_i, rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
@@ -91,6 +110,10 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     }
     if LAPLACIAN_CORRECTION {
         acc += 2.0 * NU * (lap_a - lap_d * (transpose(b_i) * lap_q));
+    }
+    if MASS_CORRECTION {
+        let l15 = 2.0 * (mc_a - dot(mc_q, grad_p(i)));
+        drho_i += rho_i * MASS_CORRECTION_GAMMA * params.dt * (l15 - mc_div);
     }
     drho[i] = drho_i;
     dvel[i] = vec4<f32>(acc + GRAVITY, 0.0);

@@ -11,7 +11,7 @@
 //                                               its factor β ‖u‖max Δt
 // and the largest fluid speed of the step (diag[0], f32 bits: non-negative floats
 // order like their bit patterns).
-// With LAPLACIAN_CORRECTION also B̂_i of Joubert eq. (11): with q(e) = (e_x², e_y², e_z²,
+// With B_HAT_SOLVE (the corrected Laplacian or the mass correction) also B̂_i of Joubert eq. (11): with q(e) = (e_x², e_y², e_z²,
 // e_x e_y, e_x e_z, e_y e_z) and ∇W_ij = F(r) r_ij (a radial kernel),
 //   Ĉ_(cd)(mn) = Σ_j V_j F r² q_cd q_mn + R_(mn) · (B_i P_(cd)),
 //   P_(cd) = Σ_j V_j F r³ q_cd e,  R_(mn) = Σ_j V_j F r q_mn e  (vectors),
@@ -180,7 +180,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     var r_sum = 0.0;
     var count = 0.0;
     var s = vec3<f32>(0.0);
-    // Corrected Laplacian sums (header), only with LAPLACIAN_CORRECTION: C1 is fully
+    // Corrected Laplacian sums (header), only with B_HAT_SOLVE: C1 is fully
     // symmetric (15 quartic monomials of e), P and R too (10 cubic ones each), so the
     // loop keeps 10 vec4 accumulators (see quartic/cubic below).
     var q4a = vec4<f32>(0.0);
@@ -217,7 +217,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 r_sum += r;
                 count += 1.0;
                 s += r_ij / (r2 * r);
-                if LAPLACIAN_CORRECTION {
+                if B_HAT_SOLVE {
                     let e = r_ij / r;
                     let vf = (MASS / rho_j) * kernel_grad_factor(r);
                     let w1 = vf * r2;
@@ -245,7 +245,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
         // Inverse by the adjugate: the rows of M⁻¹ are the cross products of M's columns.
         b = transpose(mat3x3<f32>(cross(m[1], m[2]), cross(m[2], m[0]), cross(m[0], m[1]))) * (1.0 / det);
     }
-    if LAPLACIAN_CORRECTION {
+    if B_HAT_SOLVE {
         var bhat = array<f32, 6>(1.0, 1.0, 1.0, 0.0, 0.0, 0.0);
         if !singular {
             let q4 = array<f32, 16>(q4a.x, q4a.y, q4a.z, q4a.w, q4b.x, q4b.y, q4b.z, q4b.w,

@@ -45,6 +45,9 @@ pub struct SphConstants {
     /// Corrected Laplacian (Joubert eqs. 11, 13) in the viscous term: the gradient pass
     /// solves B̂_i, the rates use it (only with laminar viscosity).
     pub laplacian_correction: bool,
+    /// Mass correction smoothing factor Γ of Joubert eq. (14); 0: off. Needs the
+    /// gradient correction; the gradient pass then also solves B̂_i (eq. 15's stencil).
+    pub mass_correction: f64,
     /// Particle shifting decrowding factor β (Joubert eq. 17); 0: off.
     pub shifting_beta: f64,
     /// δ-SPH density diffusion coefficient δ (Antuono et al. 2010); 0: off.
@@ -90,6 +93,7 @@ impl SphConstants {
             laplacian_correction: scene.effects.laplacian_correction
                 && scene.effects.viscosity == ViscosityModel::Laminar
                 && f.kinematic_viscosity > 0.0,
+            mass_correction: scene.effects.mass_correction,
             shifting_beta: scene.effects.particle_shifting,
             density_diffusion: scene.effects.density_diffusion,
         })
@@ -117,7 +121,7 @@ impl SphConstants {
     /// the gradient and Laplacian corrections, particle shifting and δ-SPH.
     pub fn gradient_pass(&self) -> bool {
         self.gradient_correction
-            || self.laplacian_correction
+            || self.uses_b_hat()
             || self.shifting_beta > 0.0
             || self.density_diffusion > 0.0
     }
@@ -126,6 +130,12 @@ impl SphConstants {
     /// gradient term).
     pub fn uses_b_matrix(&self) -> bool {
         self.gradient_correction || self.laplacian_correction
+    }
+
+    /// The gradient pass solves the Laplacian truncation B̂_i (Joubert eq. 11): for the
+    /// corrected viscous term and for the compact pressure Laplacian of eq. (15).
+    pub fn uses_b_hat(&self) -> bool {
+        self.laplacian_correction || self.mass_correction > 0.0
     }
 
     /// Support radius, m.
@@ -161,6 +171,9 @@ impl SphConstants {
              const VISCOUS_ETA2: f32 = {eta2:e};\n\
              const GRADIENT_CORRECTION: bool = {correction};\n\
              const LAPLACIAN_CORRECTION: bool = {laplacian};\n\
+             const MASS_CORRECTION: bool = {mass_correction};\n\
+             const B_HAT_SOLVE: bool = {b_hat};\n\
+             const MASS_CORRECTION_GAMMA: f32 = {gamma_mc:e};\n\
              const SHIFTING_BETA: f32 = {beta:e};\n\
              const DENSITY_DIFFUSION: bool = {diffusion};\n\
              const DIFFUSION_DELTA: f32 = {delta:e};\n\
@@ -188,6 +201,9 @@ impl SphConstants {
             eta2 = VISCOUS_ETA2_H2 * k.h * k.h,
             correction = self.gradient_correction,
             laplacian = self.laplacian_correction,
+            mass_correction = self.mass_correction > 0.0,
+            b_hat = self.uses_b_hat(),
+            gamma_mc = self.mass_correction,
             beta = self.shifting_beta,
             diffusion = self.density_diffusion > 0.0,
             delta = self.density_diffusion,

@@ -10,17 +10,59 @@
 //! Molteni 2010, eq. 5) adds over fluid neighbours `δ h c_s Σ_j V_j ψ_ij·∇W_ij`,
 //! `ψ_ij = 2(ρ_j − ρ_i) r_ji/r_ij² − (⟨∇ρ⟩ᶜ_i + ⟨∇ρ⟩ᶜ_j)`, with the renormalised density
 //! gradients of the gradient pass (h: the smoothing length of the kernel in use).
+//!
+//! With `effects.mass_correction` = Γ > 0, Joubert eq. (14) adds
+//! `ρ_i Γ Δt (L15_i − L16_i)` with
+//! - `L15_i = 2 Σ_j V_j (2/(ρ_i + ρ_j)) ((p_i − p_j)/r_ij − e_ij·⟨∇p⟩ᶜ_i) B̂_i:(e_ij ⊗ ∇W_ij)`
+//!   (eq. 15; as printed, its `e_ij·⟨∇p⟩ᶜ_i` lacks the `1/ρ` of the first term and the
+//!   two do not have the same units: we read the pair's `2/(ρ_i + ρ_j)` as multiplying
+//!   the whole bracket, which keeps the term zero for a linear pressure whatever the
+//!   densities, as the Taylor correction of eq. 11 intends),
+//! - `L16_i = Σ_j V_j (g_j − g_i)·B_i ∇W_ij`, `g = ⟨∇p⟩ᶜ/ρ` (eq. 16),
+//!
+//! over every neighbour. Walls and markers have no corrected gradient of their own:
+//! they enter eq. (16) with `g_j = g_i` (no contribution), eq. (15) with their pressure.
+//! The gradients `⟨∇p⟩ᶜ` are the gradient pass's (start of the step, in both stages of
+//! the predictor–corrector: the term is O(Δt) already, so the lag is O(Δt²)).
 
 use crate::constants::SphConstants;
-use crate::joubert2020_gradients::{b_matrix_cpu, mat_vec};
+use crate::joubert2020_gradients::{Gradients, b_matrix_cpu, laplacian_b_hat_cpu, mat_vec};
 use crate::particles::{Kind, ParticleSet, dot, sub};
 
 pub const CONTINUITY_WGSL: &str = include_str!("../shaders/continuity.wgsl");
 
-/// CPU twin: dρ/dt of particle (entry) `i`; `grad_rho` holds every entry's corrected
-/// density gradient when density diffusion is on (unused otherwise).
-pub fn continuity_cpu(c: &SphConstants, set: &ParticleSet, i: usize, grad_rho: &[[f64; 3]]) -> f64 {
+/// CPU twin: dρ/dt of particle (entry) `i`; `grads` holds every entry's gradient-pass
+/// results when density diffusion or the mass correction is on (unused otherwise);
+/// `dt` is the step (mass correction only).
+pub fn continuity_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    i: usize,
+    grads: &[Option<Gradients>],
+    dt: f64,
+) -> f64 {
     let b = c.gradient_correction.then(|| b_matrix_cpu(c, set, i).0);
+    let grad_rho = |k: usize| grads[k].map_or([0.0; 3], |g| g.grad_rho);
+    // Mass correction (eqs. 14–16): g = ⟨∇p⟩ᶜ/ρ, B̂_i, and the sums of eqs. (15)–(16).
+    let mc = (c.mass_correction > 0.0).then(|| {
+        let (bm, singular) = b_matrix_cpu(c, set, i);
+        let bhat = laplacian_b_hat_cpu(c, set, i, &bm, singular).0;
+        (bm, bhat)
+    });
+    let g_p = |k: usize| {
+        grads
+            .get(k)
+            .copied()
+            .flatten()
+            .map(|g| g.grad_p.map(|x| x / set.rho[k]))
+    };
+    let grad_p_i = grads
+        .get(i)
+        .copied()
+        .flatten()
+        .map_or([0.0; 3], |g| g.grad_p);
+    let g_i = g_p(i).unwrap_or([0.0; 3]);
+    let (mut mc_a, mut mc_q, mut mc_div) = (0.0, [0.0; 3], 0.0);
     let mut d = 0.0;
     for j in set.neighbours(i, c.support_radius()) {
         let grad_w = c.kernel.grad(sub(set.pos[i], set.pos[j]));
@@ -29,18 +71,36 @@ pub fn continuity_cpu(c: &SphConstants, set: &ParticleSet, i: usize, grad_rho: &
             Some(b) => set.rho[i] * (c.mass / set.rho[j]) * dot(u_ij, mat_vec(b, grad_w)),
             None => c.mass * dot(u_ij, grad_w),
         };
+        if let Some((bm, bhat)) = &mc {
+            let r_ij = sub(set.pos[i], set.pos[j]);
+            let r = dot(r_ij, r_ij).sqrt();
+            let e = r_ij.map(|x| x / r);
+            let v_j = c.mass / set.rho[j];
+            let vs = v_j * dot(e, mat_vec(bhat, grad_w));
+            let w = 2.0 / (set.rho[i] + set.rho[j]);
+            mc_a += vs * w * (set.press[i] - set.press[j]) / r;
+            for k in 0..3 {
+                mc_q[k] += vs * w * e[k];
+            }
+            let g_j = g_p(j).unwrap_or(g_i);
+            mc_div += v_j * dot(sub(g_j, g_i), mat_vec(bm, grad_w));
+        }
         if c.density_diffusion > 0.0 && set.kinds.kind(set.id[j]) == Kind::Fluid {
             let r_ij = sub(set.pos[i], set.pos[j]);
             let (rho_i, rho_j) = (set.rho[i], set.rho[j]);
             let f = -2.0 * (rho_j - rho_i) / dot(r_ij, r_ij);
-            let psi: [f64; 3] =
-                std::array::from_fn(|k| f * r_ij[k] - (grad_rho[i][k] + grad_rho[j][k]));
+            let (gi, gj) = (grad_rho(i), grad_rho(j));
+            let psi: [f64; 3] = std::array::from_fn(|k| f * r_ij[k] - (gi[k] + gj[k]));
             d += c.density_diffusion
                 * c.kernel.h
                 * c.sound_speed
                 * (c.mass / rho_j)
                 * dot(psi, grad_w);
         }
+    }
+    if mc.is_some() {
+        let l15 = 2.0 * (mc_a - dot(mc_q, grad_p_i));
+        d += set.rho[i] * c.mass_correction * dt * (l15 - mc_div);
     }
     d
 }

@@ -24,14 +24,21 @@ const BINDINGS: &[(u32, Access)] = &[
     (pb::DRHO, Access::ReadWrite),
     (pb::DVEL, Access::ReadWrite),
 ];
-/// `grad_rho(i)`: ⟨∇ρ⟩ᶜ_i from the gradient pass, bound only with density diffusion.
-const GRAD_RHO_WGSL: &str = "@group(0) @binding(10) var<storage, read> grads: array<vec4<f32>>;
+/// `grad_rho(i)`, `grad_p(i)`: ⟨∇ρ⟩ᶜ_i and ⟨∇p⟩ᶜ_i from the gradient pass, bound only
+/// with density diffusion or the mass correction.
+const GRADS_WGSL: &str = "@group(0) @binding(10) var<storage, read> grads: array<vec4<f32>>;
 fn grad_rho(i: u32) -> vec3<f32> {
     return grads[6u * i + 5u].xyz;
 }
+fn grad_p(i: u32) -> vec3<f32> {
+    return grads[6u * i + 3u].xyz;
+}
 ";
-/// Without density diffusion no gradient buffer is bound (the term is compiled out).
-const NO_GRAD_RHO_WGSL: &str = "fn grad_rho(i: u32) -> vec3<f32> {
+/// Without either no gradient buffer is bound (the terms are compiled out).
+const NO_GRADS_WGSL: &str = "fn grad_rho(i: u32) -> vec3<f32> {
+    return vec3<f32>(0.0);
+}
+fn grad_p(i: u32) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 ";
@@ -78,13 +85,13 @@ const OWN_WALL_VELOCITY_WGSL: &str = "fn wall_velocity(j: u32) -> vec3<f32> {
 
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
-    let diffusion = c.density_diffusion > 0.0;
+    let grads = c.density_diffusion > 0.0 || c.mass_correction > 0.0;
     // The B matrix and the gradient buffer are bound only when their effect is on.
     let mut bindings = BINDINGS.to_vec();
     if c.uses_b_matrix() {
         bindings.push((pb::BMAT, Access::Read));
     }
-    if diffusion {
+    if grads {
         bindings.push((pb::GRADS, Access::Read));
     }
     let wall_velocity = if c.wall_velocity_extrapolation {
@@ -98,17 +105,13 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     } else {
         NO_B_MATRIX_WGSL
     };
-    let b_hat = if c.laplacian_correction {
+    let b_hat = if c.uses_b_hat() {
         bindings.push((pb::BHAT, Access::Read));
         B_HAT_WGSL
     } else {
         NO_B_HAT_WGSL
     };
-    let g = if diffusion {
-        GRAD_RHO_WGSL
-    } else {
-        NO_GRAD_RHO_WGSL
-    };
+    let g = if grads { GRADS_WGSL } else { NO_GRADS_WGSL };
     SphKernel::new(
         gpu,
         "sph: fluid_rates",
@@ -131,13 +134,15 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     )
 }
 
-/// CPU twin: (dρ/dt, du/dt) of every fluid entry; `None` for other particles.
-pub fn fluid_rates_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<(f64, [f64; 3])>> {
-    let grad_rho: Vec<[f64; 3]> = if c.density_diffusion > 0.0 {
+/// CPU twin: (dρ/dt, du/dt) of every fluid entry; `None` for other particles. `dt` is
+/// the step the rates are taken for (it enters the mass correction only).
+pub fn fluid_rates_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    dt: f64,
+) -> Vec<Option<(f64, [f64; 3])>> {
+    let grads = if c.density_diffusion > 0.0 || c.mass_correction > 0.0 {
         gradients_cpu(c, set)
-            .iter()
-            .map(|g| g.map_or([0.0; 3], |g| g.grad_rho))
-            .collect()
     } else {
         Vec::new()
     };
@@ -145,7 +150,7 @@ pub fn fluid_rates_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<(f64, 
         .map(|i| {
             (set.kinds.kind(set.id[i]) == Kind::Fluid).then(|| {
                 (
-                    continuity_cpu(c, set, i, &grad_rho),
+                    continuity_cpu(c, set, i, &grads, dt),
                     momentum_cpu(c, set, i),
                 )
             })

@@ -70,7 +70,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
         (pb::BMAT, Access::ReadWrite),
         (pb::GRADS, Access::ReadWrite),
     ];
-    let store = if c.laplacian_correction {
+    let store = if c.uses_b_hat() {
         particles.push((pb::BHAT, Access::ReadWrite));
         STORE_BHAT_WGSL
     } else {

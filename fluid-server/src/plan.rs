@@ -27,6 +27,7 @@ pub const BLOWUP_CHECK: &str = "blowup_check";
 pub const GRADIENTS: &str = "joubert2020_gradients";
 pub const PARTICLE_SHIFTING: &str = "particle_shifting";
 pub const DENSITY_DIFFUSION: &str = "antuono2010_density_diffusion";
+pub const MASS_CORRECTION: &str = "joubert2020_mass_correction";
 
 /// The stages of one fluid step for `scene`, in execution order. Effects that are off
 /// are absent. Continuity, the pressure gradient, the viscous terms and gravity are one
@@ -64,6 +65,7 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     let laplacian = scene.effects.laplacian_correction && laminar;
     let beta = scene.effects.particle_shifting;
     let delta = scene.effects.density_diffusion;
+    let gamma_mc = scene.effects.mass_correction;
     if correction || laplacian || beta > 0.0 || delta > 0.0 {
         let users: Vec<&str> = [
             (correction, "effects.gradient_correction"),
@@ -73,6 +75,10 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
             ),
             (beta > 0.0, "effects.particle_shifting (Taylor terms)"),
             (delta > 0.0, "effects.density_diffusion (renormalised ∇ρ)"),
+            (
+                gamma_mc > 0.0,
+                "effects.mass_correction (∇p, and B̂ of eq. 11 for eq. 15)",
+            ),
         ]
         .iter()
         .filter_map(|(on, name)| on.then_some(*name))
@@ -145,6 +151,14 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
             DENSITY_DIFFUSION,
             format!(
                 "effects.density_diffusion δ = {delta}: δ-SPH (Antuono et al. 2010) in the continuity pair loop"
+            ),
+        );
+    }
+    if gamma_mc > 0.0 {
+        push(
+            MASS_CORRECTION,
+            format!(
+                "effects.mass_correction Γ = {gamma_mc}: Joubert eq. (14) ρ_i Γ Δt (eq. 15 − eq. 16) in the continuity pair loop"
             ),
         );
     }

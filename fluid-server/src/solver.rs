@@ -331,7 +331,7 @@ impl SphData {
             bmat: storage_init(gpu, "sph: B matrix", &vec![0u8; n * 48]),
             grads: storage_init(gpu, "sph: corrected gradients", &vec![0u8; n * 96]),
             bhat: c
-                .laplacian_correction
+                .uses_b_hat()
                 .then(|| storage_init(gpu, "sph: Laplacian truncation", &vec![0u8; n * 32])),
             diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16]),
         });
