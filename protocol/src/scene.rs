@@ -295,8 +295,11 @@ pub struct EffectsSpec {
     /// Adami walls, free surface) the corrected scheme blows up within 0.03–0.05 s, the
     /// first bad particle at the floor or the surface; the difference-form pressure term
     /// gives no wall repulsion in hydrostatic balance, and Joubert's own wall treatment
-    /// (Neumann pressure, eq. 25) is not implemented yet. Enclosed flows without gravity
-    /// on the fluid (the settling sphere) run; the blow-up check names the particle.
+    /// (Neumann pressure, eq. 25) is not implemented yet. The mass correction does not
+    /// cure it (with Γ = 1 or 2 the blow-up comes at 0.01 s; the free-surface layer's
+    /// density climbs from the first steps). Joubert runs no free surface. Enclosed flows
+    /// without gravity on the fluid (the settling sphere, the channels, the cavity) run;
+    /// the blow-up check names the particle.
     #[serde(default)]
     pub gradient_correction: bool,
     /// Corrected Laplacian of Joubert eqs. (11) and (13) (Fatehi & Manzari) for the
