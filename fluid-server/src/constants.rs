@@ -4,7 +4,7 @@
 
 use crate::error::FluidError;
 use crate::kernel::SmoothingKernel;
-use couplet_protocol::{KernelKind, Scene, ViscosityModel, WallKind};
+use couplet_protocol::{KernelKind, Scene, ViscosityModel, WallKind, WallModel};
 
 /// Scene-fixed parameters of the standard WCSPH scheme, in SI units (`f64`; the WGSL
 /// constants are the same numbers rounded to `f32`).
@@ -29,16 +29,22 @@ pub struct SphConstants {
     pub laminar: bool,
     /// Monaghan (1992) artificial viscosity α (0: stage off).
     pub alpha: f64,
-    /// Domain walls are no-slip (take part in the viscous sums with zero velocity);
-    /// free-slip walls do not enter them.
+    /// Walls take part in the viscous sums: Adami no-slip walls (free-slip ones do not
+    /// enter them), and every one-layer Joubert boundary particle (no-slip ones with
+    /// their own velocity, symmetry ones with the fluid's by eq. 27).
     pub no_slip_walls: bool,
     /// No-slip walls enter the viscous sums with the velocity 2 v_w − ṽ_w (Adami, Hu &
     /// Adams 2012, §2.3): ṽ_w the Shepard interpolation of the fluid's velocity at the
     /// wall particle, v_w the wall's own (0, or the lid's). The fluid then sees the
     /// no-slip condition on the wall face rather than on the first wall layer half a
     /// spacing behind it (measured: a start-up Poiseuille profile 17 % off with walls
-    /// at their own velocity). On whenever no-slip walls meet a viscous term.
+    /// at their own velocity). On whenever no-slip Adami walls meet a viscous term
+    /// (Joubert's one-layer walls sit on the face: no extrapolation).
     pub wall_velocity_extrapolation: bool,
+    /// `domain.wall_model = "joubert"`: one layer of boundary particles on the faces,
+    /// their pressure from the Neumann condition of Joubert eq. (25) and, on symmetry
+    /// planes, their velocity from eq. (27) ([`crate::joubert2020_boundary_values`]).
+    pub joubert_walls: bool,
     /// Kernel-gradient correction (Joubert eq. 10) on: the gradient pass runs and the
     /// continuity and pressure terms take the corrected difference form (eqs. 12–13).
     pub gradient_correction: bool,
@@ -72,6 +78,7 @@ impl SphConstants {
         } else {
             [0.0; 3]
         };
+        let joubert_walls = scene.domain.wall_model == WallModel::Joubert;
         Ok(Self {
             kernel,
             spacing: f.spacing,
@@ -84,11 +91,13 @@ impl SphConstants {
             laminar: scene.effects.viscosity == ViscosityModel::Laminar
                 && f.kinematic_viscosity > 0.0,
             alpha: scene.effects.artificial_viscosity,
-            no_slip_walls: scene.domain.walls == WallKind::NoSlip,
+            no_slip_walls: scene.domain.walls == WallKind::NoSlip || joubert_walls,
             wall_velocity_extrapolation: scene.domain.walls == WallKind::NoSlip
+                && !joubert_walls
                 && ((scene.effects.viscosity == ViscosityModel::Laminar
                     && f.kinematic_viscosity > 0.0)
                     || scene.effects.artificial_viscosity > 0.0),
+            joubert_walls,
             gradient_correction: scene.effects.gradient_correction,
             laplacian_correction: scene.effects.laplacian_correction
                 && scene.effects.viscosity == ViscosityModel::Laminar

@@ -25,6 +25,7 @@ pub mod error;
 pub mod fluid_rates;
 pub mod integrate;
 pub mod joubert2020_body_loads;
+pub mod joubert2020_boundary_values;
 pub mod joubert2020_gradients;
 pub mod kernel;
 pub mod limits;

@@ -7,7 +7,7 @@
 
 use crate::constants::SphConstants;
 use crate::error::FluidError;
-use couplet_protocol::{InitialFlow, Scene, Shape};
+use couplet_protocol::{InitialFlow, Scene, Shape, WallModel};
 
 /// A particle set in world coordinates (SI units), indexed by id: the initial state of
 /// a solver, and the CPU side of the kernel twins (`f64`).
@@ -100,7 +100,13 @@ pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// costs a boundary-pressure pass over it every step: walls are half the particles of
 /// a small closed box). A particle pressed closer than δ/2 to the wall sees at most the
 /// kernel's near-zero tail truncated.
+///
+/// Joubert's walls (`domain.wall_model = "joubert"`, §2.5) are one layer on the face
+/// itself, half a spacing from the first fluid row.
 pub fn wall_layers(scene: &Scene) -> usize {
+    if scene.domain.wall_model == WallModel::Joubert {
+        return 1;
+    }
     scene
         .fluid
         .as_ref()
@@ -158,9 +164,10 @@ impl Obstacle {
 ///
 /// * Fluid: each `[[fluid.blocks]]` on a cubic lattice of `spacing`, first particle at
 ///   `min + δ/2`; particles inside a fixed box obstacle are removed.
-/// * Walls: `ceil(support)` layers outside each face of the domain (the +y face only
+/// * Walls: [`wall_layers`] layers outside each face of the domain (the +y face only
 ///   when `closed_top`; none on periodic axes), edges and corners included, on the
-///   lattice continued outward from each face (`min − δ/2 − kδ`, `max + δ/2 + kδ`).
+///   lattice continued outward from each face (`min − δ/2 − kδ`, `max + δ/2 + kδ`; with
+///   `wall_model = "joubert"` one layer on the face itself, `min` and `max`).
 ///   They rest, except the +y layers, which move at `domain.lid_velocity`.
 /// * Fixed box obstacles (`motion = "fixed"`, `shape.box`): wall particles on the
 ///   domain lattice inside the box, down to the support radius below its surface
@@ -222,18 +229,25 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
     }
 
     let layers = wall_layers(scene);
+    // Layer l's distance behind a face: (l + ½)δ for Adami's layers, 0 for Joubert's one
+    // layer on the face.
+    let offset = if dom.wall_model == WallModel::Joubert {
+        0.0
+    } else {
+        0.5
+    };
     // Per axis: outer layers below, the interior lattice, outer layers above.
     // A periodic axis has no wall layers (its lattice tiles the period).
     let axis = |k: usize, upper: bool| -> (Vec<f64>, usize) {
         let layers = if dom.periodic[k] { 0 } else { layers };
         let mut v: Vec<f64> = (0..layers)
             .rev()
-            .map(|l| dom.min[k] - (l as f64 + 0.5) * delta)
+            .map(|l| dom.min[k] - (l as f64 + offset) * delta)
             .collect();
         let n_below = v.len();
         v.extend(lattice(dom.min[k], dom.max[k], delta));
         if upper {
-            v.extend((0..layers).map(|l| dom.max[k] + (l as f64 + 0.5) * delta));
+            v.extend((0..layers).map(|l| dom.max[k] + (l as f64 + offset) * delta));
         }
         (v, n_below)
     };
@@ -311,12 +325,13 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
             p[1] = bottom + depth(height) - depth(s);
         }
     }
-    // Walls rest, except the +y wall's layers, which slide at the lid velocity.
+    // Walls rest, except the +y wall's layers (on or behind the face), which slide at
+    // the lid velocity.
     let mut vel: Vec<[f64; 3]> = pos
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            if i >= n_fluid && dom.closed_top && p[1] > dom.max[1] {
+            if i >= n_fluid && dom.closed_top && p[1] > dom.max[1] - 0.25 * delta {
                 dom.lid_velocity
             } else {
                 [0.0; 3]

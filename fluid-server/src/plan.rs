@@ -1,7 +1,7 @@
 //! The list of GPU stages a scene runs, and why: a pure function of the scene, used by
 //! the solver to build its passes and by `couplet plan` (which needs no GPU).
 
-use couplet_protocol::{Scene, ViscosityModel, WallKind};
+use couplet_protocol::{Scene, ViscosityModel, WallKind, WallModel};
 
 /// One GPU stage of a fluid step.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -15,6 +15,7 @@ pub struct Stage {
 pub const NEIGHBOUR_GRID: &str = "neighbour_grid";
 pub const MARKER_UPDATE: &str = "marker_update";
 pub const BOUNDARY_PRESSURE: &str = "adami2012_boundary_pressure";
+pub const JOUBERT_BOUNDARY_VALUES: &str = "joubert2020_boundary_values";
 pub const CONTINUITY: &str = "continuity";
 pub const MOMENTUM_PRESSURE: &str = "momentum_pressure";
 pub const MORRIS1997_VISCOSITY: &str = "morris1997_viscosity";
@@ -109,23 +110,56 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     } else {
         walls
     };
-    push(
-        BOUNDARY_PRESSURE,
-        format!(
-            "{walls} domain walls{}{}: wall pressure extrapolated from the fluid (Adami, Hu & Adams 2012){}, twice per step",
-            if obstacles > 0 {
-                format!(", {obstacles} fixed box obstacle(s)")
-            } else {
-                String::new()
-            },
-            if resolved { ", body markers" } else { "" },
-            if walls == "no-slip" && (laminar || scene.effects.artificial_viscosity > 0.0) {
-                "; no-slip walls' viscous velocity 2 v_w − ṽ_w"
-            } else {
-                ""
-            }
-        ),
-    );
+    if scene.domain.wall_model == WallModel::Joubert {
+        let axes = |pick: &dyn Fn(usize) -> bool| -> Vec<&str> {
+            ["x", "y", "z"]
+                .into_iter()
+                .enumerate()
+                .filter_map(|(k, a)| pick(k).then_some(a))
+                .collect()
+        };
+        let d = &scene.domain;
+        let symmetric =
+            axes(&|k| !d.periodic[k] && (d.symmetry[k] || d.walls == WallKind::FreeSlip));
+        let held = axes(&|k| !d.periodic[k] && !d.symmetry[k] && d.walls == WallKind::NoSlip);
+        push(
+            JOUBERT_BOUNDARY_VALUES,
+            format!(
+                "one layer of boundary particles on the faces (Joubert §2.5){}{}: pressure by the Neumann condition of eq. (25), B over the fluid neighbours, twice per step",
+                if held.is_empty() {
+                    String::new()
+                } else {
+                    format!("; no-slip {} faces hold their velocity", held.join(", "))
+                },
+                if symmetric.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; {} faces are symmetry planes (velocity by eq. 27, ∂u/∂n = 0)",
+                        symmetric.join(", ")
+                    )
+                },
+            ),
+        );
+    } else {
+        push(
+            BOUNDARY_PRESSURE,
+            format!(
+                "{walls} domain walls{}{}: wall pressure extrapolated from the fluid (Adami, Hu & Adams 2012){}, twice per step",
+                if obstacles > 0 {
+                    format!(", {obstacles} fixed box obstacle(s)")
+                } else {
+                    String::new()
+                },
+                if resolved { ", body markers" } else { "" },
+                if walls == "no-slip" && (laminar || scene.effects.artificial_viscosity > 0.0) {
+                    "; no-slip walls' viscous velocity 2 v_w − ṽ_w"
+                } else {
+                    ""
+                }
+            ),
+        );
+    }
     if correction {
         push(
             CONTINUITY,

@@ -36,8 +36,8 @@ use crate::sph_kernel::{
 use crate::timing::{self, StageTimer};
 use crate::{
     adami2012_boundary_pressure, blowup_check, body_load_reduce, fluid_rates, integrate,
-    joubert2020_body_loads, joubert2020_gradients, marker_update, neighbour_count,
-    particle_shifting, plan, tait_eos,
+    joubert2020_body_loads, joubert2020_boundary_values, joubert2020_gradients, marker_update,
+    neighbour_count, particle_shifting, plan, tait_eos,
 };
 use couplet_protocol::{BodyLoad, BodyState, CouplingPoint, ParticleRecord, Scene};
 use wgpu::util::DeviceExt;
@@ -108,7 +108,11 @@ impl SphPipelines {
     ) -> Self {
         SphPipelines {
             tait_eos: tait_eos::kernel(gpu, c),
-            boundary_pressure: adami2012_boundary_pressure::kernel(gpu, c, grid_layout),
+            boundary_pressure: if c.joubert_walls {
+                joubert2020_boundary_values::kernel(gpu, c, grid_layout)
+            } else {
+                adami2012_boundary_pressure::kernel(gpu, c, grid_layout)
+            },
             fluid_rates: fluid_rates::kernel(gpu, c, grid_layout),
             predict: integrate::predict_kernel(gpu, c),
             correct: integrate::correct_kernel(gpu, c),
@@ -198,6 +202,9 @@ pub struct SphData {
     /// the boundary pass after every sort, so not permuted), when a viscous term meets
     /// no-slip walls ([`SphConstants::wall_velocity_extrapolation`]).
     pub wall_vel: Option<wgpu::Buffer>,
+    /// Joubert walls' normals and kinds ([`joubert2020_boundary_values::wall_normals`]),
+    /// only with `domain.wall_model = "joubert"`.
+    pub wall_normal: Option<wgpu::Buffer>,
     bound: Bound,
 }
 
@@ -253,6 +260,7 @@ impl SphData {
         c: &SphConstants,
         pipelines: &SphPipelines,
         set: &ParticleSet,
+        wall_normals: &[[f32; 4]],
         bounds: GridBox,
         body_capacity: usize,
     ) -> Result<SphData, FluidError> {
@@ -338,6 +346,9 @@ impl SphData {
         let wall_vel = c
             .wall_velocity_extrapolation
             .then(|| storage_init(gpu, "sph: wall velocity", &vec![0u8; n * 16]));
+        let wall_normal = c
+            .joubert_walls
+            .then(|| storage_init(gpu, "sph: wall normals", bytemuck::cast_slice(wall_normals)));
         let bodies = (set.kinds.n_markers > 0).then(|| {
             let m = set.kinds.n_markers;
             let cap = body_capacity.max(1);
@@ -372,6 +383,7 @@ impl SphData {
                     pb::BMAT => &gradients.as_ref()?.bmat,
                     pb::GRADS => &gradients.as_ref()?.grads,
                     pb::WALL_VEL => wall_vel.as_ref()?,
+                    pb::WALL_NORMAL => wall_normal.as_ref()?,
                     pb::BHAT => gradients.as_ref()?.bhat.as_ref()?,
                     _ => return None,
                 })
@@ -490,6 +502,7 @@ impl SphData {
             bodies,
             gradients,
             wall_vel,
+            wall_normal,
             bound,
         })
     }
@@ -512,7 +525,14 @@ impl SphData {
                 return;
             }
             Op::TaitEos => (&b.tait_eos, "sph: tait_eos"),
-            Op::BoundaryPressure => (&b.boundary_pressure, "sph: adami2012_boundary_pressure"),
+            Op::BoundaryPressure => (
+                &b.boundary_pressure,
+                if self.wall_normal.is_some() {
+                    "sph: joubert2020_boundary_values"
+                } else {
+                    "sph: adami2012_boundary_pressure"
+                },
+            ),
             Op::FluidRates => (&b.fluid_rates, "sph: fluid_rates"),
             Op::Predict => (&b.predict, "sph: predict"),
             Op::Gradients => match (&b.gradients, &self.gradients) {
@@ -670,6 +690,9 @@ pub struct FluidSolver {
     /// Particle-steps of the last window whose truncation matrix was near-singular
     /// (kept the uncorrected gradient); 0 without the gradient pass.
     near_singular: u32,
+    /// Joubert walls' normals by wall index (empty with Adami walls); the carve-out of
+    /// bodies renumbers fluid ids only, so the wall order, and these, stay valid.
+    wall_normals: Vec<[f32; 4]>,
 }
 
 impl FluidSolver {
@@ -706,9 +729,6 @@ impl FluidSolver {
             }),
             periodic,
         };
-        for p in &mut set.pos {
-            *p = std::array::from_fn(|k| p[k] - origin[k]);
-        }
         // Only a throwaway grid gives the layout the pipelines are built with; wgpu
         // deduplicates identical bind group layouts, so later grids' bind groups fit.
         let probe = NeighbourGrid::new(gpu, bounds, consts.support_radius(), 1)?;
@@ -719,7 +739,23 @@ impl FluidSolver {
             scene.has_resolved_bodies(),
         );
         drop(probe);
-        let data = SphData::new(gpu, &consts, &pipelines, &set, bounds, scene.bodies.len())?;
+        let wall_normals = if consts.joubert_walls {
+            joubert2020_boundary_values::wall_normals(scene, &set)
+        } else {
+            Vec::new()
+        };
+        for p in &mut set.pos {
+            *p = std::array::from_fn(|k| p[k] - origin[k]);
+        }
+        let data = SphData::new(
+            gpu,
+            &consts,
+            &pipelines,
+            &set,
+            &wall_normals,
+            bounds,
+            scene.bodies.len(),
+        )?;
         let step_params = StepParams {
             n_total: data.n_total,
             n_fluid: data.kinds.n_fluid as u32,
@@ -744,6 +780,7 @@ impl FluidSolver {
             steps: 0,
             loads_ready: false,
             near_singular: 0,
+            wall_normals,
         };
         // Fluid pressures from the initial densities (Joubert eq. 4).
         solver.write_params(gpu);
@@ -976,6 +1013,7 @@ impl FluidSolver {
             &self.consts,
             &self.pipelines,
             &set,
+            &self.wall_normals,
             self.bounds,
             body_capacity,
         )?;
@@ -1098,8 +1136,8 @@ impl FluidSolver {
 
     /// End-of-window checks: blow-up (non-finite, runaway density or speed) and
     /// particles outside the grid. Returns the window's near-singular particle-steps of
-    /// the gradient pass (0 without it), copied into `status[1]` so that one readback
-    /// serves both.
+    /// the gradient pass and of Joubert's boundary values (0 without the pass), copied
+    /// into `status[1..3]` so that one readback serves both.
     fn check(&self, gpu: &Gpu) -> Result<u32, FluidError> {
         let d = &self.data;
         gpu.queue.write_buffer(
@@ -1118,11 +1156,17 @@ impl FluidSolver {
             d.bound.capture_bad.dispatch(&mut pass, d.n_total);
         }
         if let Some(g) = &d.gradients {
-            encoder.copy_buffer_to_buffer(&g.diag, 4, &d.status, 4, 4);
+            encoder.copy_buffer_to_buffer(&g.diag, 4, &d.status, 4, 8);
         }
         gpu.queue.submit([encoder.finish()]);
-        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 2)?;
-        let near_singular = if d.gradients.is_some() { status[1] } else { 0 };
+        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 3)?;
+        // Gradient-pass fallbacks per step, plus Joubert boundary particles' (counted in
+        // each of the step's two boundary passes).
+        let near_singular = if d.gradients.is_some() {
+            status[1] + status[2] / 2
+        } else {
+            0
+        };
         if let Some(&id) = status.first()
             && id != blowup_check::NO_BAD_ID
         {

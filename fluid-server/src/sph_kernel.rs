@@ -49,6 +49,9 @@ pub mod particle_binding {
     /// B̂_i of the corrected Laplacian (Joubert eq. 11), symmetric: two vec4 per
     /// particle, (B̂_xx, B̂_yy, B̂_zz, 0), (B̂_xy, B̂_xz, B̂_yz, 0) (gradient pass).
     pub const BHAT: u32 = 12;
+    /// Joubert walls' unit normal and kind (w = 1 on a symmetry plane), one vec4 per
+    /// wall particle indexed by `id − n_fluid` (not permuted).
+    pub const WALL_NORMAL: u32 = 13;
 }
 
 /// Bodies and markers, group 2.
@@ -69,7 +72,8 @@ pub mod param_binding {
     pub const BAD_VALUES: u32 = 2;
     pub const COUNTS: u32 = 3;
     /// Per-step diagnostics of the gradient pass: [0] max fluid speed (f32 bits),
-    /// [1] particles with a near-singular truncation matrix.
+    /// [1] particles with a near-singular truncation matrix, [2] Joubert boundary
+    /// particles whose one-sided matrix was (per boundary pass, two per step).
     pub const DIAG: u32 = 4;
 }
 

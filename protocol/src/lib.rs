@@ -9,7 +9,7 @@ pub use payload::{
 pub use scene::{
     BodySpec, CouplingMode, CouplingScheme, DemSpec, Domain, EffectsSpec, FluidBlock, FluidSpec,
     GravitySpec, InitialFlow, KernelKind, Meta, Motion, Scene, SceneError, Shape, TimeSpec,
-    ViscosityModel, WallKind,
+    ViscosityModel, WallKind, WallModel,
 };
 pub use service::{ServiceLeaf, service_name};
 pub use validate::{ValidationError, validate_loads, validate_points, validate_states};

@@ -226,6 +226,36 @@ pub struct Domain {
     /// Needs `closed_top` and no-slip walls; must be tangential (y component 0).
     #[serde(default)]
     pub lid_velocity: [f64; 3],
+    /// How the walls are built and given their pressure. Default `"adami"`.
+    #[serde(default)]
+    pub wall_model: WallModel,
+    /// Axes `[x, y, z]` whose two faces are symmetry planes (zero normal gradient of
+    /// every field, zero normal velocity; Joubert §2.5, eq. 27) instead of `walls`.
+    /// Default none. Needs `wall_model = "joubert"`; not on a periodic axis, nor on y
+    /// with a lid velocity. A particle on the edge between a symmetry plane and a wall
+    /// belongs to the wall (its velocity is the wall's).
+    #[serde(default)]
+    pub symmetry: [bool; 3],
+}
+
+/// `domain.wall_model`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WallModel {
+    /// Layers of wall particles filling the support behind each face (the first δ/2
+    /// behind it), pressure extrapolated from the fluid by Adami, Hu & Adams (2012),
+    /// eq. (27). Works with every scheme; the default because it needs no correction.
+    #[default]
+    Adami,
+    /// One layer of boundary particles on each face (Joubert §2.5): no-slip faces hold
+    /// their velocity (a Dirichlet condition), symmetry faces (`domain.symmetry`, or
+    /// every face with `walls = "free-slip"`) take the fluid's tangential velocity by
+    /// eq. (27) with a zero normal derivative; the pressure of every boundary particle
+    /// comes from the Neumann condition of eq. (25) with B over its fluid neighbours.
+    /// Needs `effects.gradient_correction` (a one-layer wall truncates the kernel,
+    /// which only the corrected operators tolerate); not with fixed box obstacles or
+    /// resolved bodies yet (their markers take eq. 25 with the resolved coupling).
+    Joubert,
 }
 
 fn default_walls() -> WallKind {
@@ -741,6 +771,34 @@ impl Scene {
                 "needs a +y wall (domain.closed_top = true) that is no-slip (domain.walls)",
             );
         }
+        if d.wall_model == WallModel::Joubert {
+            if !self.effects.gradient_correction {
+                return bad(
+                    "domain.wall_model".into(),
+                    "joubert".into(),
+                    "one-layer walls truncate the kernel: needs effects.gradient_correction = true (Joubert §2.5)",
+                );
+            }
+            if self.bodies.iter().any(|b| self.is_fluid_obstacle(b)) || self.has_resolved_bodies() {
+                return bad(
+                    "domain.wall_model".into(),
+                    "joubert".into(),
+                    "not with fixed box obstacles or resolved bodies yet: use \"adami\"",
+                );
+            }
+        }
+        for k in (0..3).filter(|k| d.symmetry[*k]) {
+            let why = if d.wall_model != WallModel::Joubert {
+                "symmetry planes need domain.wall_model = \"joubert\" (Joubert eq. 27)"
+            } else if d.periodic[k] {
+                "an axis cannot be both periodic and bounded by symmetry planes"
+            } else if k == 1 && d.lid_velocity != [0.0; 3] {
+                "the +y face carries the lid velocity: it cannot be a symmetry plane"
+            } else {
+                continue;
+            };
+            return bad(format!("domain.symmetry[{k}]"), "true".into(), why);
+        }
         if self.gravity.vector.iter().any(|g| !g.is_finite()) {
             return bad(
                 "gravity.vector".into(),
@@ -1131,6 +1189,53 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         assert_eq!(
             field(with("mass_correction = 2")),
             "effects.mass_correction"
+        );
+    }
+
+    /// Joubert's one-layer walls are refused without the gradient correction they rely
+    /// on, and symmetry planes without those walls, on a periodic axis or on the lid,
+    /// each naming its field; a valid combination parses.
+    #[test]
+    fn wall_model_and_symmetry_planes_are_checked() {
+        let with = |domain: &str, effects: &str| {
+            let text =
+                MINIMAL.replace("max = [1, 1, 1]\n", &format!("max = [1, 1, 1]\n{domain}\n"));
+            Scene::parse(
+                &format!("{text}\n[effects]\n{effects}"),
+                Path::new("t.toml"),
+            )
+        };
+        let field = |r: Result<Scene, SceneError>| match r {
+            Err(SceneError::Invalid { field, .. }) => field,
+            other => panic!("expected an invalid field, got {other:?}"),
+        };
+        let joubert = "wall_model = \"joubert\"";
+        let gc = "gradient_correction = true";
+        let ok = with(&format!("{joubert}\nsymmetry = [false, false, true]"), gc).unwrap();
+        assert_eq!(ok.domain.wall_model, WallModel::Joubert);
+        assert_eq!(ok.domain.symmetry, [false, false, true]);
+        assert_eq!(field(with(joubert, "")), "domain.wall_model");
+        assert_eq!(
+            field(with("symmetry = [true, false, false]", gc)),
+            "domain.symmetry[0]"
+        );
+        assert_eq!(
+            field(with(
+                &format!(
+                    "{joubert}\nperiodic = [true, false, false]\nsymmetry = [true, false, false]"
+                ),
+                gc
+            )),
+            "domain.symmetry[0]"
+        );
+        assert_eq!(
+            field(with(
+                &format!(
+                    "{joubert}\nclosed_top = true\nlid_velocity = [1.0, 0.0, 0.0]\nsymmetry = [false, true, false]"
+                ),
+                gc
+            )),
+            "domain.symmetry[1]"
         );
     }
 }

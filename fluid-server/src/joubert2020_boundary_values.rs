@@ -1,0 +1,261 @@
+//! Joubert's one-layer walls (§2.5, `domain.wall_model = "joubert"`): the pressure of
+//! every boundary particle from the Neumann condition of Joubert eq. (25), and on
+//! symmetry planes the velocity from eq. (27) with a zero normal derivative. No ghost or
+//! mirrored particles: the corrected gradient over the particle's fluid neighbours is
+//! contracted with the wall normal.
+//!
+//! For wall particle w and its fluid neighbours f (`V_f = m/ρ_f`):
+//!
+//! - `M_w = −Σ_f V_f ∇W_wf ⊗ r_wf` and `B_w = M_w⁻¹`: the one-sided truncation matrix
+//!   (Joubert eq. 10 over the fluid only, so that `Σ_f V_f (f_f − f_w) B_w ∇W_wf` is
+//!   exact for a linear field whatever `f_w` is);
+//! - `p_w = (n̂·B_w Σ_f V_f p_f/ρ_f ∇W_wf − n̂·g + n̂·a_w − n̂·⟨∇·τ/ρ⟩_w) /
+//!   n̂·B_w Σ_f V_f/ρ_f ∇W_wf` (eq. 25), the momentum equation contracted with the
+//!   normal; the normal's sign cancels. `a_w = 0`: domain walls are fixed or slide at a
+//!   constant lid velocity. The viscous term `n̂·ν∇²u` is left out: at a flat no-slip
+//!   wall it equals `−ν ∇_t·(∂u_t/∂n)`, zero for a fully developed channel flow and for
+//!   fluid at rest, and at a symmetry plane it vanishes with the odd normal velocity;
+//!   it is not zero next to the corners of a driven cavity. Computing it needs the
+//!   corrected Laplacian at the wall, a one-sided second-order fit not built yet.
+//! - no-slip particles keep their own velocity (a Dirichlet condition, Joubert's "one
+//!   layer of boundary particles with fixed properties"); symmetry particles take
+//!   `u_w = n̂·B_w Σ_f V_f u_f ∇W_wf / n̂·B_w Σ_f V_f ∇W_wf` (eq. 27, `∂u/∂n = 0`) with
+//!   the components along their normal's axes set to zero (no flow through the plane).
+//! - `ρ_w` from the inverted Tait equation (eq. 4).
+//!
+//! Guard: where `M_w` is near-singular — a support holding few fluid particles, or only
+//! a sheet of them — the inverse would amplify noise, so the particle takes Adami, Hu &
+//! Adams's (2012) uncorrected extrapolation (eq. 27 there; velocity: the Shepard
+//! average) and is counted; the count reaches the run's near-singular total. A
+//! particle without any fluid neighbour (a wall above a free surface) takes `p = 0`,
+//! `ρ = ρ0` and, on a symmetry plane, zero velocity; no fluid particle sees it, so it
+//! is not counted.
+//! WGSL: `shaders/joubert2020_boundary_values.wgsl`.
+
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
+use crate::gpu::Gpu;
+use crate::joubert2020_gradients::{B_DET_MIN, Mat3};
+use crate::kernel::kernel_library;
+use crate::neighbour_grid::GRID_COMMON_WGSL;
+use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::sph_kernel::{
+    Access, PARAMS, PARTICLES, SphKernel, library, param_binding as qb, particle_binding as pb,
+};
+use crate::tait_eos::TAIT_EOS_WGSL;
+use couplet_protocol::{Scene, WallKind};
+
+pub const BOUNDARY_VALUES_WGSL: &str = include_str!("../shaders/joubert2020_boundary_values.wgsl");
+
+/// Guard thresholds, relative (see the module doc): `tr M/3 ≥ B_DET_MIN` (at least
+/// 5 % of a full support's first moment), `det M ≥ B_DET_MIN (tr M/3)³` (not a sheet),
+/// and `|n̂·B Σ V ∇W| δ ≥ B_DET_MIN` (eq. 25's denominator clear of zero). A particle
+/// on a flat face has `M ≈ I/2`; at an edge `≈ I/4`, at a corner `≈ I/8`, all well-posed.
+fn well_posed(m: &Mat3) -> bool {
+    let scale = (m[0][0] + m[1][1] + m[2][2]) / 3.0;
+    scale >= B_DET_MIN && det3(m) >= B_DET_MIN * scale.powi(3)
+}
+
+pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
+    let consts = c.wgsl();
+    let guard = format!("const B_DET_MIN: f32 = {B_DET_MIN:e};\n");
+    SphKernel::new(
+        gpu,
+        "sph: joubert2020_boundary_values",
+        &[
+            &consts,
+            &guard,
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            kernel_library(),
+            library(TAIT_EOS_WGSL),
+            BOUNDARY_VALUES_WGSL,
+        ],
+        "joubert2020_boundary_values",
+        &[
+            (
+                PARTICLES,
+                &[
+                    (pb::POS, Access::Read),
+                    (pb::VEL, Access::ReadWrite),
+                    (pb::RHO, Access::ReadWrite),
+                    (pb::PRESS, Access::ReadWrite),
+                    (pb::ID, Access::Read),
+                    (pb::WALL_NORMAL, Access::Read),
+                ],
+            ),
+            (
+                PARAMS,
+                &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::ReadWrite)],
+            ),
+        ],
+        Some(grid_layout),
+    )
+}
+
+/// Normal and kind of every wall particle of a fresh `set` built for `scene` with
+/// `wall_model = "joubert"`, indexed by `id − n_fluid`: xyz the unit normal into the
+/// fluid (the normalised sum of the normals of the faces the particle lies on), w = 1
+/// when every one of those faces is a symmetry plane (`domain.symmetry`, or every face
+/// with `walls = "free-slip"`), else 0 (the particle holds its velocity).
+pub fn wall_normals(scene: &Scene, set: &ParticleSet) -> Vec<[f32; 4]> {
+    let d = &scene.domain;
+    let tol = 0.25 * scene.fluid.as_ref().map_or(0.0, |f| f.spacing);
+    let index = set.index_of_id();
+    let base = set.kinds.n_fluid;
+    (base..base + set.kinds.n_wall)
+        .map(|w| {
+            let p = set.pos[index[w]];
+            let mut n = [0.0f64; 3];
+            let mut all_symmetric = true;
+            for k in (0..3).filter(|k| !d.periodic[*k]) {
+                for (face, inward) in [(d.min[k], 1.0), (d.max[k], -1.0)] {
+                    if (p[k] - face).abs() < tol {
+                        n[k] += inward;
+                        all_symmetric &= d.symmetry[k] || d.walls == WallKind::FreeSlip;
+                    }
+                }
+            }
+            let len = dot(n, n).sqrt();
+            // Every Joubert wall particle lies on a face by construction
+            // (particles.rs); a zero normal would make eq. (25) fall back, counted.
+            let n = if len > 0.0 { n.map(|x| x / len) } else { n };
+            let symmetric = len > 0.0 && all_symmetric;
+            [
+                n[0] as f32,
+                n[1] as f32,
+                n[2] as f32,
+                f32::from(u8::from(symmetric)),
+            ]
+        })
+        .collect()
+}
+
+/// One wall particle's values from the CPU twin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoundaryValues {
+    pub press: f64,
+    pub rho: f64,
+    /// The velocity the particle holds afterwards (its own on no-slip faces).
+    pub vel: [f64; 3],
+    /// The one-sided M was near-singular: Adami's extrapolation was used.
+    pub fallback: bool,
+}
+
+fn det3(m: &Mat3) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+fn inverse3(m: &Mat3) -> Mat3 {
+    let d = det3(m);
+    std::array::from_fn(|r| {
+        std::array::from_fn(|c| {
+            // Cofactor of (c, r) over the determinant.
+            let (r1, r2) = ((c + 1) % 3, (c + 2) % 3);
+            let (c1, c2) = ((r + 1) % 3, (r + 2) % 3);
+            (m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]) / d
+        })
+    })
+}
+
+fn mul(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|r| dot(m[r], v))
+}
+
+/// CPU twin: the values of every wall entry of `set` (`None` for other kinds), with
+/// `normals` from [`wall_normals`].
+pub fn boundary_values_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    normals: &[[f32; 4]],
+) -> Vec<Option<BoundaryValues>> {
+    (0..set.len())
+        .map(|i| {
+            (set.kinds.kind(set.id[i]) == Kind::Wall).then(|| {
+                let nw = normals[set.id[i] as usize - set.kinds.n_fluid];
+                let n = [nw[0], nw[1], nw[2]].map(f64::from);
+                one_wall(c, set, i, n, nw[3] > 0.5)
+            })
+        })
+        .collect()
+}
+
+fn one_wall(
+    c: &SphConstants,
+    set: &ParticleSet,
+    i: usize,
+    n: [f64; 3],
+    symmetry: bool,
+) -> BoundaryValues {
+    let mut m: Mat3 = [[0.0; 3]; 3];
+    let (mut s, mut s_rho, mut sp) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+    let mut su = [[0.0; 3]; 3];
+    let (mut sum_pw, mut sum_rrw, mut sum_w, mut sum_vw) = (0.0, [0.0; 3], 0.0, [0.0; 3]);
+    for j in set.neighbours(i, c.support_radius()) {
+        if set.kinds.kind(set.id[j]) != Kind::Fluid {
+            continue;
+        }
+        let r_wf = sub(set.pos[i], set.pos[j]);
+        let r = dot(r_wf, r_wf).sqrt();
+        let v = c.mass / set.rho[j];
+        let vgw = r_wf.map(|x| v * c.kernel.grad_factor(r) * x);
+        for a in 0..3 {
+            for b in 0..3 {
+                m[a][b] -= vgw[a] * r_wf[b];
+            }
+            s[a] += vgw[a];
+            s_rho[a] += vgw[a] / set.rho[j];
+            sp[a] += set.press[j] / set.rho[j] * vgw[a];
+            for (k, su_k) in su.iter_mut().enumerate() {
+                su_k[a] += set.vel[j][k] * vgw[a];
+            }
+        }
+        let w = c.kernel.w(r);
+        sum_pw += set.press[j] * w;
+        for a in 0..3 {
+            sum_rrw[a] += set.rho[j] * r_wf[a] * w;
+            sum_vw[a] += set.vel[j][a] * w;
+        }
+        sum_w += w;
+    }
+    let own = set.vel[i];
+    if sum_w <= 0.0 {
+        return BoundaryValues {
+            press: 0.0,
+            rho: c.rho0,
+            vel: if symmetry { [0.0; 3] } else { own },
+            fallback: false,
+        };
+    }
+    let mut solved = None;
+    if well_posed(&m) {
+        let b = inverse3(&m);
+        let n_s = dot(n, mul(&b, s));
+        if n_s.abs() * c.spacing >= B_DET_MIN {
+            // Joubert eq. (25), a_w = 0, viscous term left out (module doc).
+            let p = (dot(n, mul(&b, sp)) - dot(n, c.gravity_fluid)) / dot(n, mul(&b, s_rho));
+            // Joubert eq. (27) with ∂u/∂n = 0.
+            let u = su.map(|su_k| dot(n, mul(&b, su_k)) / n_s);
+            solved = Some((p, u));
+        }
+    }
+    let fallback = solved.is_none();
+    let (press, u) = solved.unwrap_or_else(|| {
+        (
+            (sum_pw + dot(c.gravity_fluid, sum_rrw)) / sum_w,
+            sum_vw.map(|x| x / sum_w),
+        )
+    });
+    let vel = if symmetry {
+        std::array::from_fn(|k| if n[k] != 0.0 { 0.0 } else { u[k] })
+    } else {
+        own
+    };
+    BoundaryValues {
+        press,
+        rho: c.density(press),
+        vel,
+        fallback,
+    }
+}
