@@ -1,0 +1,259 @@
+//! Joubert's one-layer walls (`domain.wall_model = "joubert"`, Joubert §2.5): the GPU
+//! kernel against its CPU twin, and the Neumann pressure of eq. (25) and the symmetry
+//! velocity of eq. (27) on analytic fields at faces, edges and corners.
+
+mod common;
+
+use common::max_err;
+use couplet_fluid::gpu::shared_test_gpu;
+use couplet_fluid::joubert2020_boundary_values::{boundary_values_cpu, wall_normals};
+use couplet_fluid::{FluidSolver, Kind, Op, ParticleSet, SphConstants, initial_particles};
+use couplet_protocol::Scene;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+
+/// Gravity in no axis direction, so that every face, edge and corner normal sees a
+/// normal component of it (m/s²).
+const G: [f64; 3] = [3.0, -9.0, 2.0];
+
+/// A closed 0.2 m box of Joubert walls, no-slip on x and y, symmetry planes on z,
+/// gradient correction on; fluid up to `fill_height`; gravity `G` on the fluid.
+/// c = 200 m/s keeps ρ within 5e-5 of ρ0 over the box, so eq. (25)'s 1/ρ_j weights
+/// are those of a uniform density to that order.
+fn joubert_box(kernel: &str, fill_height: f64) -> Scene {
+    let text = format!(
+        r#"
+[meta]
+name = "joubert-walls"
+[time]
+end = 1.0
+output_interval = 0.1
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.2, 0.2, 0.2]
+closed_top = true
+wall_model = "joubert"
+symmetry = [false, false, true]
+[fluid]
+density = 1000.0
+kinematic_viscosity = 1e-3
+sound_speed = 200.0
+spacing = 0.02
+kernel = "{kernel}"
+blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, {fill_height}, 0.2] }}]
+[gravity]
+vector = [{}, {}, {}]
+[effects]
+gradient_correction = true
+"#,
+        G[0], G[1], G[2]
+    );
+    Scene::parse(&text, Path::new("joubert-walls.toml")).expect("test scene")
+}
+
+/// Hydrostatic pressure of the fluid at rest under `G`, zero at the box centre top.
+fn p_hydro(c: &SphConstants, x: [f64; 3]) -> f64 {
+    let x0 = [0.1, 0.2, 0.1];
+    c.rho0 * (0..3).map(|k| G[k] * (x[k] - x0[k])).sum::<f64>() + 5000.0
+}
+
+/// A velocity field with no z dependence and no z component: tangential to the z
+/// symmetry planes, zero normal derivative there (m/s).
+fn u_planar(x: [f64; 3]) -> [f64; 3] {
+    [
+        0.3 + 2.0 * x[0] - 1.5 * x[1],
+        -0.2 + 1.0 * x[0] - 2.0 * x[1],
+        0.0,
+    ]
+}
+
+/// The scene's initial set with the fluid jittered by up to `jitter` δ and given the
+/// hydrostatic pressure (ρ from the inverted Tait equation) and `velocity`.
+fn imposed_set(
+    s: &Scene,
+    c: &SphConstants,
+    jitter: f64,
+    velocity: impl Fn([f64; 3], &mut ChaCha8Rng) -> [f64; 3],
+) -> ParticleSet {
+    let mut set = initial_particles(s, c).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for i in 0..set.kinds.n_fluid {
+        for k in 0..3 {
+            set.pos[i][k] += (rng.random::<f64>() - 0.5) * 2.0 * jitter * c.spacing;
+        }
+        let p = p_hydro(c, set.pos[i]);
+        set.rho[i] = c.density(p);
+        set.press[i] = p;
+        set.vel[i] = velocity(set.pos[i], &mut rng);
+    }
+    set
+}
+
+/// GPU `joubert2020_boundary_values` against its CPU twin on a half-filled box (so that
+/// walls near the free surface hit the near-singular guard), random fluid velocities:
+/// |Δp_w| ≤ 1e-4 max |p_w|, |Δu_w| ≤ 1e-4 max |u| on the symmetry planes, and the
+/// kernel's fallback count (diag[2]) equals the twin's.
+#[test]
+fn joubert_boundary_values_match_cpu_twin() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    for kernel in ["wendland-c2", "quintic"] {
+        let s = joubert_box(kernel, 0.1);
+        let c = SphConstants::from_scene(&s).unwrap();
+        let set = imposed_set(&s, &c, 0.2, |_, rng| {
+            [0, 1, 2].map(|_| rng.random::<f64>() - 0.5)
+        });
+        let normals = wall_normals(&s, &set);
+        let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+        solver
+            .run_ops(&gpu, &[Op::Sort, Op::BoundaryPressure], 1e-5, 1.0)
+            .unwrap();
+        let got = solver.data().read(&gpu).unwrap();
+        let diag = solver.data().read_diag(&gpu).unwrap().unwrap();
+        let want = boundary_values_cpu(&c, &got, &normals);
+        let walls: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
+        let w = |i: usize| want[i].expect("a wall entry");
+        let (ep, mp) = max_err(walls.iter().map(|&i| (got.press[i], w(i).press)));
+        let vel = &got.vel;
+        let (eu, mu) = max_err(
+            walls
+                .iter()
+                .flat_map(|&i| (0..3).map(move |k| (vel[i][k], w(i).vel[k]))),
+        );
+        let fallbacks = walls.iter().filter(|&&i| w(i).fallback).count();
+        println!(
+            "{kernel}: {} walls, max |Δp_w| = {ep:e} of {mp:e}, max |Δu_w| = {eu:e} of {mu:e}, fallbacks {fallbacks} (GPU {})",
+            walls.len(),
+            diag[2]
+        );
+        assert!(ep <= 1e-4 * mp, "{kernel}: max |Δp_w| = {ep:e} of {mp:e}");
+        assert!(
+            mu > 0.1 && eu <= 1e-4 * mu,
+            "{kernel}: max |Δu_w| = {eu:e} of {mu:e}"
+        );
+        assert!(fallbacks > 0, "the half-filled box exercises the guard");
+        assert_eq!(diag[2] as usize, fallbacks, "{kernel}: fallback count");
+    }
+}
+
+/// Joubert eq. (25) on fluid at rest under gravity in no axis direction, in a full box
+/// with jittered fluid: every boundary particle — faces, edges, corners, no-slip walls
+/// and symmetry planes alike — gets the hydrostatic pressure at its own position, to
+/// round-off: ≤ 1e-9 of the pressure range in the f64 twin with ρ = ρ0 exactly, and on
+/// the GPU within 4× the f32 quantisation of the fluid's own Tait pressure (≈ 2.4 Pa
+/// at c = 200 m/s, 1e-3 of the range; bounded by 4 ulp), none falling back.
+/// Eq. (27) with ∂u/∂n = 0 gives the symmetry-plane particles a z-independent planar
+/// velocity exactly; the uncorrected Shepard average of the fluid (Adami's wall velocity
+/// without its 2 v_w term) is shown off by more than 1 % of the velocity range at the
+/// plane's edges, where the fluid lies to one side in x or y as well.
+#[test]
+fn neumann_wall_pressure_and_symmetry_velocity_are_exact_for_linear_fields() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = joubert_box("quintic", 0.2);
+    let c = SphConstants::from_scene(&s).unwrap();
+    let set = imposed_set(&s, &c, 0.2, |x, _| u_planar(x));
+    let normals = wall_normals(&s, &set);
+    let walls: Vec<usize> = (0..set.len())
+        .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Wall)
+        .collect();
+    let n_fluid = set.kinds.n_fluid;
+    let symmetric = |id: u32| normals[id as usize - n_fluid][3] > 0.5;
+    let n_sym = walls.iter().filter(|&&i| symmetric(set.id[i])).count();
+    let p_range = c.rho0 * G.iter().map(|g| g.abs() * 0.2).sum::<f64>();
+    let u_range = 0.2 * 3.5;
+
+    // f64 twin, ρ = ρ0 on the fluid: the identity is exact.
+    let mut uniform = set.clone();
+    uniform.rho[..set.kinds.n_fluid].fill(c.rho0);
+    let twin = boundary_values_cpu(&c, &uniform, &normals);
+    let (mut ep, mut eu, mut shepard) = (0.0f64, 0.0f64, 0.0f64);
+    for &i in &walls {
+        let v = twin[i].unwrap();
+        assert!(!v.fallback, "wall at {:?} fell back", set.pos[i]);
+        ep = ep.max((v.press - p_hydro(&c, set.pos[i])).abs());
+        if symmetric(set.id[i]) {
+            let exact = u_planar(set.pos[i]);
+            eu = eu.max(
+                (0..3)
+                    .map(|k| (v.vel[k] - exact[k]).abs())
+                    .fold(0.0, f64::max),
+            );
+            shepard = shepard.max(shepard_error(&c, &set, i, exact));
+        }
+    }
+    println!(
+        "twin: {} walls ({n_sym} on symmetry planes), max |p_w − p| = {ep:e} Pa of {p_range:e}, max |u_w − u| = {eu:e} m/s, Shepard {shepard:e} m/s",
+        walls.len()
+    );
+    assert!(n_sym > 100);
+    assert!(ep <= 1e-9 * p_range, "twin pressure error {ep:e} Pa");
+    assert!(eu <= 1e-9 * u_range, "twin velocity error {eu:e} m/s");
+    assert!(
+        shepard > 1e-2 * u_range,
+        "the uncorrected average should be visibly off: {shepard:e} m/s"
+    );
+
+    // GPU, f32, the Tait densities.
+    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::Sort, Op::BoundaryPressure], 1e-5, 1.0)
+        .unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let diag = solver.data().read_diag(&gpu).unwrap().unwrap();
+    let origin = [0.1; 3];
+    let world = |p: [f64; 3]| std::array::from_fn::<f64, 3, _>(|k| p[k] + origin[k]);
+    // The fluid's own pressure on the GPU is the Tait pressure of an f32 density:
+    // ρ ≈ 1000 carries an ulp of 2⁻¹⁴ = ε/2 · 1024 = 6e-5 kg/m³, c² times that is
+    // 2.4 Pa at c = 200 m/s; the f32 `pow` adds a few more.
+    let fluid_quantum = (0..got.len())
+        .filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid)
+        .map(|i| (got.press[i] - p_hydro(&c, world(got.pos[i]))).abs())
+        .fold(0.0, f64::max);
+    let (mut ep, mut eu) = (0.0f64, 0.0f64);
+    for i in (0..got.len()).filter(|&i| got.kinds.kind(got.id[i]) == Kind::Wall) {
+        let x = world(got.pos[i]);
+        ep = ep.max((got.press[i] - p_hydro(&c, x)).abs());
+        if symmetric(got.id[i]) {
+            let exact = u_planar(x);
+            eu = eu.max(
+                (0..3)
+                    .map(|k| (got.vel[i][k] - exact[k]).abs())
+                    .fold(0.0, f64::max),
+            );
+        }
+    }
+    println!(
+        "GPU: max |p_w − p| = {ep:e} Pa (fluid's own f32 pressure error {fluid_quantum:e} Pa), max |u_w − u| = {eu:e} m/s, fallbacks {}",
+        diag[2]
+    );
+    assert_eq!(diag[2], 0, "no boundary particle of a full box falls back");
+    assert!(
+        fluid_quantum <= 4.0 * c.sound_speed.powi(2) * f64::from(f32::EPSILON) * 0.5 * 1024.0
+            && ep <= 4.0 * fluid_quantum,
+        "GPU pressure error {ep:e} Pa against the fluid's {fluid_quantum:e} Pa"
+    );
+    assert!(eu <= 1e-4 * u_range, "GPU velocity error {eu:e} m/s");
+}
+
+/// |Shepard average of the fluid velocity at wall entry `w` − `exact`|, largest
+/// component.
+fn shepard_error(c: &SphConstants, set: &ParticleSet, w: usize, exact: [f64; 3]) -> f64 {
+    let (mut sum, mut sum_w) = ([0.0; 3], 0.0);
+    for j in set.neighbours(w, c.support_radius()) {
+        if set.kinds.kind(set.id[j]) != Kind::Fluid {
+            continue;
+        }
+        let d = (0..3)
+            .map(|k| (set.pos[w][k] - set.pos[j][k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let wt = c.kernel.w(d);
+        for k in 0..3 {
+            sum[k] += set.vel[j][k] * wt;
+        }
+        sum_w += wt;
+    }
+    (0..2)
+        .map(|k| (sum[k] / sum_w - exact[k]).abs())
+        .fold(0.0, f64::max)
+}
