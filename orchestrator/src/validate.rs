@@ -215,6 +215,13 @@ static CASES: [Case; 7] = [
                 "corrected gradient + Laplacian",
                 &["effects.gradient_correction=true"],
             ),
+            (
+                "Joubert walls, corrected gradient + Laplacian",
+                &[
+                    "effects.gradient_correction=true",
+                    "domain.wall_model=\"joubert\"",
+                ],
+            ),
         ],
         analyse: channel_flow,
     },
@@ -231,6 +238,13 @@ static CASES: [Case; 7] = [
             (
                 "corrected gradient + Laplacian",
                 &["effects.gradient_correction=true"],
+            ),
+            (
+                "Joubert walls, corrected gradient + Laplacian",
+                &[
+                    "effects.gradient_correction=true",
+                    "domain.wall_model=\"joubert\"",
+                ],
             ),
         ],
         analyse: channel_flow,

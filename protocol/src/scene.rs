@@ -255,6 +255,8 @@ pub enum WallModel {
     /// Needs `effects.gradient_correction` (a one-layer wall truncates the kernel,
     /// which only the corrected operators tolerate); not with fixed box obstacles or
     /// resolved bodies yet (their markers take eq. 25 with the resolved coupling).
+    /// Eq. (25)'s viscous term is not included yet: exact for fluid at rest and channel
+    /// flows, but a driven cavity blows up at its lid corners (ARCHITECTURE.md).
     Joubert,
 }
 
