@@ -76,47 +76,44 @@ pub fn boundary_pressure_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<
             if set.kinds.kind(set.id[i]) == Kind::Fluid {
                 return None;
             }
-            let (mut sum_pw, mut sum_rrw, mut sum_w) = (0.0, [0.0; 3], 0.0);
-            for j in set.neighbours(i, c.support_radius()) {
-                if set.kinds.kind(set.id[j]) != Kind::Fluid {
-                    continue;
-                }
-                let r_wf = sub(set.pos[i], set.pos[j]);
-                let w = c.kernel.w(dot(r_wf, r_wf).sqrt());
-                sum_pw += set.press[j] * w;
-                for k in 0..3 {
-                    sum_rrw[k] += set.rho[j] * r_wf[k] * w;
-                }
-                sum_w += w;
-            }
-            Some(if sum_w > 0.0 {
-                let p = (sum_pw + dot(c.gravity_fluid, sum_rrw)) / sum_w;
-                (p, c.density(p))
-            } else {
-                (0.0, c.rho0)
-            })
+            // No fluid neighbour: p = 0, and ρ(0) = ρ0.
+            let p = extrapolate_cpu(c, set, i).map_or(0.0, |(p, _)| p);
+            Some((p, c.density(p)))
         })
         .collect()
+}
+
+/// Adami et al.'s extrapolation to entry `i` from its fluid neighbours: the pressure
+/// of eq. (27) and the Shepard average of the fluid velocity; `None` without fluid
+/// neighbours. Also the fallback of Joubert's boundary values.
+pub fn extrapolate_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> Option<(f64, [f64; 3])> {
+    let (mut sum_pw, mut sum_rrw, mut sum_vw, mut sum_w) = (0.0, [0.0; 3], [0.0; 3], 0.0);
+    for j in set.neighbours(i, c.support_radius()) {
+        if set.kinds.kind(set.id[j]) != Kind::Fluid {
+            continue;
+        }
+        let r_wf = sub(set.pos[i], set.pos[j]);
+        let w = c.kernel.w(dot(r_wf, r_wf).sqrt());
+        sum_pw += set.press[j] * w;
+        for k in 0..3 {
+            sum_rrw[k] += set.rho[j] * r_wf[k] * w;
+            sum_vw[k] += set.vel[j][k] * w;
+        }
+        sum_w += w;
+    }
+    (sum_w > 0.0).then(|| {
+        (
+            (sum_pw + dot(c.gravity_fluid, sum_rrw)) / sum_w,
+            sum_vw.map(|v| v / sum_w),
+        )
+    })
 }
 
 /// CPU twin of the no-slip wall velocity: `2 v_w − Σ_f v_f W_wf / Σ_f W_wf` for wall
 /// entry `w` (its own velocity without fluid neighbours).
 pub fn wall_velocity_cpu(c: &SphConstants, set: &ParticleSet, w: usize) -> [f64; 3] {
-    let (mut sum_vw, mut sum_w) = ([0.0; 3], 0.0);
-    for j in set.neighbours(w, c.support_radius()) {
-        if set.kinds.kind(set.id[j]) != Kind::Fluid {
-            continue;
-        }
-        let r_wf = sub(set.pos[w], set.pos[j]);
-        let wt = c.kernel.w(dot(r_wf, r_wf).sqrt());
-        for k in 0..3 {
-            sum_vw[k] += set.vel[j][k] * wt;
-        }
-        sum_w += wt;
-    }
-    if sum_w > 0.0 {
-        std::array::from_fn(|k| 2.0 * set.vel[w][k] - sum_vw[k] / sum_w)
-    } else {
-        set.vel[w]
+    match extrapolate_cpu(c, set, w) {
+        Some((_, v)) => std::array::from_fn(|k| 2.0 * set.vel[w][k] - v[k]),
+        None => set.vel[w],
     }
 }

@@ -32,6 +32,7 @@
 //! is not counted.
 //! WGSL: `shaders/joubert2020_boundary_values.wgsl`.
 
+use crate::adami2012_boundary_pressure::extrapolate_cpu;
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::joubert2020_gradients::{B_DET_MIN, Mat3};
@@ -191,7 +192,6 @@ fn one_wall(
     let mut m: Mat3 = [[0.0; 3]; 3];
     let (mut s, mut s_rho, mut sp) = ([0.0; 3], [0.0; 3], [0.0; 3]);
     let mut su = [[0.0; 3]; 3];
-    let (mut sum_pw, mut sum_rrw, mut sum_w, mut sum_vw) = (0.0, [0.0; 3], 0.0, [0.0; 3]);
     for j in set.neighbours(i, c.support_radius()) {
         if set.kinds.kind(set.id[j]) != Kind::Fluid {
             continue;
@@ -211,23 +211,16 @@ fn one_wall(
                 su_k[a] += set.vel[j][k] * vgw[a];
             }
         }
-        let w = c.kernel.w(r);
-        sum_pw += set.press[j] * w;
-        for a in 0..3 {
-            sum_rrw[a] += set.rho[j] * r_wf[a] * w;
-            sum_vw[a] += set.vel[j][a] * w;
-        }
-        sum_w += w;
     }
     let own = set.vel[i];
-    if sum_w <= 0.0 {
+    let Some(adami) = extrapolate_cpu(c, set, i) else {
         return BoundaryValues {
             press: 0.0,
             rho: c.rho0,
             vel: if symmetry { [0.0; 3] } else { own },
             fallback: false,
         };
-    }
+    };
     let mut solved = None;
     if well_posed(&m) {
         let b = inverse3(&m);
@@ -241,12 +234,7 @@ fn one_wall(
         }
     }
     let fallback = solved.is_none();
-    let (press, u) = solved.unwrap_or_else(|| {
-        (
-            (sum_pw + dot(c.gravity_fluid, sum_rrw)) / sum_w,
-            sum_vw.map(|x| x / sum_w),
-        )
-    });
+    let (press, u) = solved.unwrap_or(adami);
     let vel = if symmetry {
         std::array::from_fn(|k| if n[k] != 0.0 { 0.0 } else { u[k] })
     } else {

@@ -30,6 +30,15 @@ pub const PARTICLE_SHIFTING: &str = "particle_shifting";
 pub const DENSITY_DIFFUSION: &str = "antuono2010_density_diffusion";
 pub const MASS_CORRECTION: &str = "joubert2020_mass_correction";
 
+/// Names of the axes `k` (x, y, z) for which `pick(k)` holds.
+fn axis_names(pick: impl Fn(usize) -> bool) -> Vec<&'static str> {
+    ["x", "y", "z"]
+        .into_iter()
+        .enumerate()
+        .filter_map(|(k, a)| pick(k).then_some(a))
+        .collect()
+}
+
 /// The stages of one fluid step for `scene`, in execution order. Effects that are off
 /// are absent. Continuity, the pressure gradient, the viscous terms and gravity are one
 /// fused pair loop on the GPU (`fluid_rates`); they are listed separately because they
@@ -40,11 +49,7 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         return out;
     };
     let mut push = |name: &'static str, reason: String| out.push(Stage { name, reason });
-    let periodic: Vec<&str> = ["x", "y", "z"]
-        .into_iter()
-        .zip(scene.domain.periodic)
-        .filter_map(|(a, p)| p.then_some(a))
-        .collect();
+    let periodic = axis_names(|k| scene.domain.periodic[k]);
     push(
         NEIGHBOUR_GRID,
         format!(
@@ -111,17 +116,10 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         walls
     };
     if scene.domain.wall_model == WallModel::Joubert {
-        let axes = |pick: &dyn Fn(usize) -> bool| -> Vec<&str> {
-            ["x", "y", "z"]
-                .into_iter()
-                .enumerate()
-                .filter_map(|(k, a)| pick(k).then_some(a))
-                .collect()
-        };
         let d = &scene.domain;
         let symmetric =
-            axes(&|k| !d.periodic[k] && (d.symmetry[k] || d.walls == WallKind::FreeSlip));
-        let held = axes(&|k| !d.periodic[k] && !d.symmetry[k] && d.walls == WallKind::NoSlip);
+            axis_names(|k| !d.periodic[k] && (d.symmetry[k] || d.walls == WallKind::FreeSlip));
+        let held = axis_names(|k| !d.periodic[k] && !d.symmetry[k] && d.walls == WallKind::NoSlip);
         push(
             JOUBERT_BOUNDARY_VALUES,
             format!(
