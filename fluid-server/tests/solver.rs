@@ -77,6 +77,29 @@ fn limits_follow_joubert_eq_24() {
     // Wendland support 2δ: h = δ, Morris 0.125 δ²/ν < 0.2 δ²/ν.
     assert!((l.dt_viscous - 0.125 * 0.02 * 0.02 / 1e-6).abs() < 1e-9);
     assert_eq!(l.dt, acoustic);
+    assert_eq!(l.delta_min, 0.02);
+}
+
+/// Joubert's one-layer walls sit δ/2 from the first fluid row: eq. (24)'s smallest
+/// spacing is then δ/2 (regression: with δ the closed tank at rest blew up at 0.08 s).
+#[test]
+fn joubert_walls_halve_eq_24s_smallest_spacing() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/poiseuille.toml"
+    ))
+    .unwrap();
+    let text = text
+        .replace("[domain]", "[domain]\nwall_model = \"joubert\"")
+        .replace("[effects]", "[effects]\ngradient_correction = true");
+    let s = couplet_protocol::Scene::parse(&text, std::path::Path::new("p.toml")).unwrap();
+    let l = FluidLimits::from_scene(&s).unwrap();
+    // δ = 5e-5 m, ν = 1e-6 m²/s, Wendland support 3δ (h = 1.5δ): s δ_min²/ν with
+    // δ_min = δ/2 binds below Morris's 0.125 h²/ν.
+    assert_eq!(l.delta_min, 2.5e-5);
+    assert!((l.dt_viscous - 0.2 * 2.5e-5 * 2.5e-5 / 1e-6).abs() < 1e-12);
+    assert!((l.dt_acoustic - 0.2 * 2.5e-5 / (2.5e-3 * 1.1)).abs() < 1e-12);
+    assert_eq!(l.dt, l.dt_viscous);
 }
 
 /// A closed sphere of 400 static markers (R = 0.05 m) in the hydrostatic tank at rest:

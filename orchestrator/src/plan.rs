@@ -99,12 +99,12 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
     if let Some(l) = &fluid_limits {
         let _ = writeln!(
             w,
-            "  fluid acoustic CFL   {:.3e} s  (Joubert eq. 24: s δ/(c_s + u_max), s = {}, u_max = c_s/10)",
-            l.dt_acoustic, scene.time.cfl
+            "  fluid acoustic CFL   {:.3e} s  (Joubert eq. 24: s δ_min/(c_s + u_max), s = {}, u_max = c_s/10, δ_min = {:e} m)",
+            l.dt_acoustic, scene.time.cfl, l.delta_min
         );
         let _ = writeln!(
             w,
-            "  fluid viscous        {:.3e} s  (Joubert eq. 24: s δ²/ν)",
+            "  fluid viscous        {:.3e} s  (Joubert eq. 24: s δ_min²/ν, or Morris's 0.125 h²/ν if smaller)",
             l.dt_viscous
         );
         let _ = writeln!(w, "  fluid step           {:.3e} s", l.dt);
