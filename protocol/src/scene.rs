@@ -255,6 +255,7 @@ pub enum WallModel {
     /// Needs `effects.gradient_correction` (a one-layer wall truncates the kernel,
     /// which only the corrected operators tolerate); not with fixed box obstacles or
     /// resolved bodies yet (their markers take eq. 25 with the resolved coupling).
+    /// The time step (Joubert eq. 24) takes δ/2, the layer's distance from the fluid.
     /// Eq. (25)'s viscous term is not included yet (exact for fluid at rest and channel
     /// flows), and nothing but compression stops fluid crossing the one layer: a driven
     /// cavity blows up near its lid corners (ARCHITECTURE.md).
