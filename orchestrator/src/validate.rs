@@ -283,7 +283,7 @@ static CASES: [Case; 7] = [
             "fluid.blocks.0.max=[1.0, 1.0, 0.8]",
             "time.end=15",
         ],
-        quick_why: "δ = L/10 (z span kept at 8 spacings) to t = 15 s: 800 fluid particles, about ten minutes on lavapipe; the centreline errors are reported, not judged, at this resolution",
+        quick_why: "δ = L/10 (z span kept at 8 spacings) to t = 15 s: 800 fluid particles, about ten minutes on lavapipe; the centreline errors are judged against coarse bounds (COARSE_CAVITY), Joubert's own figures only at δ ≤ L/100",
         sweep_spacings: &[0.04, 0.02, 0.01],
         sweep_schemes: &[
             ("Joubert (corrected + shifting)", &[]),
@@ -979,6 +979,12 @@ const GHIA_V: [(f64, f64); 15] = [
 /// fractions of U.
 const JOUBERT_CAVITY: [[f64; 2]; 2] = [[0.0129, 0.0111], [0.0048, 0.0036]];
 
+/// Bounds for coarser runs (δ > L/100), [largest, mean] × [u, v] / U: the quick case
+/// (δ = L/10, Adami walls, Joubert's corrected scheme) measured 15.46 / 7.96 % largest
+/// and 4.85 / 3.60 % mean on 2026-11-22; the bounds leave about 25 % above that, a
+/// regression guard for the reduced version, not an accuracy claim.
+const COARSE_CAVITY: [[f64; 2]; 2] = [[0.20, 0.10], [0.06, 0.05]];
+
 /// Velocity component `k` at (x, y) from every particle within `r` in the xy-plane (all
 /// z: the flow is z-invariant): the value of the weighted least-squares plane
 /// `a + b (x' − x) + c (y' − y)` through them (Wendland C2 weight). Unlike a Shepard
@@ -1111,29 +1117,35 @@ fn lid_driven_cavity(scene: &Scene, rec: &Recording, report: &mut Report) -> Res
                 ),
                 max,
                 "largest",
-                JOUBERT_CAVITY[0][i],
+                0,
             ),
             (
                 format!("{name}: mean absolute difference / U"),
                 mean,
                 "mean",
-                JOUBERT_CAVITY[1][i],
+                1,
             ),
         ];
-        for (quantity, value, what, bound) in rows {
+        for (quantity, value, what, k) in rows {
+            let paper = JOUBERT_CAVITY[k][i];
+            let (bound, tolerance) = if judged {
+                (paper, format!("≤ {}", pct(paper)))
+            } else {
+                let coarse = COARSE_CAVITY[k][i];
+                (
+                    coarse,
+                    format!("≤ {} (δ > L/100: coarse bound)", pct(coarse)),
+                )
+            };
             report.judge(
                 quantity,
                 pct(value),
                 format!(
                     "Ghia et al. 1982 (Joubert §3.1's {what} difference at δ = L/100: {})",
-                    pct(bound)
+                    pct(paper)
                 ),
-                if judged {
-                    format!("≤ {}", pct(bound))
-                } else {
-                    "reported (δ > L/100)".into()
-                },
-                judged.then_some(value <= bound),
+                tolerance,
+                Some(value <= bound),
             );
         }
         report.judge(
