@@ -35,7 +35,7 @@
 use crate::adami2012_boundary_pressure::extrapolate_cpu;
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
-use crate::joubert2020_gradients::{B_DET_MIN, Mat3};
+use crate::joubert2020_gradients::{B_DET_MIN, Mat3, determinant, inverse, mat_vec};
 use crate::kernel::kernel_library;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet, dot, sub};
@@ -43,7 +43,7 @@ use crate::sph_kernel::{
     Access, PARAMS, PARTICLES, SphKernel, library, param_binding as qb, particle_binding as pb,
 };
 use crate::tait_eos::TAIT_EOS_WGSL;
-use couplet_protocol::{Scene, WallKind};
+use couplet_protocol::Scene;
 
 pub const BOUNDARY_VALUES_WGSL: &str = include_str!("../shaders/joubert2020_boundary_values.wgsl");
 
@@ -53,7 +53,7 @@ pub const BOUNDARY_VALUES_WGSL: &str = include_str!("../shaders/joubert2020_boun
 /// on a flat face has `M ≈ I/2`; at an edge `≈ I/4`, at a corner `≈ I/8`, all well-posed.
 fn well_posed(m: &Mat3) -> bool {
     let scale = (m[0][0] + m[1][1] + m[2][2]) / 3.0;
-    scale >= B_DET_MIN && det3(m) >= B_DET_MIN * scale.powi(3)
+    scale >= B_DET_MIN && determinant(m) >= B_DET_MIN * scale.powi(3)
 }
 
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
@@ -112,7 +112,7 @@ pub fn wall_normals(scene: &Scene, set: &ParticleSet) -> Vec<[f32; 4]> {
                 for (face, inward) in [(d.min[k], 1.0), (d.max[k], -1.0)] {
                     if (p[k] - face).abs() < tol {
                         n[k] += inward;
-                        all_symmetric &= d.symmetry[k] || d.walls == WallKind::FreeSlip;
+                        all_symmetric &= d.is_symmetry_axis(k);
                     }
                 }
             }
@@ -140,28 +140,6 @@ pub struct BoundaryValues {
     pub vel: [f64; 3],
     /// The one-sided M was near-singular: Adami's extrapolation was used.
     pub fallback: bool,
-}
-
-fn det3(m: &Mat3) -> f64 {
-    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-}
-
-fn inverse3(m: &Mat3) -> Mat3 {
-    let d = det3(m);
-    std::array::from_fn(|r| {
-        std::array::from_fn(|c| {
-            // Cofactor of (c, r) over the determinant.
-            let (r1, r2) = ((c + 1) % 3, (c + 2) % 3);
-            let (c1, c2) = ((r + 1) % 3, (r + 2) % 3);
-            (m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]) / d
-        })
-    })
-}
-
-fn mul(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|r| dot(m[r], v))
 }
 
 /// CPU twin: the values of every wall entry of `set` (`None` for other kinds), with
@@ -223,13 +201,14 @@ fn one_wall(
     };
     let mut solved = None;
     if well_posed(&m) {
-        let b = inverse3(&m);
-        let n_s = dot(n, mul(&b, s));
+        let b = inverse(&m);
+        let n_s = dot(n, mat_vec(&b, s));
         if n_s.abs() * c.spacing >= B_DET_MIN {
             // Joubert eq. (25), a_w = 0, viscous term left out (module doc).
-            let p = (dot(n, mul(&b, sp)) - dot(n, c.gravity_fluid)) / dot(n, mul(&b, s_rho));
+            let p =
+                (dot(n, mat_vec(&b, sp)) - dot(n, c.gravity_fluid)) / dot(n, mat_vec(&b, s_rho));
             // Joubert eq. (27) with ∂u/∂n = 0.
-            let u = su.map(|su_k| dot(n, mul(&b, su_k)) / n_s);
+            let u = su.map(|su_k| dot(n, mat_vec(&b, su_k)) / n_s);
             solved = Some((p, u));
         }
     }

@@ -117,9 +117,8 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     };
     if scene.domain.wall_model == WallModel::Joubert {
         let d = &scene.domain;
-        let symmetric =
-            axis_names(|k| !d.periodic[k] && (d.symmetry[k] || d.walls == WallKind::FreeSlip));
-        let held = axis_names(|k| !d.periodic[k] && !d.symmetry[k] && d.walls == WallKind::NoSlip);
+        let symmetric = axis_names(|k| d.is_symmetry_axis(k));
+        let held = axis_names(|k| !d.periodic[k] && !d.is_symmetry_axis(k));
         push(
             JOUBERT_BOUNDARY_VALUES,
             format!(

@@ -238,6 +238,15 @@ pub struct Domain {
     pub symmetry: [bool; 3],
 }
 
+impl Domain {
+    /// Whether the faces of axis `k` are symmetry planes of Joubert's walls: listed in
+    /// `symmetry`, or every face with `walls = "free-slip"` (not on a periodic axis,
+    /// which has no faces).
+    pub fn is_symmetry_axis(&self, k: usize) -> bool {
+        !self.periodic[k] && (self.symmetry[k] || self.walls == WallKind::FreeSlip)
+    }
+}
+
 /// `domain.wall_model`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
 #[serde(rename_all = "kebab-case")]
