@@ -4,9 +4,10 @@
 //                periodic axes, finds its cell, takes a rank inside it with one
 //                atomicAdd on the cell's counter (the only atomics of the sort);
 //   (prefix sum of the counters → cell_start)
-//   scatter:     dst = cell_start[cell] + rank; src_of[dst] = i (no atomics);
-//   order_cells: one thread per cell sorts its slice of src_of ascending, so the order
-//                inside a cell is the order before the sort, not the atomics' order.
+//   scatter:     unordered[cell_start[cell] + rank] = i (no atomics);
+//   order_slots: one thread per slot counts the particles of its cell with a smaller
+//                index and writes src_of[cell_start + count] = its particle, so the
+//                order inside a cell is the order before the sort, not the atomics'.
 //
 // Composed after the prelude and grid_common.wgsl (group 1 = grid). count_cells binds
 // only grid params at group 1: its counters are the cell_start buffer itself, bound
@@ -88,8 +89,10 @@ fn count_cells(
 
 @group(0) @binding(10) var<storage, read> scatter_cell_of: array<u32>;
 @group(0) @binding(11) var<storage, read> scatter_rank: array<u32>;
-// Gather map: sorted slot → index before the sort.
-@group(0) @binding(12) var<storage, read_write> src_of: array<u32>;
+// Sorted slot → index before the sort, in the atomics' order inside a cell.
+@group(0) @binding(12) var<storage, read_write> unordered: array<u32>;
+// Gather map: sorted slot → index before the sort, stable inside a cell.
+@group(0) @binding(13) var<storage, read_write> src_of: array<u32>;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn scatter(
@@ -102,35 +105,38 @@ fn scatter(
         return;
     }
     let dst = cell_start[scatter_cell_of[i]] + scatter_rank[i];
-    src_of[dst] = i;
+    unordered[dst] = i;
 }
 
 // ORDER_MAX_SLICE is composed in from neighbour_grid::GRID_ORDER_MAX_SLICE (see there).
 
-// Makes the sort deterministic: src_of ascending inside each cell keeps the previous
-// order of the particles (a stable counting sort), so a run repeats bit for bit.
+// Makes the sort deterministic: a particle's slot is its cell's start plus the number
+// of particles of the cell with a smaller index before the sort (a stable counting
+// sort), so a run repeats bit for bit. Each thread loops at most ORDER_MAX_SLICE
+// times: lavapipe ends any shader's loops after 65535 iterations in all (Mesa's
+// LP_MAX_TGSI_LOOP_ITERATIONS), which cut short the insertion sort this replaces
+// (regression test grid_sort_is_stable_in_cells_far_from_sorted).
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn order_cells(
+fn order_slots(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let c = linear_id(wid, lid, nwg);
-    if c >= grid.n_cells {
+    let s = linear_id(wid, lid, nwg);
+    if s >= grid.n_particles {
         return;
     }
+    let v = unordered[s];
+    let c = scatter_cell_of[v];
     let lo = cell_start[c];
     let hi = cell_start[c + 1u];
-    if hi - lo < 2u || hi - lo > ORDER_MAX_SLICE {
+    if hi - lo > ORDER_MAX_SLICE {
+        src_of[s] = v;
         return;
     }
-    for (var k = lo + 1u; k < hi; k++) {
-        let v = src_of[k];
-        var m = k;
-        while m > lo && src_of[m - 1u] > v {
-            src_of[m] = src_of[m - 1u];
-            m--;
-        }
-        src_of[m] = v;
+    var smaller = 0u;
+    for (var k = lo; k < hi; k++) {
+        smaller += select(0u, 1u, unordered[k] < v);
     }
+    src_of[lo + smaller] = v;
 }

@@ -7,10 +7,11 @@
 //!    periodic axes ([`GridBox`]), cell index, rank in the cell by one `atomicAdd` on
 //!    the cell's counter (the sort's only atomics);
 //! 2. `grid: scan`    — exclusive prefix sum of the n_cells + 1 counters → `cell_start`;
-//! 3. `grid: scatter` — `src_of[cell_start[cell] + rank] = i` (order inside a cell is
-//!    whatever the atomics gave);
-//! 4. `grid: order`   — one thread per cell sorts its slice of `src_of` ascending, so
-//!    particles keep their previous relative order: the sort is stable and a run
+//! 3. `grid: scatter` — `unordered[cell_start[cell] + rank] = i` (order inside a cell
+//!    is whatever the atomics gave);
+//! 4. `grid: order`   — one thread per slot counts the particles of its cell with a
+//!    smaller index and puts its particle that far into the cell's slice of `src_of`,
+//!    so particles keep their previous relative order: the sort is stable and a run
 //!    repeats bit for bit (without it, runs differed in round-off and a coarse
 //!    settling sphere's plateau varied 0.55–5.14 % between identical runs);
 //! 5. `grid: reorder` — every registered buffer gathered into one shared scratch
@@ -20,7 +21,7 @@
 //! Pair kernels read the result through `shaders/grid_common.wgsl`
 //! ([`GRID_COMMON_WGSL`]), bound at group 1 ([`NeighbourGrid::bind_group`]).
 //!
-//! GPU memory: 12 B per particle (cell, rank, gather map) + one 16 B scratch per
+//! GPU memory: 16 B per particle (cell, rank, unordered and stable gather map) + one 16 B scratch per
 //! particle shared by all registered buffers + 4 B per cell.
 
 use std::num::NonZeroU64;
@@ -51,12 +52,13 @@ const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 /// 236 + 350, R = 2 137 + 202, R = 3 144 + 207 (and a 3× larger scan than R = 2).
 pub const GRID_REACH: u32 = 2;
 
-/// Longest cell slice the `grid: order` pass sorts (insertion sort, one thread per
-/// cell, O(k²)). A cell of support/[`GRID_REACH`] holds a few particles (about 2 at
-/// support 2.4 δ, 8 at 4 δ); a slice this long means the fluid has collapsed or
-/// particles outside the grid were sorted into a border cell — both reported by the
-/// host — and it keeps the atomics' order rather than stalling the GPU on a
-/// quadratic sort of a blown-up state.
+/// Longest cell slice the `grid: order` pass orders (each of its k slots counts over
+/// the slice: O(k²) in all, at most this many loop iterations per thread, far below
+/// the 65535 at which lavapipe cuts a shader's loops short). A cell of
+/// support/[`GRID_REACH`] holds a few particles (about 2 at support 2.4 δ, 8 at 4 δ);
+/// a slice this long means the fluid has collapsed or particles outside the grid were
+/// sorted into a border cell — both reported by the host — and it keeps the atomics'
+/// order rather than stalling the GPU on a quadratic sort of a blown-up state.
 pub const GRID_ORDER_MAX_SLICE: u32 = 1024;
 
 /// Padding around the particle box, in cells: one support radius lets particles drift
@@ -223,6 +225,7 @@ pub struct NeighbourGrid {
     pub error_flag: wgpu::Buffer,
     cell_of: wgpu::Buffer,
     rank: wgpu::Buffer,
+    unordered: wgpu::Buffer,
     src_of: wgpu::Buffer,
     scratch: wgpu::Buffer,
     /// Stand-in for the id buffer until one is registered.
@@ -376,6 +379,7 @@ impl NeighbourGrid {
         let error_flag = storage_buffer(gpu, "grid: error record", 32);
         let cell_of = storage_buffer(gpu, "grid: cell of particle", u64::from(n) * 4);
         let rank = storage_buffer(gpu, "grid: rank in cell", u64::from(n) * 4);
+        let unordered = storage_buffer(gpu, "grid: slots in atomics' order", u64::from(n) * 4);
         let src_of = storage_buffer(gpu, "grid: gather map", u64::from(n) * 4);
         let scratch = storage_buffer(gpu, "grid: reorder scratch", scratch_bytes);
         let no_ids = storage_buffer(gpu, "grid: no id buffer", 4);
@@ -404,7 +408,7 @@ impl NeighbourGrid {
         );
         let scatter_layout = layout(
             "grid: scatter",
-            &[st(10, true), st(11, true), st(12, false)],
+            &[st(10, true), st(11, true), st(12, false), st(13, false)],
         );
         let reorder_layout = layout("grid: reorder", &[st(0, true), st(1, true), st(2, false)]);
 
@@ -432,7 +436,8 @@ impl NeighbourGrid {
             &[
                 (10, sized(&cell_of, n_bytes)),
                 (11, sized(&rank, n_bytes)),
-                (12, sized(&src_of, n_bytes)),
+                (12, sized(&unordered, n_bytes)),
+                (13, sized(&src_of, n_bytes)),
             ],
         );
 
@@ -460,7 +465,7 @@ impl NeighbourGrid {
             gpu,
             "grid: order",
             &sort_module,
-            "order_cells",
+            "order_slots",
             &[Some(&scatter_layout), Some(&grid_layout)],
         );
         let gather_pipeline = |elem: &str| {
@@ -488,6 +493,7 @@ impl NeighbourGrid {
             error_flag,
             cell_of,
             rank,
+            unordered,
             src_of,
             scratch,
             no_ids,
@@ -637,20 +643,7 @@ impl NeighbourGrid {
             let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, "grid: scan");
             self.prefix_sum.record(&mut pass);
         }
-        {
-            let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, "grid: scatter");
-            pass.set_pipeline(&self.scatter);
-            pass.set_bind_group(0, &self.scatter_bind_group, &[]);
-            pass.set_bind_group(1, &self.grid_bind_group, &[]);
-            shaders::dispatch_linear(&mut pass, n);
-        }
-        {
-            let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, "grid: order");
-            pass.set_pipeline(&self.order);
-            pass.set_bind_group(0, &self.scatter_bind_group, &[]);
-            pass.set_bind_group(1, &self.grid_bind_group, &[]);
-            shaders::dispatch_linear(&mut pass, self.params.n_cells);
-        }
+        self.queue_scatter_and_order(gpu, encoder, timer.as_deref_mut());
         if !self.registered.is_empty() {
             // Gather into the scratch, then a plain buffer copy back: a copy is a
             // memcpy for the driver (lavapipe, 262k particles, 4 buffers: the stage
@@ -671,6 +664,27 @@ impl NeighbourGrid {
                 encoder.copy_buffer_to_buffer(&self.scratch, 0, &r.buffer, 0, r.bytes);
             }
             timing::end_span(timer.as_deref_mut(), gpu, encoder);
+        }
+    }
+
+    /// Records passes 3 and 4 of the sort: from `cell_of`, `rank` and `cell_start` to the
+    /// stable gather map `src_of`.
+    fn queue_scatter_and_order(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        mut timer: Option<&mut StageTimer>,
+    ) {
+        let n = self.params.n_particles;
+        for (label, pipeline) in [
+            ("grid: scatter", &self.scatter),
+            ("grid: order", &self.order),
+        ] {
+            let mut pass = timing::begin_pass(timer.as_deref_mut(), gpu, encoder, label);
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.scatter_bind_group, &[]);
+            pass.set_bind_group(1, &self.grid_bind_group, &[]);
+            shaders::dispatch_linear(&mut pass, n);
         }
     }
 
@@ -709,5 +723,63 @@ impl NeighbourGrid {
     /// The gather map of the last sort (sorted slot → slot before the sort), for tests.
     pub fn gather_map(&self) -> &wgpu::Buffer {
         &self.src_of
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::shared_test_gpu;
+
+    /// Regression: the order pass was an insertion sort, one thread per cell. Where the
+    /// atomics left a cell's slice far from its previous order (a lavapipe worker
+    /// thread delayed during `grid: count`), the sort needed more than the 65535 loop
+    /// iterations lavapipe allows a shader and stopped half way: CI saw cells of about
+    /// 560 particles with 2 of ~100 inversions left. Here the worst case is set up
+    /// directly: one cell of 1000 particles (below GRID_ORDER_MAX_SLICE) whose ranks
+    /// are the reverse of their indices (499 500 insertion-sort moves), next to a cell
+    /// of one particle and empty cells. Reference: the stable order is 0..n (exact).
+    #[test]
+    fn grid_sort_is_stable_in_cells_far_from_sorted() {
+        let gpu = shared_test_gpu().unwrap();
+        let n = 1001u32;
+        let grid = NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0; 3]), 0.25, n).unwrap();
+        let big = 1000u32;
+        assert!(big <= GRID_ORDER_MAX_SLICE);
+        let nc = grid.params.n_cells;
+        let lone_cell = nc - 1;
+        let cell_of: Vec<u32> = (0..n)
+            .map(|i| if i < big { 0 } else { lone_cell })
+            .collect();
+        let rank: Vec<u32> = (0..n)
+            .map(|i| if i < big { big - 1 - i } else { 0 })
+            .collect();
+        let cell_start: Vec<u32> = (0..=nc)
+            .map(|c| match c {
+                0 => 0,
+                c if c <= lone_cell => big,
+                _ => n,
+            })
+            .collect();
+        gpu.queue
+            .write_buffer(&grid.cell_of, 0, bytemuck::cast_slice(&cell_of));
+        gpu.queue
+            .write_buffer(&grid.rank, 0, bytemuck::cast_slice(&rank));
+        gpu.queue
+            .write_buffer(&grid.cell_start, 0, bytemuck::cast_slice(&cell_start));
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        grid.queue_scatter_and_order(&gpu, &mut encoder, None);
+        gpu.queue.submit([encoder.finish()]);
+
+        let unordered: Vec<u32> = gpu.read_buffer(&grid.unordered, 0, u64::from(n)).unwrap();
+        assert_eq!(unordered[0], big - 1, "scatter must follow the ranks");
+        let src_of: Vec<u32> = gpu.read_buffer(grid.gather_map(), 0, u64::from(n)).unwrap();
+        let misplaced: Vec<usize> = (0..n as usize).filter(|&s| src_of[s] != s as u32).collect();
+        assert!(
+            misplaced.is_empty(),
+            "{} of {n} slots out of their stable order, first {:?}",
+            misplaced.len(),
+            &misplaced[..misplaced.len().min(8)]
+        );
     }
 }
