@@ -225,6 +225,8 @@ pub struct NeighbourGrid {
     pub error_flag: wgpu::Buffer,
     cell_of: wgpu::Buffer,
     rank: wgpu::Buffer,
+    /// Read only by the tests (the bind group holds it for the passes).
+    #[cfg_attr(not(test), allow(dead_code))]
     unordered: wgpu::Buffer,
     src_of: wgpu::Buffer,
     scratch: wgpu::Buffer,
