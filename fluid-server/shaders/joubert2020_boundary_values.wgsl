@@ -1,14 +1,16 @@
 // ---- joubert2020_boundary_values.wgsl (CPU twin: joubert2020_boundary_values.rs) ----
-// Joubert §2.5: one layer of boundary particles on each domain face. One thread per
-// wall particle w, before every rate evaluation. Over its fluid neighbours f only
+// Joubert §2.5–2.6: one layer of boundary particles on each domain face, and the
+// markers on body surfaces. One thread per wall or marker particle w, before every
+// rate evaluation. Over its fluid neighbours f only
 // (V_f = m/ρ_f; the other boundary particles' values are what is being computed):
 //   M_w = −Σ_f V_f ∇W_wf ⊗ r_wf,  B_w = M_w⁻¹              (Joubert eq. 10, one-sided)
 //   S = B_w Σ_f V_f ∇W_wf,  S' = B_w Σ_f V_f/ρ_f ∇W_wf,  P = B_w Σ_f V_f p_f/ρ_f ∇W_wf
 // and with n̂ the wall normal (its sign cancels):
 //   p_w = (n̂·P − n̂·g + n̂·a_w − n̂·⟨∇·τ/ρ⟩_w) / n̂·S'          (Joubert eq. 25)
-// with a_w = 0 (domain walls are fixed or slide at a constant lid velocity) and the
-// viscous term left out (see joubert2020_boundary_values.rs); ρ_w from the inverted
-// Tait equation. No-slip particles keep their velocity (a Dirichlet condition);
+// with a_w the surface's acceleration (0 for domain walls, the rigid-body acceleration
+// of the point for markers; from the particle's BoundaryFrame) and the viscous term
+// left out (see joubert2020_boundary_values.rs); ρ_w from the inverted
+// Tait equation. No-slip particles and markers keep their velocity (a Dirichlet condition);
 // particles on symmetry planes (wall_normal.w = 1) take the tangential velocity of
 // eq. (27) with ∂u/∂n = 0, u_w = n̂·(B_w Σ_f V_f u_f ∇W_wf) / n̂·S, and zero velocity
 // along every axis their normal has a component on (the planes are axis-aligned).
@@ -24,22 +26,29 @@
 @group(0) @binding(2) var<storage, read_write> rho: array<f32>;
 @group(0) @binding(3) var<storage, read_write> press: array<f32>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
-// wall_normal[id − n_fluid]: xyz the unit normal, w = 1 on a symmetry plane.
-@group(0) @binding(13) var<storage, read> wall_normal: array<vec4<f32>>;
+// Mirror of joubert2020_boundary_values::BoundaryFrame, indexed by id − n_fluid.
+struct BoundaryFrame {
+    // xyz the unit normal; w = 1 on a symmetry plane.
+    normal: vec4<f32>,
+    // xyz the surface's acceleration, m/s².
+    acc: vec4<f32>,
+}
+@group(0) @binding(13) var<storage, read> frames: array<BoundaryFrame>;
 @group(3) @binding(4) var<storage, read_write> diag: array<atomic<u32>, 4>;
 
-// Wall threads write only their own entries and read only fluid entries: no race.
+// Boundary threads write only their own entries and read only fluid entries: no race.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn joubert2020_boundary_values(@builtin(workgroup_id) wid: vec3<u32>,
                                @builtin(local_invocation_index) lid: u32,
                                @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = linear_id(wid, lid, nwg);
-    if i >= params.n_total || !is_wall(id[i]) {
+    if i >= params.n_total || is_fluid(id[i]) {
         return;
     }
-    let nw = wall_normal[id[i] - params.n_fluid];
-    let n = nw.xyz;
-    let symmetry = nw.w > 0.5;
+    let frame = frames[id[i] - params.n_fluid];
+    let n = frame.normal.xyz;
+    let a_w = frame.acc.xyz;
+    let symmetry = frame.normal.w > 0.5;
     let p_i = pos[i].xyz;
     let c_i = cell_coord(p_i);
     var m = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
@@ -102,15 +111,15 @@ fn joubert2020_boundary_values(@builtin(workgroup_id) wid: vec3<u32>,
         let n_s = dot(n, b * s);
         ok = abs(n_s) * SPACING >= B_DET_MIN;
         if ok {
-            // Joubert eq. (25), a_w = 0, viscous term left out (header).
-            p_w = (dot(n, b * sp) - dot(n, GRAVITY)) / dot(n, b * s_rho);
+            // Joubert eq. (25), viscous term left out (header).
+            p_w = (dot(n, b * sp) - dot(n, GRAVITY) + dot(n, a_w)) / dot(n, b * s_rho);
             // Joubert eq. (27) with ∂u/∂n = 0.
             u_w = vec3<f32>(dot(n, b * sux), dot(n, b * suy), dot(n, b * suz)) / n_s;
         }
     }
     if !ok {
         atomicAdd(&diag[2], 1u);
-        p_w = (sum_pw + dot(GRAVITY, sum_rho_r_w)) / sum_w;
+        p_w = (sum_pw + dot(GRAVITY - a_w, sum_rho_r_w)) / sum_w;
         u_w = sum_vw / sum_w;
     }
     press[i] = p_w;

@@ -77,16 +77,22 @@ pub fn boundary_pressure_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<
                 return None;
             }
             // No fluid neighbour: p = 0, and ρ(0) = ρ0.
-            let p = extrapolate_cpu(c, set, i).map_or(0.0, |(p, _)| p);
+            let p = extrapolate_cpu(c, set, i, [0.0; 3]).map_or(0.0, |(p, _)| p);
             Some((p, c.density(p)))
         })
         .collect()
 }
 
-/// Adami et al.'s extrapolation to entry `i` from its fluid neighbours: the pressure
-/// of eq. (27) and the Shepard average of the fluid velocity; `None` without fluid
-/// neighbours. Also the fallback of Joubert's boundary values.
-pub fn extrapolate_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> Option<(f64, [f64; 3])> {
+/// Adami et al.'s extrapolation to entry `i`, whose surface accelerates at `a_w`, from
+/// its fluid neighbours: the pressure of eq. (27) and the Shepard average of the fluid
+/// velocity; `None` without fluid neighbours. Also the fallback of Joubert's boundary
+/// values.
+pub fn extrapolate_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    i: usize,
+    a_w: [f64; 3],
+) -> Option<(f64, [f64; 3])> {
     let (mut sum_pw, mut sum_rrw, mut sum_vw, mut sum_w) = (0.0, [0.0; 3], [0.0; 3], 0.0);
     for j in set.neighbours(i, c.support_radius()) {
         if set.kinds.kind(set.id[j]) != Kind::Fluid {
@@ -103,7 +109,7 @@ pub fn extrapolate_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> Option<
     }
     (sum_w > 0.0).then(|| {
         (
-            (sum_pw + dot(c.gravity_fluid, sum_rrw)) / sum_w,
+            (sum_pw + dot(sub(c.gravity_fluid, a_w), sum_rrw)) / sum_w,
             sum_vw.map(|v| v / sum_w),
         )
     })
@@ -112,7 +118,7 @@ pub fn extrapolate_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> Option<
 /// CPU twin of the no-slip wall velocity: `2 v_w − Σ_f v_f W_wf / Σ_f W_wf` for wall
 /// entry `w` (its own velocity without fluid neighbours).
 pub fn wall_velocity_cpu(c: &SphConstants, set: &ParticleSet, w: usize) -> [f64; 3] {
-    match extrapolate_cpu(c, set, w) {
+    match extrapolate_cpu(c, set, w, [0.0; 3]) {
         Some((_, v)) => std::array::from_fn(|k| 2.0 * set.vel[w][k] - v[k]),
         None => set.vel[w],
     }

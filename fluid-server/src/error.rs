@@ -35,6 +35,10 @@ pub enum FluidError {
         "set_bodies: coupling points are not contiguous per body: point {index} returns to body {body}"
     )]
     MarkerOrder { index: usize, body: u32 },
+    #[error(
+        "set_bodies: {got} body accelerations for {states} body states (give one per state, or none)"
+    )]
+    AccelerationCount { got: usize, states: usize },
     #[error("set_bodies: {what} of {item} is not finite: {value}")]
     NonFiniteInput {
         what: &'static str,

@@ -1,23 +1,26 @@
-//! Joubert's one-layer walls (§2.5, `domain.wall_model = "joubert"`): the pressure of
-//! every boundary particle from the Neumann condition of Joubert eq. (25), and on
-//! symmetry planes the velocity from eq. (27) with a zero normal derivative. No ghost or
-//! mirrored particles: the corrected gradient over the particle's fluid neighbours is
-//! contracted with the wall normal.
+//! Joubert's one-layer boundaries (§2.5–2.6, `domain.wall_model = "joubert"`): the
+//! pressure of every boundary particle — domain wall or body marker — from the Neumann
+//! condition of Joubert eq. (25), and on symmetry planes the velocity from eq. (27)
+//! with a zero normal derivative. No ghost or mirrored particles: the corrected
+//! gradient over the particle's fluid neighbours is contracted with the surface normal.
 //!
-//! For wall particle w and its fluid neighbours f (`V_f = m/ρ_f`):
+//! For boundary particle w and its fluid neighbours f (`V_f = m/ρ_f`):
 //!
 //! - `M_w = −Σ_f V_f ∇W_wf ⊗ r_wf` and `B_w = M_w⁻¹`: the one-sided truncation matrix
 //!   (Joubert eq. 10 over the fluid only, so that `Σ_f V_f (f_f − f_w) B_w ∇W_wf` is
 //!   exact for a linear field whatever `f_w` is);
 //! - `p_w = (n̂·B_w Σ_f V_f p_f/ρ_f ∇W_wf − n̂·g + n̂·a_w − n̂·⟨∇·τ/ρ⟩_w) /
 //!   n̂·B_w Σ_f V_f/ρ_f ∇W_wf` (eq. 25), the momentum equation contracted with the
-//!   normal; the normal's sign cancels. `a_w = 0`: domain walls are fixed or slide at a
-//!   constant lid velocity. The viscous term `n̂·ν∇²u` is left out: at a flat no-slip
+//!   normal; the normal's sign cancels. `a_w` is the surface's acceleration: 0 for
+//!   domain walls (fixed, or sliding at a constant lid velocity), the rigid-body
+//!   acceleration of the point for a marker ([`crate::marker_update::point_acceleration`]).
+//!   Normal and acceleration come per boundary particle in a [`BoundaryFrame`]. The
+//!   viscous term `n̂·ν∇²u` is left out: at a flat no-slip
 //!   wall it equals `−ν ∇_t·(∂u_t/∂n)`, zero for a fully developed channel flow and for
 //!   fluid at rest, and at a symmetry plane it vanishes with the odd normal velocity;
 //!   it is not zero next to the corners of a driven cavity. Computing it needs the
 //!   corrected Laplacian at the wall, a one-sided second-order fit not built yet.
-//! - no-slip particles keep their own velocity (a Dirichlet condition, Joubert's "one
+//! - no-slip particles (and markers) keep their own velocity (a Dirichlet condition, Joubert's "one
 //!   layer of boundary particles with fixed properties"); symmetry particles take
 //!   `u_w = n̂·B_w Σ_f V_f u_f ∇W_wf / n̂·B_w Σ_f V_f ∇W_wf` (eq. 27, `∂u/∂n = 0`) with
 //!   the components along their normal's axes set to zero (no flow through the plane).
@@ -56,6 +59,28 @@ fn well_posed(m: &Mat3) -> bool {
     scale >= B_DET_MIN && determinant(m) >= B_DET_MIN * scale.powi(3)
 }
 
+/// What eq. (25) needs of boundary particle `id − n_fluid` besides the fluid (domain
+/// walls first, then markers; WGSL `BoundaryFrame`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BoundaryFrame {
+    /// xyz the unit normal (its sign cancels in eqs. 25 and 27); w = 1 on a symmetry
+    /// plane (the particle takes eq. 27's velocity), else 0 (it keeps its own).
+    pub normal: [f32; 4],
+    /// xyz the acceleration of the surface at the particle, m/s²; w unused.
+    pub acc: [f32; 4],
+}
+
+impl BoundaryFrame {
+    /// A marker's frame: its outward normal and the point's acceleration.
+    pub fn marker(normal: [f32; 3], acc: [f64; 3]) -> Self {
+        BoundaryFrame {
+            normal: [normal[0], normal[1], normal[2], 0.0],
+            acc: [acc[0] as f32, acc[1] as f32, acc[2] as f32, 0.0],
+        }
+    }
+}
+
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
     let guard = format!("const B_DET_MIN: f32 = {B_DET_MIN:e};\n");
@@ -81,7 +106,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
                     (pb::RHO, Access::ReadWrite),
                     (pb::PRESS, Access::ReadWrite),
                     (pb::ID, Access::Read),
-                    (pb::WALL_NORMAL, Access::Read),
+                    (pb::BOUNDARY_FRAME, Access::Read),
                 ],
             ),
             (
@@ -93,12 +118,12 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     )
 }
 
-/// Normal and kind of every wall particle of a fresh `set` built for `scene` with
-/// `wall_model = "joubert"`, indexed by `id − n_fluid`: xyz the unit normal into the
-/// fluid (the normalised sum of the normals of the faces the particle lies on), w = 1
-/// when every one of those faces is a symmetry plane (`domain.symmetry`, or every face
-/// with `walls = "free-slip"`), else 0 (the particle holds its velocity).
-pub fn wall_normals(scene: &Scene, set: &ParticleSet) -> Vec<[f32; 4]> {
+/// Frames of every wall particle of a fresh `set` built for `scene` with
+/// `wall_model = "joubert"`, indexed by `id − n_fluid`: the unit normal into the fluid
+/// (the normalised sum of the normals of the faces the particle lies on), marked
+/// symmetric when every one of those faces is a symmetry plane (`domain.symmetry`, or
+/// every face with `walls = "free-slip"`), and zero acceleration.
+pub fn wall_frames(scene: &Scene, set: &ParticleSet) -> Vec<BoundaryFrame> {
     let d = &scene.domain;
     let tol = 0.25 * scene.fluid.as_ref().map_or(0.0, |f| f.spacing);
     let index = set.index_of_id();
@@ -121,17 +146,20 @@ pub fn wall_normals(scene: &Scene, set: &ParticleSet) -> Vec<[f32; 4]> {
             // (particles.rs); a zero normal would make eq. (25) fall back, counted.
             let n = if len > 0.0 { n.map(|x| x / len) } else { n };
             let symmetric = len > 0.0 && all_symmetric;
-            [
-                n[0] as f32,
-                n[1] as f32,
-                n[2] as f32,
-                f32::from(u8::from(symmetric)),
-            ]
+            BoundaryFrame {
+                normal: [
+                    n[0] as f32,
+                    n[1] as f32,
+                    n[2] as f32,
+                    f32::from(u8::from(symmetric)),
+                ],
+                acc: [0.0; 4],
+            }
         })
         .collect()
 }
 
-/// One wall particle's values from the CPU twin.
+/// One boundary particle's values from the CPU twin.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoundaryValues {
     pub press: f64,
@@ -142,29 +170,31 @@ pub struct BoundaryValues {
     pub fallback: bool,
 }
 
-/// CPU twin: the values of every wall entry of `set` (`None` for other kinds), with
-/// `normals` from [`wall_normals`].
+/// CPU twin: the values of every wall and marker entry of `set` (`None` for fluid),
+/// with `frames` indexed by `id − n_fluid` ([`wall_frames`], then the markers').
 pub fn boundary_values_cpu(
     c: &SphConstants,
     set: &ParticleSet,
-    normals: &[[f32; 4]],
+    frames: &[BoundaryFrame],
 ) -> Vec<Option<BoundaryValues>> {
     (0..set.len())
         .map(|i| {
-            (set.kinds.kind(set.id[i]) == Kind::Wall).then(|| {
-                let nw = normals[set.id[i] as usize - set.kinds.n_fluid];
-                let n = [nw[0], nw[1], nw[2]].map(f64::from);
-                one_wall(c, set, i, n, nw[3] > 0.5)
+            (set.kinds.kind(set.id[i]) != Kind::Fluid).then(|| {
+                let f = frames[set.id[i] as usize - set.kinds.n_fluid];
+                let n = [f.normal[0], f.normal[1], f.normal[2]].map(f64::from);
+                let a = [f.acc[0], f.acc[1], f.acc[2]].map(f64::from);
+                one_boundary(c, set, i, n, a, f.normal[3] > 0.5)
             })
         })
         .collect()
 }
 
-fn one_wall(
+fn one_boundary(
     c: &SphConstants,
     set: &ParticleSet,
     i: usize,
     n: [f64; 3],
+    a_w: [f64; 3],
     symmetry: bool,
 ) -> BoundaryValues {
     let mut m: Mat3 = [[0.0; 3]; 3];
@@ -191,7 +221,7 @@ fn one_wall(
         }
     }
     let own = set.vel[i];
-    let Some(adami) = extrapolate_cpu(c, set, i) else {
+    let Some(adami) = extrapolate_cpu(c, set, i, a_w) else {
         return BoundaryValues {
             press: 0.0,
             rho: c.rho0,
@@ -204,9 +234,9 @@ fn one_wall(
         let b = inverse(&m);
         let n_s = dot(n, mat_vec(&b, s));
         if n_s.abs() * c.spacing >= B_DET_MIN {
-            // Joubert eq. (25), a_w = 0, viscous term left out (module doc).
-            let p =
-                (dot(n, mat_vec(&b, sp)) - dot(n, c.gravity_fluid)) / dot(n, mat_vec(&b, s_rho));
+            // Joubert eq. (25), viscous term left out (module doc).
+            let p = (dot(n, mat_vec(&b, sp)) - dot(n, c.gravity_fluid) + dot(n, a_w))
+                / dot(n, mat_vec(&b, s_rho));
             // Joubert eq. (27) with ∂u/∂n = 0.
             let u = su.map(|su_k| dot(n, mat_vec(&b, su_k)) / n_s);
             solved = Some((p, u));

@@ -7,6 +7,7 @@
 
 use crate::error::FluidError;
 use crate::gpu::{Gpu, GpuError};
+use crate::marker_update::AccelerationEstimate;
 use crate::solver::FluidSolver;
 use couplet_protocol::transport::{Control, Endpoint, TransportError, parent_alive};
 use couplet_protocol::{
@@ -75,6 +76,8 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     let alive = || parent_alive(parent);
     let mut points: Vec<CouplingPoint> = Vec::new();
     let mut states: Vec<BodyState> = Vec::new();
+    // Joubert eq. (25) needs the markers' acceleration; the DEM sends velocities.
+    let mut acceleration_estimate = AccelerationEstimate::default();
     loop {
         let cmd = wake.wait_for(|| commands.try_next(), alive)?;
         if cmd.protocol_version != PROTOCOL_VERSION {
@@ -131,7 +134,8 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
             )?;
             wait_us = wait_start.elapsed().as_secs_f64() * 1e6;
             let t = Instant::now();
-            solver.set_bodies(&gpu, &states, &points)?;
+            let accelerations = acceleration_estimate.update(solver.time(), &states);
+            solver.set_bodies(&gpu, &states, &points, &accelerations)?;
             exchange_us += t.elapsed().as_secs_f64() * 1e6;
         }
 

@@ -26,8 +26,9 @@
 
 use crate::constants::{SphConstants, StepParams};
 use crate::gpu::Gpu;
+use crate::joubert2020_boundary_values::BoundaryFrame;
 use crate::limits::FluidLimits;
-use crate::marker_update::{Clock, GpuBody, GpuMarker};
+use crate::marker_update::{BodyAcceleration, Clock, GpuBody, GpuMarker, point_acceleration};
 use crate::neighbour_grid::{GridBox, NeighbourGrid};
 use crate::particles::{Kind, ParticleKinds, ParticleSet, initial_particles, wall_layers};
 use crate::plan::Stage;
@@ -204,9 +205,10 @@ pub struct SphData {
     /// the boundary pass after every sort, so not permuted), when a viscous term meets
     /// no-slip walls ([`SphConstants::wall_velocity_extrapolation`]).
     pub wall_vel: Option<wgpu::Buffer>,
-    /// Joubert walls' normals and kinds ([`joubert2020_boundary_values::wall_normals`]),
-    /// only with `domain.wall_model = "joubert"`.
-    pub wall_normal: Option<wgpu::Buffer>,
+    /// Joubert boundaries' frames ([`BoundaryFrame`]: walls from
+    /// [`joubert2020_boundary_values::wall_frames`], then the markers', rewritten by
+    /// every [`FluidSolver::set_bodies`]), only with `domain.wall_model = "joubert"`.
+    pub boundary_frame: Option<wgpu::Buffer>,
     bound: Bound,
 }
 
@@ -262,7 +264,7 @@ impl SphData {
         c: &SphConstants,
         pipelines: &SphPipelines,
         set: &ParticleSet,
-        wall_normals: &[[f32; 4]],
+        wall_frames: &[BoundaryFrame],
         bounds: GridBox,
         body_capacity: usize,
     ) -> Result<SphData, FluidError> {
@@ -348,9 +350,15 @@ impl SphData {
         let wall_vel = c
             .wall_velocity_extrapolation
             .then(|| storage_init(gpu, "sph: wall velocity", &vec![0u8; n * 16]));
-        let wall_normal = c
-            .joubert_walls
-            .then(|| storage_init(gpu, "sph: wall normals", bytemuck::cast_slice(wall_normals)));
+        let boundary_frame = c.joubert_walls.then(|| {
+            // Markers' frames are written by every set_bodies.
+            let mut frames = wall_frames.to_vec();
+            frames.resize(
+                set.kinds.n_wall + set.kinds.n_markers,
+                BoundaryFrame::default(),
+            );
+            storage_init(gpu, "sph: boundary frames", bytemuck::cast_slice(&frames))
+        });
         let bodies = (set.kinds.n_markers > 0).then(|| {
             let m = set.kinds.n_markers;
             let cap = body_capacity.max(1);
@@ -385,7 +393,7 @@ impl SphData {
                     pb::BMAT => &gradients.as_ref()?.bmat,
                     pb::GRADS => &gradients.as_ref()?.grads,
                     pb::WALL_VEL => wall_vel.as_ref()?,
-                    pb::WALL_NORMAL => wall_normal.as_ref()?,
+                    pb::BOUNDARY_FRAME => boundary_frame.as_ref()?,
                     pb::BHAT => gradients.as_ref()?.bhat.as_ref()?,
                     _ => return None,
                 })
@@ -504,7 +512,7 @@ impl SphData {
             bodies,
             gradients,
             wall_vel,
-            wall_normal,
+            boundary_frame,
             bound,
         })
     }
@@ -529,7 +537,7 @@ impl SphData {
             Op::TaitEos => (&b.tait_eos, "sph: tait_eos"),
             Op::BoundaryPressure => (
                 &b.boundary_pressure,
-                if self.wall_normal.is_some() {
+                if self.boundary_frame.is_some() {
                     "sph: joubert2020_boundary_values"
                 } else {
                     "sph: adami2012_boundary_pressure"
@@ -692,9 +700,9 @@ pub struct FluidSolver {
     /// Particle-steps of the last window whose truncation matrix was near-singular
     /// (kept the uncorrected gradient); 0 without the gradient pass.
     near_singular: u32,
-    /// Joubert walls' normals by wall index (empty with Adami walls); the carve-out of
+    /// Joubert walls' frames by wall index (empty with Adami walls); the carve-out of
     /// bodies renumbers fluid ids only, so the wall order, and these, stay valid.
-    wall_normals: Vec<[f32; 4]>,
+    wall_frames: Vec<BoundaryFrame>,
 }
 
 impl FluidSolver {
@@ -741,8 +749,8 @@ impl FluidSolver {
             scene.has_resolved_bodies(),
         );
         drop(probe);
-        let wall_normals = if consts.joubert_walls {
-            joubert2020_boundary_values::wall_normals(scene, &set)
+        let wall_frames = if consts.joubert_walls {
+            joubert2020_boundary_values::wall_frames(scene, &set)
         } else {
             Vec::new()
         };
@@ -754,7 +762,7 @@ impl FluidSolver {
             &consts,
             &pipelines,
             &set,
-            &wall_normals,
+            &wall_frames,
             bounds,
             scene.bodies.len(),
         )?;
@@ -782,7 +790,7 @@ impl FluidSolver {
             steps: 0,
             loads_ready: false,
             near_singular: 0,
-            wall_normals,
+            wall_frames,
         };
         // Fluid pressures from the initial densities (Joubert eq. 4).
         solver.write_params(gpu);
@@ -847,16 +855,25 @@ impl FluidSolver {
             .write_buffer(&self.data.params, 0, bytemuck::bytes_of(&self.step_params));
     }
 
-    /// Sets the bodies and markers for the next window: `states` at the window start and
-    /// the world-frame coupling points in DEM order (contiguous per body). The first
-    /// call fixes the marker capacity (the marker particles are appended then); later
-    /// calls must give the same number of points.
+    /// Sets the bodies and markers for the next window: `states` at the window start,
+    /// the world-frame coupling points in DEM order (contiguous per body), and the
+    /// bodies' accelerations in the order of `states` (empty: all zero; see
+    /// [`crate::marker_update::AccelerationEstimate`]), which Joubert's boundaries
+    /// (eq. 25) give the markers. The first call fixes the marker capacity (the marker
+    /// particles are appended then); later calls must give the same number of points.
     pub fn set_bodies(
         &mut self,
         gpu: &Gpu,
         states: &[BodyState],
         points: &[CouplingPoint],
+        accelerations: &[BodyAcceleration],
     ) -> Result<(), FluidError> {
+        if !accelerations.is_empty() && accelerations.len() != states.len() {
+            return Err(FluidError::AccelerationCount {
+                got: accelerations.len(),
+                states: states.len(),
+            });
+        }
         if let Some(cap) = self.marker_capacity
             && cap != points.len()
         {
@@ -900,12 +917,16 @@ impl FluidSolver {
             if s.position
                 .iter()
                 .chain(&s.linear_velocity)
+                .chain(&s.angular_velocity)
                 .any(|x| !x.is_finite())
             {
                 return Err(FluidError::NonFiniteInput {
                     what: "position or velocity",
                     item: format!("body state {index} (body {})", s.body),
-                    value: format!("{:?} / {:?}", s.position, s.linear_velocity),
+                    value: format!(
+                        "{:?} / {:?} / {:?}",
+                        s.position, s.linear_velocity, s.angular_velocity
+                    ),
                 });
             }
             let rel = |k: usize| (s.position[k] - self.origin[k]) as f32;
@@ -969,6 +990,27 @@ impl FluidSolver {
             .collect();
         gpu.queue
             .write_buffer(&buffers.markers_in, 0, bytemuck::cast_slice(&markers));
+        if let Some(frames) = &self.data.boundary_frame {
+            // Joubert eq. (25) at the markers: their normal and the rigid-body
+            // acceleration of each point at the window start.
+            let mut kinematics =
+                vec![(BodyAcceleration::default(), [0.0; 3], [0.0; 3]); body_capacity];
+            for (k, s) in states.iter().enumerate() {
+                let acc = accelerations.get(k).copied().unwrap_or_default();
+                kinematics[s.body as usize] = (acc, s.angular_velocity, s.position);
+            }
+            let marker_frames: Vec<BoundaryFrame> = points
+                .iter()
+                .map(|p| {
+                    let (acc, omega, cg) = &kinematics[p.body as usize];
+                    let r = std::array::from_fn(|k| f64::from(p.position[k]) - cg[k]);
+                    BoundaryFrame::marker(p.normal, point_acceleration(acc, *omega, r))
+                })
+                .collect();
+            let offset = (self.data.kinds.n_wall * std::mem::size_of::<BoundaryFrame>()) as u64;
+            gpu.queue
+                .write_buffer(frames, offset, bytemuck::cast_slice(&marker_frames));
+        }
         gpu.queue
             .write_buffer(&buffers.bodies, 0, bytemuck::cast_slice(&bodies));
         gpu.queue
@@ -1015,7 +1057,7 @@ impl FluidSolver {
             &self.consts,
             &self.pipelines,
             &set,
-            &self.wall_normals,
+            &self.wall_frames,
             self.bounds,
             body_capacity,
         )?;

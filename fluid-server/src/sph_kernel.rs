@@ -49,9 +49,9 @@ pub mod particle_binding {
     /// B̂_i of the corrected Laplacian (Joubert eq. 11), symmetric: two vec4 per
     /// particle, (B̂_xx, B̂_yy, B̂_zz, 0), (B̂_xy, B̂_xz, B̂_yz, 0) (gradient pass).
     pub const BHAT: u32 = 12;
-    /// Joubert walls' unit normal and kind (w = 1 on a symmetry plane), one vec4 per
-    /// wall particle indexed by `id − n_fluid` (not permuted).
-    pub const WALL_NORMAL: u32 = 13;
+    /// Joubert boundaries' `BoundaryFrame` (unit normal, symmetry flag, acceleration),
+    /// two vec4 per wall or marker particle indexed by `id − n_fluid` (not permuted).
+    pub const BOUNDARY_FRAME: u32 = 13;
 }
 
 /// Bodies and markers, group 2.

@@ -7,9 +7,10 @@ mod common;
 use common::max_err;
 use couplet_fluid::adami2012_boundary_pressure::extrapolate_cpu;
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
-use couplet_fluid::joubert2020_boundary_values::{boundary_values_cpu, wall_normals};
+use couplet_fluid::joubert2020_boundary_values::{BoundaryFrame, boundary_values_cpu, wall_frames};
+use couplet_fluid::marker_update::BodyAcceleration;
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleSet, SphConstants, initial_particles};
-use couplet_protocol::Scene;
+use couplet_protocol::{BodyState, CouplingPoint, Scene};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -53,10 +54,16 @@ gradient_correction = true
     Scene::parse(&text, Path::new("joubert-walls.toml")).expect("test scene")
 }
 
-/// Hydrostatic pressure of the fluid at rest under `G`, zero at the box centre top.
+/// Hydrostatic pressure of the fluid at rest under `G`, 5 kPa at the box centre top.
 fn p_hydro(c: &SphConstants, x: [f64; 3]) -> f64 {
+    p_linear(c, G, x)
+}
+
+/// The pressure of fluid at rest in a frame accelerating under the effective gravity
+/// `g` (∇p = ρ0 g), 5 kPa at the box centre top.
+fn p_linear(c: &SphConstants, g: [f64; 3], x: [f64; 3]) -> f64 {
     let x0 = [0.1, 0.2, 0.1];
-    c.rho0 * (0..3).map(|k| G[k] * (x[k] - x0[k])).sum::<f64>() + 5000.0
+    c.rho0 * (0..3).map(|k| g[k] * (x[k] - x0[k])).sum::<f64>() + 5000.0
 }
 
 /// A velocity field with no z dependence and no z component: tangential to the z
@@ -77,13 +84,24 @@ fn imposed_set(
     jitter: f64,
     velocity: impl Fn([f64; 3], &mut ChaCha8Rng) -> [f64; 3],
 ) -> ParticleSet {
+    imposed_set_with(s, c, jitter, G, velocity)
+}
+
+/// [`imposed_set`] with the pressure of [`p_linear`] under `g`.
+fn imposed_set_with(
+    s: &Scene,
+    c: &SphConstants,
+    jitter: f64,
+    g: [f64; 3],
+    velocity: impl Fn([f64; 3], &mut ChaCha8Rng) -> [f64; 3],
+) -> ParticleSet {
     let mut set = initial_particles(s, c).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     for i in 0..set.kinds.n_fluid {
         for k in 0..3 {
             set.pos[i][k] += (rng.random::<f64>() - 0.5) * 2.0 * jitter * c.spacing;
         }
-        let p = p_hydro(c, set.pos[i]);
+        let p = p_linear(c, g, set.pos[i]);
         set.rho[i] = c.density(p);
         set.press[i] = p;
         set.vel[i] = velocity(set.pos[i], &mut rng);
@@ -116,7 +134,7 @@ fn joubert_boundary_values_match_cpu_twin() {
         let set = imposed_set(&s, &c, 0.2, |_, rng| {
             [0, 1, 2].map(|_| rng.random::<f64>() - 0.5)
         });
-        let normals = wall_normals(&s, &set);
+        let normals = wall_frames(&s, &set);
         let (got, diag) = boundary_pass(&gpu, &s, set);
         let want = boundary_values_cpu(&c, &got, &normals);
         let walls: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
@@ -160,12 +178,12 @@ fn neumann_wall_pressure_and_symmetry_velocity_are_exact_for_linear_fields() {
     let s = joubert_box("quintic", 0.2);
     let c = SphConstants::from_scene(&s).unwrap();
     let set = imposed_set(&s, &c, 0.2, |x, _| u_planar(x));
-    let normals = wall_normals(&s, &set);
+    let normals = wall_frames(&s, &set);
     let walls: Vec<usize> = (0..set.len())
         .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Wall)
         .collect();
     let n_fluid = set.kinds.n_fluid;
-    let symmetric = |id: u32| normals[id as usize - n_fluid][3] > 0.5;
+    let symmetric = |id: u32| normals[id as usize - n_fluid].normal[3] > 0.5;
     let n_sym = walls.iter().filter(|&&i| symmetric(set.id[i])).count();
     let p_range = c.rho0 * G.iter().map(|g| g.abs() * 0.2).sum::<f64>();
     let u_range = 0.2 * 3.5;
@@ -187,7 +205,7 @@ fn neumann_wall_pressure_and_symmetry_velocity_are_exact_for_linear_fields() {
                     .fold(0.0, f64::max),
             );
             // Adami's wall velocity without its 2 v_w term: the Shepard average.
-            let (_, avg) = extrapolate_cpu(&c, &set, i).unwrap();
+            let (_, avg) = extrapolate_cpu(&c, &set, i, [0.0; 3]).unwrap();
             shepard = shepard.max((avg[0] - exact[0]).abs().max((avg[1] - exact[1]).abs()));
         }
     }
@@ -238,4 +256,132 @@ fn neumann_wall_pressure_and_symmetry_velocity_are_exact_for_linear_fields() {
         "GPU pressure error {ep:e} Pa against the fluid's {fluid_quantum:e} Pa"
     );
     assert!(eu <= 1e-4 * u_range, "GPU velocity error {eu:e} m/s");
+}
+
+/// Joubert eq. (25) at the markers of a sphere (r = 0.05 m, 100 markers, about one per
+/// δ²) accelerating at A in the full box of fluid at rest relative to it: the fluid's
+/// pressure is linear with ∇p = ρ0 (G − A), and eq. (25) with the body's acceleration
+/// gives every marker that pressure at its own position. Reference: the linear field.
+/// Tolerances as in the wall test above (the f64 twin to 1e-9 of the range, the GPU
+/// within 4× the fluid's own f32 pressure error); the GPU matches the twin on the same
+/// particles to 1e-4 of the range; and the twin without A is off by more than twice
+/// the GPU tolerance, so a kernel that dropped the acceleration term would fail
+/// (measured: twin 4.5e-12 Pa, GPU 1.7 Pa, tolerance 15 Pa, without A 56 Pa).
+#[test]
+fn neumann_marker_pressure_includes_the_body_acceleration() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = joubert_box("quintic", 0.2);
+    let c = SphConstants::from_scene(&s).unwrap();
+    let a_body = [1.5, 2.0, -0.5];
+    let g_eff: [f64; 3] = std::array::from_fn(|k| G[k] - a_body[k]);
+    let set = imposed_set_with(&s, &c, 0.2, g_eff, |_, _| [0.0; 3]);
+    let walls = wall_frames(&s, &set);
+
+    // Fibonacci points on the sphere, outward normals.
+    let (centre, radius, n) = ([0.1, 0.1, 0.1], 0.05, 100);
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let points: Vec<CouplingPoint> = (0..n)
+        .map(|k| {
+            let y = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+            let rho = (1.0 - y * y).sqrt();
+            let phi = golden * k as f64;
+            let nrm = [rho * phi.cos(), y, rho * phi.sin()];
+            CouplingPoint {
+                position: std::array::from_fn(|a| (centre[a] + radius * nrm[a]) as f32),
+                measure: (4.0 * std::f64::consts::PI * radius * radius / n as f64) as f32,
+                normal: nrm.map(|x| x as f32),
+                ..Default::default()
+            }
+        })
+        .collect();
+    let state = BodyState {
+        position: centre,
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        motion: 2,
+        mass: 1.0,
+        volume: 1.0,
+        ..Default::default()
+    };
+    let acc = BodyAcceleration {
+        linear: a_body,
+        angular: [0.0; 3],
+    };
+    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[acc]).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::Sort, Op::BoundaryPressure], 1e-5, 1.0)
+        .unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let diag = solver.data().read_diag(&gpu).unwrap().unwrap();
+
+    let origin = [0.1; 3];
+    let world = |p: [f64; 3]| std::array::from_fn::<f64, 3, _>(|k| p[k] + origin[k]);
+    let p_exact = |x: [f64; 3]| p_linear(&c, g_eff, world(x));
+    let frames = |with_acc: bool| -> Vec<BoundaryFrame> {
+        let a = if with_acc { a_body } else { [0.0; 3] };
+        let mut f = walls.clone();
+        f.extend(points.iter().map(|p| BoundaryFrame::marker(p.normal, a)));
+        f
+    };
+    let markers: Vec<usize> = (0..got.len())
+        .filter(|&i| got.kinds.kind(got.id[i]) == Kind::Marker)
+        .collect();
+    assert_eq!(markers.len(), n);
+    let p_range = c.rho0 * g_eff.iter().map(|g| g.abs() * 0.2).sum::<f64>();
+
+    // f64 twin on the GPU's particles with ρ = ρ0 and the exact pressures.
+    // (`got` is sorted: the fluid is found by kind, not by index.)
+    let fluid: Vec<usize> = (0..got.len())
+        .filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid)
+        .collect();
+    let mut exact = got.clone();
+    for &i in &fluid {
+        exact.rho[i] = c.rho0;
+        exact.press[i] = p_exact(exact.pos[i]);
+    }
+    let twin = boundary_values_cpu(&c, &exact, &frames(true));
+    let twin_no_acc = boundary_values_cpu(&c, &exact, &frames(false));
+    let err = |v: &[Option<couplet_fluid::joubert2020_boundary_values::BoundaryValues>]| {
+        markers
+            .iter()
+            .map(|&i| (v[i].unwrap().press - p_exact(got.pos[i])).abs())
+            .fold(0.0, f64::max)
+    };
+    let (e_twin, e_no_acc) = (err(&twin), err(&twin_no_acc));
+    assert!(markers.iter().all(|&i| !twin[i].unwrap().fallback));
+
+    // GPU against the field and against the twin on its own (f32-Tait) fluid.
+    let fluid_quantum = fluid
+        .iter()
+        .map(|&i| (got.press[i] - p_exact(got.pos[i])).abs())
+        .fold(0.0, f64::max);
+    let e_gpu = markers
+        .iter()
+        .map(|&i| (got.press[i] - p_exact(got.pos[i])).abs())
+        .fold(0.0, f64::max);
+    let same = boundary_values_cpu(&c, &got, &frames(true));
+    let (e_parity, _) = max_err(
+        markers
+            .iter()
+            .map(|&i| (got.press[i], same[i].unwrap().press)),
+    );
+    println!(
+        "markers: twin {e_twin:e} Pa, twin without A {e_no_acc:e} Pa, GPU {e_gpu:e} Pa \
+         (fluid's f32 error {fluid_quantum:e}), GPU vs twin {e_parity:e} Pa, range {p_range:e} Pa, fallbacks {}",
+        diag[2]
+    );
+    assert!(
+        e_twin <= 1e-9 * p_range,
+        "twin marker pressure error {e_twin:e} Pa"
+    );
+    assert!(
+        fluid_quantum <= 4.0 * c.sound_speed.powi(2) * f64::from(f32::EPSILON) * 0.5 * 1024.0
+            && e_gpu <= 4.0 * fluid_quantum,
+        "GPU marker pressure error {e_gpu:e} Pa against the fluid's {fluid_quantum:e} Pa"
+    );
+    assert!(e_parity <= 1e-4 * p_range, "GPU vs twin {e_parity:e} Pa");
+    assert!(
+        e_no_acc > 2.0 * 4.0 * fluid_quantum,
+        "without the acceleration the markers should be visibly off: {e_no_acc:e} Pa"
+    );
 }

@@ -351,7 +351,7 @@ fn marker_loads_match_cpu_twin() {
             });
         }
     }
-    solver.set_bodies(&gpu, &states, &points).unwrap();
+    solver.set_bodies(&gpu, &states, &points, &[]).unwrap();
     assert_eq!(solver.counts().markers, 300);
     solver
         .run_ops(

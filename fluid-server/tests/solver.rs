@@ -140,7 +140,7 @@ fn buoyancy_of_a_marker_sphere() {
         orientation: [0.0, 0.0, 0.0, 1.0],
         ..Default::default()
     };
-    solver.set_bodies(&gpu, &[state], &points).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
     assert_eq!(solver.counts().markers, n as u32);
     // One load evaluation on the initial (hydrostatic) state: after a window the markers,
     // which the uncorrected scheme treats as a dense wall inside the fluid, have already
@@ -197,7 +197,7 @@ fn buoyancy_of_a_marker_sphere() {
     );
     // Later windows must keep the marker count.
     let err = solver
-        .set_bodies(&gpu, &[state], &points[..10])
+        .set_bodies(&gpu, &[state], &points[..10], &[])
         .unwrap_err();
     assert!(
         matches!(

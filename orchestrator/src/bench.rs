@@ -54,7 +54,7 @@ pub fn bench(
         engine.states(&mut states);
         let mut points = Vec::new();
         markers.world_points(&states, &mut points);
-        solver.set_bodies(&gpu, &states, &points)?;
+        solver.set_bodies(&gpu, &states, &points, &[])?;
     }
 
     // After the markers: they add particles and carve fluid out of the bodies.

@@ -261,9 +261,11 @@ pub enum WallModel {
     /// every face with `walls = "free-slip"`) take the fluid's tangential velocity by
     /// eq. (27) with a zero normal derivative; the pressure of every boundary particle
     /// comes from the Neumann condition of eq. (25) with B over its fluid neighbours.
-    /// Needs `effects.gradient_correction` (a one-layer wall truncates the kernel,
-    /// which only the corrected operators tolerate); not with fixed box obstacles or
-    /// resolved bodies yet (their markers take eq. 25 with the resolved coupling).
+    /// Resolved bodies' markers take eq. (25) too, with the rigid-body acceleration of
+    /// each surface point (estimated from the body's velocity change over the previous
+    /// window). Needs `effects.gradient_correction` (a one-layer wall truncates the
+    /// kernel, which only the corrected operators tolerate); not with fixed box
+    /// obstacles yet (their wall particles have no normals).
     /// The time step (Joubert eq. 24) takes δ/2, the layer's distance from the fluid.
     /// Eq. (25)'s viscous term is not included yet (exact for fluid at rest and channel
     /// flows), and nothing but compression stops fluid crossing the one layer: a driven
@@ -792,11 +794,11 @@ impl Scene {
                     "one-layer walls truncate the kernel: needs effects.gradient_correction = true (Joubert §2.5)",
                 );
             }
-            if self.bodies.iter().any(|b| self.is_fluid_obstacle(b)) || self.has_resolved_bodies() {
+            if self.bodies.iter().any(|b| self.is_fluid_obstacle(b)) {
                 return bad(
                     "domain.wall_model".into(),
                     "joubert".into(),
-                    "not with fixed box obstacles or resolved bodies yet: use \"adami\"",
+                    "not with fixed box obstacles yet (their wall particles have no normals): use \"adami\"",
                 );
             }
         }
@@ -1249,6 +1251,18 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
                 gc
             )),
             "domain.symmetry[1]"
+        );
+        // Resolved bodies take eq. (25) at their markers; fixed box obstacles are refused.
+        let sphere = include_str!("../../scenes/settling-sphere.toml")
+            .replace("[domain]\n", "[domain]\nwall_model = \"joubert\"\n");
+        let s = Scene::parse(&sphere, Path::new("sphere.toml")).unwrap();
+        assert!(s.has_resolved_bodies());
+        let dam = include_str!("../../scenes/spheric2-dam-break.toml")
+            .replace("[domain]\n", "[domain]\nwall_model = \"joubert\"\n")
+            .replace("[effects]\n", "[effects]\ngradient_correction = true\n");
+        assert_eq!(
+            field(Scene::parse(&dam, Path::new("dam.toml"))),
+            "domain.wall_model"
         );
     }
 }
