@@ -336,15 +336,13 @@ pub struct EffectsSpec {
     /// matrix is near-singular (det < `couplet_fluid` `B_DET_MIN`: isolated or nearly so)
     /// keeps the uncorrected gradient and is counted in the run log. Default false: the
     /// standard scheme is the cheaper one and the foundation's tests are written for it.
-    /// Known limit (measured 2026-11-22): in the hydrostatic tank (gravity on the fluid,
-    /// Adami walls, free surface) the corrected scheme blows up within 0.03–0.05 s, the
-    /// first bad particle at the floor or the surface; the difference-form pressure term
-    /// gives no wall repulsion in hydrostatic balance, and Joubert's own wall treatment
-    /// (Neumann pressure, eq. 25) is not implemented yet. The mass correction does not
-    /// cure it (with Γ = 1 or 2 the blow-up comes at 0.01 s; the free-surface layer's
-    /// density climbs from the first steps). Joubert runs no free surface. Enclosed flows
-    /// without gravity on the fluid (the settling sphere, the channels, the cavity) run;
-    /// the blow-up check names the particle.
+    /// Known limit (measured 2026-11-23): with a free surface under gravity (the open
+    /// hydrostatic tank, the dam break) the corrected scheme blows up at the surface,
+    /// with Adami or Joubert walls: the difference-form pressure term's p_i B S feedback
+    /// makes a surface particle unstable. The mass correction does not cure it.
+    /// Joubert runs no free surface. Closed, full tanks under gravity (0.48 % with either
+    /// wall model) and enclosed flows (the settling sphere, the channels, the cavity)
+    /// run; the blow-up check names the particle.
     #[serde(default)]
     pub gradient_correction: bool,
     /// Corrected Laplacian of Joubert eqs. (11) and (13) (Fatehi & Manzari) for the
