@@ -2,7 +2,7 @@
 // Adami, Hu & Adams (2012) eq. (27), the uncorrected analogue of Joubert eq. (25):
 //   p_w = [Σ_f p_f W_wf + (g − a_w)·Σ_f ρ_f r_wf W_wf] / Σ_f W_wf
 // over fluid neighbours f, with g the gravity on the fluid and a_w = 0 (walls are
-// fixed; markers' accelerations are not sent by the DEM in this version). ρ_w from the
+// fixed; markers' accelerations reach only Joubert's boundary pass). ρ_w from the
 // inverted Tait equation. No fluid neighbour: p = 0, ρ = ρ0.
 // No-slip walls also get their velocity for the viscous sums, 2 v_w − ṽ_w with
 // ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (Adami et al. 2012, §2.3), through
