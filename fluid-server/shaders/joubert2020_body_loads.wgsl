@@ -1,13 +1,20 @@
 // ---- joubert2020_body_loads.wgsl (CPU twin: joubert2020_body_loads.rs) ----
-// Joubert eqs. (31)–(32) with uncorrected gradients: per marker i
-//   t_i = (−p_i n_i + μ (∇u + ∇uᵀ)_i · n_i) ΔS_i,   ∇u_i = Σ_f V_f (u_f − u_i) ⊗ ∇W_if
+// Joubert eqs. (31)–(32): per marker i
+//   t_i = (−p_i n_i + μ (∇u + ∇uᵀ)_i · n_i) ΔS_i,   ∇u_i = Σ_f V_f (u_f − u_i) ⊗ B_i ∇W_if
 // over fluid neighbours f (V_f = m/ρ_f, μ = ρ0 ν), moment (r_i − r_cg) × t_i about the
 // body's centre of mass extrapolated like the markers (r_cg + v_cg τ).
+// With GRADIENT_CORRECTION, B_i = M_i⁻¹ with the one-sided M_i = −Σ_f V_f ∇W_if ⊗ r_if
+// (Joubert eq. 10 over the fluid only, as in joubert2020_boundary_values.wgsl): the
+// gradient of a linear field is then exact at the surface, where the uncorrected sum
+// sees half a support. Where M_i is near-singular (tr M/3 < B_DET_MIN or
+// det M < B_DET_MIN (tr M/3)³) B_i = I and count_one_sided_fallback() counts it
+// (diag[2], composed in by joubert2020_body_loads.rs). Without the correction B_i = I.
 // Each evaluation adds weight·(t_i, M_i) to the marker's slot (indexed by marker id, so
 // in DEM order) with Kahan compensation; the window average is the sum.
 // reduce_body_loads then sums each body's contiguous marker range in one workgroup
 // with a tree reduction.
-// Needs: prelude, SPH constants, StepParams, grid_common, kernel, marker_update (library).
+// Needs: prelude, SPH constants, B_DET_MIN, count_one_sided_fallback, StepParams,
+// grid_common, kernel, marker_update (library).
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
@@ -48,6 +55,7 @@ fn marker_loads(@builtin(workgroup_id) wid: vec3<u32>,
     if NU > 0.0 {
         let c_i = cell_coord(p_i);
         var grad_u = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+        var m_i = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
         for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
             for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
                 let rs = row_ranges(c_i, dy, dz);
@@ -59,10 +67,27 @@ fn marker_loads(@builtin(workgroup_id) wid: vec3<u32>,
                         continue;
                     }
                     let grad_w = kernel_grad_factor(sqrt(r2)) * r_ij;
-                    let du = (MASS / rho[j]) * (vel[j].xyz - u_i);
-                    // Column b holds ∂u/∂x_b: grad_u[b][a] = ∂u_a/∂x_b.
+                    let v_j = MASS / rho[j];
+                    let du = v_j * (vel[j].xyz - u_i);
+                    // Column b holds Σ V du ∇W_b (before B: ∂u/∂x_b).
                     grad_u += mat3x3<f32>(du * grad_w.x, du * grad_w.y, du * grad_w.z);
+                    if GRADIENT_CORRECTION {
+                        let vgw = v_j * grad_w;
+                        m_i -= mat3x3<f32>(vgw * r_ij.x, vgw * r_ij.y, vgw * r_ij.z);
+                    }
                 }
+            }
+        }
+        if GRADIENT_CORRECTION {
+            let scale = (m_i[0][0] + m_i[1][1] + m_i[2][2]) / 3.0;
+            let det = determinant(m_i);
+            if scale >= B_DET_MIN && det >= B_DET_MIN * scale * scale * scale {
+                // B by the adjugate (as in joubert2020_gradients.wgsl); ∂u_a/∂x_b =
+                // Σ_c D_ac B_bc, i.e. G = D Bᵀ.
+                let b = transpose(mat3x3<f32>(cross(m_i[1], m_i[2]), cross(m_i[2], m_i[0]), cross(m_i[0], m_i[1]))) * (1.0 / det);
+                grad_u = grad_u * transpose(b);
+            } else {
+                count_one_sided_fallback();
             }
         }
         // (∇u + ∇uᵀ)·n = G n + Gᵀ n.

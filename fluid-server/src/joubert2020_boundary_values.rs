@@ -54,7 +54,7 @@ pub const BOUNDARY_VALUES_WGSL: &str = include_str!("../shaders/joubert2020_boun
 /// 5 % of a full support's first moment), `det M ≥ B_DET_MIN (tr M/3)³` (not a sheet),
 /// and `|n̂·B Σ V ∇W| δ ≥ B_DET_MIN` (eq. 25's denominator clear of zero). A particle
 /// on a flat face has `M ≈ I/2`; at an edge `≈ I/4`, at a corner `≈ I/8`, all well-posed.
-fn well_posed(m: &Mat3) -> bool {
+pub(crate) fn well_posed(m: &Mat3) -> bool {
     let scale = (m[0][0] + m[1][1] + m[2][2]) / 3.0;
     scale >= B_DET_MIN && determinant(m) >= B_DET_MIN * scale.powi(3)
 }

@@ -1204,8 +1204,9 @@ impl FluidSolver {
         }
         gpu.queue.submit([encoder.finish()]);
         let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 3)?;
-        // Gradient-pass fallbacks per step, plus Joubert boundary particles' (counted in
-        // each of the step's two boundary passes).
+        // Gradient-pass fallbacks per step, plus the one-sided matrices of Joubert
+        // boundary particles and of the markers' corrected ∇u (each counted at both of
+        // the step's rate evaluations).
         let near_singular = if d.gradients.is_some() {
             status[1] + status[2] / 2
         } else {

@@ -73,7 +73,8 @@ pub mod param_binding {
     pub const COUNTS: u32 = 3;
     /// Per-step diagnostics of the gradient pass: [0] max fluid speed (f32 bits),
     /// [1] particles with a near-singular truncation matrix, [2] Joubert boundary
-    /// particles whose one-sided matrix was (per boundary pass, two per step).
+    /// particles and markers (corrected ∇u of the loads) whose one-sided matrix was
+    /// (per evaluation, two per step).
     pub const DIAG: u32 = 4;
 }
 

@@ -9,7 +9,7 @@ mod common;
 use common::{max_err, random_set, scene};
 use couplet_fluid::adami2012_boundary_pressure::boundary_pressure_cpu;
 use couplet_fluid::fluid_rates::fluid_rates_cpu;
-use couplet_fluid::gpu::shared_test_gpu;
+use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::joubert2020_body_loads::{MarkerGeometry, marker_load_cpu};
 use couplet_fluid::tait_eos::tait_eos_cpu;
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConstants};
@@ -304,14 +304,21 @@ fn pressure_gradient_of_linear_field_and_translation() {
     }
 }
 
-/// Marker loads (Joubert eqs. 31–32, uncorrected ∇u) of 300 random markers of 3 bodies
-/// among 2744 particles, viscous fluid: traction and moment per marker within 1e-4 of
-/// the largest magnitude; the per-body tree reduction equals the f64 sum of the GPU's
-/// per-marker values within 1e-5 of the largest body load.
+/// Marker loads (Joubert eqs. 31–32) of 300 random markers of 3 bodies among 2744
+/// particles, viscous fluid, with the uncorrected and the corrected (one-sided B) ∇u:
+/// traction and moment per marker within 1e-4 of the largest magnitude, the same
+/// near-singular fallbacks (diag[2]); the per-body tree reduction equals the f64 sum of
+/// the GPU's per-marker values within 1e-5 of the largest body load.
 #[test]
 fn marker_loads_match_cpu_twin() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = scene("kernel = \"wendland-c2\"", "");
+    for effects in ["", "[effects]\ngradient_correction = true"] {
+        marker_loads_match_cpu_twin_with(&gpu, effects);
+    }
+}
+
+fn marker_loads_match_cpu_twin_with(gpu: &Gpu, effects: &str) {
+    let s = scene("kernel = \"wendland-c2\"", effects);
     let c = SphConstants::from_scene(&s).unwrap();
     let set = random_set(&c, 14, 0.2, 0.2, 0.5, 6);
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
@@ -385,14 +392,19 @@ fn marker_loads_match_cpu_twin() {
     let (ef, mf) = max_err(
         (0..points.len())
             .flat_map(|k| (0..3).map(move |a| (k, a)))
-            .map(|(k, a)| (gpu_loads[k].0[a], want[k].0[a])),
+            .map(|(k, a)| (gpu_loads[k].0[a], want[k].traction[a])),
     );
     let (em, mm) = max_err(
         (0..points.len())
             .flat_map(|k| (0..3).map(move |a| (k, a)))
-            .map(|(k, a)| (gpu_loads[k].1[a], want[k].1[a])),
+            .map(|(k, a)| (gpu_loads[k].1[a], want[k].moment[a])),
     );
-    println!("marker traction max |Δ| = {ef:e} of {mf:e}; moment {em:e} of {mm:e}");
+    let fallbacks = want.iter().filter(|l| l.fallback).count();
+    let diag = solver.data().read_diag(gpu).unwrap().map_or(0, |d| d[2]);
+    println!(
+        "{effects:?}: marker traction max |Δ| = {ef:e} of {mf:e}; moment {em:e} of {mm:e}; fallbacks {fallbacks} (GPU {diag})"
+    );
+    assert_eq!(diag as usize, fallbacks, "fallback count");
     assert!(
         mf > 0.0 && ef <= PAIR_RTOL * mf,
         "traction {ef:e} of {mf:e}"
