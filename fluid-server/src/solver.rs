@@ -21,8 +21,9 @@
 //! runs with the gradient correction or particle shifting; its B matrix enters the
 //! continuity and pressure terms of `fluid_rates` (eqs. 12–13). The boundary pass is
 //! Adami's extrapolation, or with `domain.wall_model = "joubert"` Joubert's Neumann
-//! values (eqs. 25, 27; [`crate::joubert2020_boundary_values`]) at walls and markers;
-//! the marker loads still use the uncorrected kernel gradient.
+//! values (eqs. 25, 27; [`crate::joubert2020_boundary_values`]) at walls and markers.
+//! With the gradient correction the marker loads' velocity gradient takes a one-sided
+//! B ([`crate::joubert2020_body_loads`]).
 
 use crate::constants::{SphConstants, StepParams};
 use crate::gpu::Gpu;
