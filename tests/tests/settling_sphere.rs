@@ -10,9 +10,11 @@
 //!
 //! Quick version: δ = 1 mm (r = 1.25 δ), support 2.4 δ, the box cut to 30 mm high with
 //! the release at 20 mm, to t = 0.6 s. Runs repeat bit for bit (stable grid sort).
-//! Measured 2026-11-22: change 1.00 %, plateau 0.0686 m/s against 0.0482 m/s from the
-//! correlation (r = 1.25 δ does not resolve the boundary layer), roll 0.47 % of the
-//! plateau. Before the stable sort identical runs gave 0.55–5.14 %; without particle
+//! Measured 2026-11-23, with the markers' corrected velocity gradient (one-sided B):
+//! change 2.38 %, plateau 0.0587 m/s against 0.0482 m/s from the correlation (r = 1.25 δ
+//! does not resolve the boundary layer), roll 1.83 % of the plateau; 518 s. With the
+//! uncorrected marker gradient (half the shear at the surface) it was change 1.00 %,
+//! plateau 0.0686 m/s, roll 0.47 %. Before the stable sort identical runs gave 0.55–5.14 %; without particle
 //! shifting the wake void let the sphere gain 3.4 %.
 
 use couplet_tests::{couplet_validate, report_rows};
