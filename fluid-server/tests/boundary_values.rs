@@ -278,23 +278,8 @@ fn neumann_marker_pressure_includes_the_body_acceleration() {
     let set = imposed_set_with(&s, &c, 0.2, g_eff, |_, _| [0.0; 3]);
     let walls = wall_frames(&s, &set);
 
-    // Fibonacci points on the sphere, outward normals.
     let (centre, radius, n) = ([0.1, 0.1, 0.1], 0.05, 100);
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let points: Vec<CouplingPoint> = (0..n)
-        .map(|k| {
-            let y = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
-            let rho = (1.0 - y * y).sqrt();
-            let phi = golden * k as f64;
-            let nrm = [rho * phi.cos(), y, rho * phi.sin()];
-            CouplingPoint {
-                position: std::array::from_fn(|a| (centre[a] + radius * nrm[a]) as f32),
-                measure: (4.0 * std::f64::consts::PI * radius * radius / n as f64) as f32,
-                normal: nrm.map(|x| x as f32),
-                ..Default::default()
-            }
-        })
-        .collect();
+    let points = common::sphere_markers(centre, radius, n);
     let state = BodyState {
         position: centre,
         orientation: [0.0, 0.0, 0.0, 1.0],

@@ -5,7 +5,7 @@ mod common;
 
 use couplet_fluid::gpu::shared_test_gpu;
 use couplet_fluid::{FluidError, FluidLimits, FluidSolver, Op, SphConstants, stages};
-use couplet_protocol::{BodyState, CouplingPoint, Scene};
+use couplet_protocol::{BodyState, Scene};
 use std::path::Path;
 
 fn tank(extra: &str) -> Scene {
@@ -115,24 +115,7 @@ fn buoyancy_of_a_marker_sphere() {
     let mut solver = FluidSolver::new(&gpu, &scene).unwrap();
     let (r, centre) = (0.05, [0.1, 0.15, 0.1]);
     let n = 400;
-    let area = 4.0 * std::f64::consts::PI * r * r / n as f64;
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let points: Vec<CouplingPoint> = (0..n)
-        .map(|k| {
-            let y = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
-            let rad = (1.0 - y * y).sqrt();
-            let th = golden * k as f64;
-            let nrm = [rad * th.cos(), y, rad * th.sin()];
-            CouplingPoint {
-                position: [0, 1, 2].map(|a| (centre[a] + r * nrm[a]) as f32),
-                measure: area as f32,
-                velocity: [0.0; 3],
-                body: 0,
-                normal: nrm.map(|x| x as f32),
-                _pad: 0,
-            }
-        })
-        .collect();
+    let points = common::sphere_markers(centre, r, n);
     let state = BodyState {
         position: centre,
         body: 0,

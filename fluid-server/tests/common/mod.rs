@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use couplet_fluid::{ParticleKinds, ParticleSet, SphConstants};
-use couplet_protocol::Scene;
+use couplet_protocol::{CouplingPoint, Scene};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -94,4 +94,26 @@ pub fn max_err(pairs: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
     pairs.fold((0.0, 0.0), |(e, m), (a, b)| {
         (f64::max(e, (a - b).abs()), f64::max(m, b.abs()))
     })
+}
+
+/// `n` markers of body 0 on a sphere (Fibonacci lattice): outward normals, equal areas
+/// summing to 4πr², at rest.
+#[allow(dead_code)] // not every test binary that includes `common` has bodies
+pub fn sphere_markers(centre: [f64; 3], radius: f64, n: usize) -> Vec<CouplingPoint> {
+    let area = 4.0 * std::f64::consts::PI * radius * radius / n as f64;
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|k| {
+            let y = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+            let rad = (1.0 - y * y).sqrt();
+            let th = golden * k as f64;
+            let nrm = [rad * th.cos(), y, rad * th.sin()];
+            CouplingPoint {
+                position: std::array::from_fn(|a| (centre[a] + radius * nrm[a]) as f32),
+                measure: area as f32,
+                normal: nrm.map(|x| x as f32),
+                ..Default::default()
+            }
+        })
+        .collect()
 }
