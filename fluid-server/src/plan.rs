@@ -122,7 +122,7 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(
             JOUBERT_BOUNDARY_VALUES,
             format!(
-                "one layer of boundary particles on the faces (Joubert §2.5){}{}: pressure by the Neumann condition of eq. (25), B over the fluid neighbours, twice per step",
+                "one layer of boundary particles on the faces (Joubert §2.5){}{}{}: pressure by the Neumann condition of eq. (25), B over the fluid neighbours, twice per step",
                 if held.is_empty() {
                     String::new()
                 } else {
@@ -135,6 +135,11 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
                         "; {} faces are symmetry planes (velocity by eq. 27, ∂u/∂n = 0)",
                         symmetric.join(", ")
                     )
+                },
+                if scene.has_resolved_bodies() {
+                    "; body markers with the rigid-body acceleration of each point (§2.6)"
+                } else {
+                    ""
                 },
             ),
         );
@@ -241,7 +246,17 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         );
     }
     if resolved {
-        push(BODY_LOADS, "resolved bodies: Joubert eqs. (31)–(32) over the markers, averaged over the window, tree-reduced per body".into());
+        push(
+            BODY_LOADS,
+            format!(
+                "resolved bodies: Joubert eqs. (31)–(32) over the markers{}, averaged over the window, tree-reduced per body",
+                if scene.effects.gradient_correction {
+                    ", ∇u corrected by a one-sided B"
+                } else {
+                    ""
+                }
+            ),
+        );
     }
     push(
         BLOWUP_CHECK,
