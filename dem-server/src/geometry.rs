@@ -434,6 +434,26 @@ impl BodyGeometry {
             Shape::Convex { vertices } => {
                 Self::Polyhedra(recentre(vec![Polyhedron::convex_hull(vertices)?]))
             }
+            Shape::Prism {
+                sides,
+                radius,
+                half_height,
+            } => {
+                positive("prism.radius", *radius)?;
+                positive("prism.half_height", *half_height)?;
+                if *sides < 3 {
+                    return Err(DemError::Shape {
+                        what: "prism.sides".into(),
+                        value: sides.to_string(),
+                        why: "a prism needs at least 3 sides".into(),
+                    });
+                }
+                Self::Polyhedra(recentre(vec![Polyhedron::convex_hull(&prism_vertices(
+                    *sides,
+                    *radius,
+                    *half_height,
+                ))?]))
+            }
             Shape::Compound { parts } => {
                 let hulls = parts
                     .iter()
@@ -507,6 +527,20 @@ impl BodyGeometry {
 }
 
 /// Shifts the parts so that their common volume centroid is the origin.
+/// Vertices of a right regular prism along y with its edges on a circle of `radius`;
+/// vertices at angles 2π(k + ½)/sides from +x in the x–z plane, so that face normals
+/// sit at 2πk/sides.
+pub fn prism_vertices(sides: u32, radius: f64, half_height: f64) -> Vec<[f64; 3]> {
+    let n = f64::from(sides);
+    (0..sides)
+        .flat_map(|k| {
+            let a = 2.0 * std::f64::consts::PI * (f64::from(k) + 0.5) / n;
+            let (x, z) = (radius * a.cos(), radius * a.sin());
+            [[x, -half_height, z], [x, half_height, z]]
+        })
+        .collect()
+}
+
 fn recentre(mut parts: Vec<Polyhedron>) -> Vec<Polyhedron> {
     let (mut vol, mut moment) = (0.0, V3::zeros());
     for p in &parts {

@@ -135,6 +135,59 @@ fn cylinder_area_is_exact() {
     assert_outward_unit(&m);
 }
 
+/// Joubert's 12-face "cylinder" (§3.2, Fig. 7b) as `shape.prism`: 12 rectangular side
+/// faces of width 2r sin(π/12) and two dodecagonal caps of area 3r² (½ · 12 r² sin 30°);
+/// the areas sum to that (rel 1e-9), the side normals sit at multiples of 30° from +x in
+/// the x–z plane (so a face looks straight down −z), and the spacing is about δ.
+/// Reference: the prism's exact geometry.
+#[test]
+fn twelve_sided_prism_area_and_faces_are_exact() {
+    let (r, h, d) = (1.25e-3, 5e-3, 2.5e-4);
+    let m = generate_markers(
+        &Shape::Prism {
+            sides: 12,
+            radius: r,
+            half_height: h,
+        },
+        d,
+    )
+    .unwrap();
+    let side = 2.0 * r * (PI / 12.0).sin();
+    let exact = 12.0 * side * 2.0 * h + 2.0 * 3.0 * r * r;
+    assert!(
+        rel(total_area(&m), exact) < 1e-9,
+        "{} vs {exact}",
+        total_area(&m)
+    );
+    assert_outward_unit(&m);
+    for k in m.iter().filter(|k| k.normal[1].abs() < 1e-9) {
+        let angle = k.normal[2].atan2(k.normal[0]).to_degrees().rem_euclid(360.0);
+        let off = (angle / 30.0 - (angle / 30.0).round()).abs() * 30.0;
+        assert!(off < 1e-6, "side normal at {angle}°");
+    }
+    assert!(
+        m.iter().any(|k| (k.normal[2] + 1.0).abs() < 1e-12),
+        "a face looks along −z"
+    );
+    let spacing = mean_nearest(&m);
+    assert!(
+        spacing > 0.5 * d && spacing < 1.2 * d,
+        "mean nearest-marker distance {spacing:e} for δ = {d:e}"
+    );
+    // Three sides is the least; fewer is refused.
+    assert!(
+        generate_markers(
+            &Shape::Prism {
+                sides: 2,
+                radius: r,
+                half_height: h,
+            },
+            d,
+        )
+        .is_err()
+    );
+}
+
 /// Convex hulls: a regular tetrahedron (area 8√3 a²) and an offset regular octahedron
 /// (area 4√3 a²), triangular faces subdivided; rel 1e-9.
 #[test]

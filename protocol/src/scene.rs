@@ -442,6 +442,16 @@ pub enum Shape {
     Cylinder { radius: f64, half_height: f64 },
     /// Convex polyhedron: the convex hull of `vertices`, m.
     Convex { vertices: Vec<[f64; 3]> },
+    /// Right regular prism along the body y axis (`shape.prism.sides`, `radius`,
+    /// `half_height`): `sides` ≥ 3 rectangular faces whose edges lie on a circle of
+    /// `radius` (m), so that with 12 sides it is Joubert's polyhedral "cylinder"
+    /// (§3.2, Fig. 7b). Face normals point at angles 2πk/sides from body +x in the x–z
+    /// plane: faces normal to ±x, and to ±z when `sides` is a multiple of 4.
+    Prism {
+        sides: u32,
+        radius: f64,
+        half_height: f64,
+    },
     /// Non-convex compound of convex parts, each the hull of its vertices, m.
     Compound { parts: Vec<Vec<[f64; 3]>> },
 }
@@ -956,6 +966,11 @@ impl Scene {
                     half_height,
                 } => *radius > 0.0 && *half_height > 0.0,
                 Shape::Convex { vertices } => vertices.len() >= 4,
+                Shape::Prism {
+                    sides,
+                    radius,
+                    half_height,
+                } => *sides >= 3 && *radius > 0.0 && *half_height > 0.0,
                 Shape::Compound { parts } => {
                     !parts.is_empty() && parts.iter().all(|p| p.len() >= 4)
                 }
@@ -964,7 +979,7 @@ impl Scene {
                 return bad(
                     format!("bodies[{i}].shape"),
                     format!("{:?}", b.shape),
-                    "dimensions must be positive; a hull needs at least 4 vertices",
+                    "dimensions must be positive; a hull needs at least 4 vertices, a prism 3 sides",
                 );
             }
             for k in 0..3 {
