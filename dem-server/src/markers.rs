@@ -290,11 +290,69 @@ fn centroid_of(p: &[[f64; 3]]) -> [f64; 3] {
     )
 }
 
+/// Unit quaternion [x, y, z, w] of the rotation by |a| about a/|a|.
+pub(crate) fn quat_from_scaled_axis(a: [f64; 3]) -> [f64; 4] {
+    let angle = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    if angle == 0.0 {
+        return [0.0, 0.0, 0.0, 1.0];
+    }
+    let s = (0.5 * angle).sin() / angle;
+    [a[0] * s, a[1] * s, a[2] * s, (0.5 * angle).cos()]
+}
+
 /// Rotates `v` by the unit quaternion `q = [x, y, z, w]`.
 fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
     let u = [q[0], q[1], q[2]];
     let t = scale(cross(u, v), 2.0);
     add(v, add(scale(t, q[3]), cross(u, t)))
+}
+
+/// The markers of a body minus those on faces pressed against the domain: along an
+/// axis where the body, at its initial pose, spans the domain from face to face
+/// (within δ/100 at both ends), markers on either domain face whose outward normal is
+/// that face's outward normal see no fluid and are dropped. This is Joubert's
+/// "infinitely long" cylinder (§3.2: its caps lie on the symmetry walls in z); the
+/// remaining areas sum to the wetted surface. Such a body is held between the two faces
+/// by the DEM's walls, so the dropped faces stay on them.
+fn wetted(
+    markers: Vec<LocalMarker>,
+    body: &couplet_protocol::BodySpec,
+    domain: &couplet_protocol::Domain,
+    spacing: f64,
+) -> Vec<LocalMarker> {
+    let q = quat_from_scaled_axis(body.rotation);
+    let world = |m: &LocalMarker| {
+        (
+            add(rotate(q, m.position), body.position),
+            rotate(q, m.normal),
+        )
+    };
+    let tol = 0.01 * spacing;
+    let spans: Vec<usize> = (0..3)
+        .filter(|&k| {
+            let (lo, hi) =
+                markers
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+                        let x = world(m).0[k];
+                        (lo.min(x), hi.max(x))
+                    });
+            (lo - domain.min[k]).abs() < tol && (hi - domain.max[k]).abs() < tol
+        })
+        .collect();
+    if spans.is_empty() {
+        return markers;
+    }
+    markers
+        .into_iter()
+        .filter(|m| {
+            let (x, n) = world(m);
+            !spans.iter().any(|&k| {
+                ((x[k] - domain.min[k]).abs() < tol && n[k] < -1.0 + 1e-9)
+                    || ((x[k] - domain.max[k]).abs() < tol && n[k] > 1.0 - 1e-9)
+            })
+        })
+        .collect()
 }
 
 /// The markers of every marker-coupled body of a scene (resolved, with a fluid, not a
@@ -319,6 +377,7 @@ impl MarkerSet {
             }
             let own = generate_markers(&body.shape, fluid.spacing)
                 .map_err(|e| e.in_body(index, &body.name))?;
+            let own = wetted(own, body, &scene.domain, fluid.spacing);
             let start = set.markers.len();
             set.markers.extend(own);
             set.ranges.push((index as u32, start..set.markers.len()));

@@ -3,6 +3,7 @@
 
 use crate::engine::{ContactModel, DemEngine, DemError};
 use crate::geometry::BodyGeometry;
+use crate::markers::quat_from_scaled_axis;
 use couplet_protocol::{BodyLoad, BodyState, CouplingMode, Motion, Scene};
 use rapier3d::prelude::{
     CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Pose, Real, RigidBodyBuilder,
@@ -51,16 +52,6 @@ impl Kinematic {
             quat_mul(quat_from_scaled_axis(self.w.map(|c| c * t)), self.q0),
         )
     }
-}
-
-/// Unit quaternion [x, y, z, w] of the rotation by |a| about a/|a|.
-fn quat_from_scaled_axis(a: [f64; 3]) -> [f64; 4] {
-    let angle = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    if angle == 0.0 {
-        return [0.0, 0.0, 0.0, 1.0];
-    }
-    let s = (0.5 * angle).sin() / angle;
-    [a[0] * s, a[1] * s, a[2] * s, (0.5 * angle).cos()]
 }
 
 /// Hamilton product p q (apply q, then p).

@@ -161,7 +161,10 @@ fn twelve_sided_prism_area_and_faces_are_exact() {
     );
     assert_outward_unit(&m);
     for k in m.iter().filter(|k| k.normal[1].abs() < 1e-9) {
-        let angle = k.normal[2].atan2(k.normal[0]).to_degrees().rem_euclid(360.0);
+        let angle = k.normal[2]
+            .atan2(k.normal[0])
+            .to_degrees()
+            .rem_euclid(360.0);
         let off = (angle / 30.0 - (angle / 30.0).round()).abs() * 30.0;
         assert!(off < 1e-6, "side normal at {angle}°");
     }
@@ -185,6 +188,42 @@ fn twelve_sided_prism_area_and_faces_are_exact() {
             d,
         )
         .is_err()
+    );
+}
+
+/// A 12-sided prism laid along z (rotation π/2 about x) from z = 0 to z = 1, the whole
+/// domain: its caps lie on the domain's z faces and get no markers (Joubert §3.2's
+/// infinitely long cylinder), so the areas sum to the 12 side faces alone (rel 1e-9) and
+/// no normal points along z; the same prism 0.1 m shorter keeps its caps. Reference:
+/// the prism's exact side area.
+#[test]
+fn a_body_spanning_the_domain_has_no_markers_on_the_faces_it_presses() {
+    let r = 0.1;
+    let body = |half_height: f64| {
+        format!(
+            "[[bodies]]\nname = \"cylinder\"\nshape.prism = {{ sides = 12, radius = {r:?}, half_height = {half_height:?} }}\ndensity = 1250.0\nposition = [0.5, 0.3, 0.5]\nrotation = [{:?}, 0.0, 0.0]\n",
+            PI / 2.0
+        )
+    };
+    let side_area = 12.0 * 2.0 * r * (PI / 12.0).sin();
+    let spanning = MarkerSet::from_scene(&scene(&format!("{WATER}\n{}", body(0.5)))).unwrap();
+    let m = spanning.local();
+    assert!(
+        rel(total_area(m), side_area * 1.0) < 1e-9,
+        "{} vs {}",
+        total_area(m),
+        side_area
+    );
+    assert!(
+        m.iter().all(|k| k.normal[1].abs() < 1e-9),
+        "a cap marker is left"
+    );
+    let short = MarkerSet::from_scene(&scene(&format!("{WATER}\n{}", body(0.45)))).unwrap();
+    let caps = 2.0 * 3.0 * r * r;
+    assert!(
+        rel(total_area(short.local()), side_area * 0.9 + caps) < 1e-9,
+        "{}",
+        total_area(short.local())
     );
 }
 
