@@ -62,6 +62,17 @@ pub enum DemError {
         estimated: f64,
         limit: usize,
     },
+    /// A body in a scene with a periodic axis does not span that axis.
+    #[error(
+        "axis {axis} is periodic, but the body reaches only {lo:.6e}..{hi:.6e} m of the domain's {min:.6e}..{max:.6e} m: a body on a periodic axis must span it from face to face (one crossing the periodic face is not handled)"
+    )]
+    PeriodicSpan {
+        axis: usize,
+        lo: f64,
+        hi: f64,
+        min: f64,
+        max: f64,
+    },
     /// A fluid load names a body the scene does not have.
     #[error(
         "fluid load #{entry} names body {body}; the scene has {count} bodies (valid 0..{count})"

@@ -314,12 +314,14 @@ fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
 /// "infinitely long" cylinder (§3.2: its caps lie on the symmetry walls in z); the
 /// remaining areas sum to the wetted surface. Such a body is held between the two faces
 /// by the DEM's walls, so the dropped faces stay on them.
+///
+/// On a periodic axis the body must span the domain (else [`DemError::PeriodicSpan`]).
 fn wetted(
     markers: Vec<LocalMarker>,
     body: &couplet_protocol::BodySpec,
     domain: &couplet_protocol::Domain,
     spacing: f64,
-) -> Vec<LocalMarker> {
+) -> Result<Vec<LocalMarker>, DemError> {
     let q = quat_from_scaled_axis(body.rotation);
     let world = |m: &LocalMarker| {
         (
@@ -328,22 +330,27 @@ fn wetted(
         )
     };
     let tol = 0.01 * spacing;
-    let spans: Vec<usize> = (0..3)
-        .filter(|&k| {
-            let (lo, hi) =
-                markers
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
-                        let x = world(m).0[k];
-                        (lo.min(x), hi.max(x))
-                    });
-            (lo - domain.min[k]).abs() < tol && (hi - domain.max[k]).abs() < tol
-        })
-        .collect();
-    if spans.is_empty() {
-        return markers;
+    let mut spans = Vec::new();
+    for k in 0..3 {
+        let (lo, hi) = markers
+            .iter()
+            .map(|m| world(m).0[k])
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x), hi.max(x))
+            });
+        if (lo - domain.min[k]).abs() < tol && (hi - domain.max[k]).abs() < tol {
+            spans.push(k);
+        } else if domain.periodic[k] {
+            return Err(DemError::PeriodicSpan {
+                axis: k,
+                lo,
+                hi,
+                min: domain.min[k],
+                max: domain.max[k],
+            });
+        }
     }
-    markers
+    Ok(markers
         .into_iter()
         .filter(|m| {
             let (x, n) = world(m);
@@ -352,7 +359,7 @@ fn wetted(
                     || ((x[k] - domain.max[k]).abs() < tol && n[k] > 1.0 - 1e-9)
             })
         })
-        .collect()
+        .collect())
 }
 
 /// The markers of every marker-coupled body of a scene (resolved, with a fluid, not a
@@ -377,7 +384,8 @@ impl MarkerSet {
             }
             let own = generate_markers(&body.shape, fluid.spacing)
                 .map_err(|e| e.in_body(index, &body.name))?;
-            let own = wetted(own, body, &scene.domain, fluid.spacing);
+            let own = wetted(own, body, &scene.domain, fluid.spacing)
+                .map_err(|e| e.in_body(index, &body.name))?;
             let start = set.markers.len();
             set.markers.extend(own);
             set.ranges.push((index as u32, start..set.markers.len()));

@@ -194,8 +194,8 @@ fn twelve_sided_prism_area_and_faces_are_exact() {
 /// A 12-sided prism laid along z (rotation π/2 about x) from z = 0 to z = 1, the whole
 /// domain: its caps lie on the domain's z faces and get no markers (Joubert §3.2's
 /// infinitely long cylinder), so the areas sum to the 12 side faces alone (rel 1e-9) and
-/// no normal points along z; the same prism 0.1 m shorter keeps its caps. Reference:
-/// the prism's exact side area.
+/// no normal points along z; on a periodic z it is accepted, and a shorter one refused;
+/// the same prism 0.1 m shorter keeps its caps. Reference: the prism's exact side area.
 #[test]
 fn a_body_spanning_the_domain_has_no_markers_on_the_faces_it_presses() {
     let r = 0.1;
@@ -218,6 +218,26 @@ fn a_body_spanning_the_domain_has_no_markers_on_the_faces_it_presses() {
         m.iter().all(|k| k.normal[1].abs() < 1e-9),
         "a cap marker is left"
     );
+    // On a periodic z the spanning body is its own periodic image; a shorter one is
+    // refused, naming the axis.
+    let periodic = |extra: String| {
+        let text = format!("{}\n{WATER}\n{extra}", common::BASE).replace(
+            "max = [1, 1, 1]\n",
+            "max = [1, 1, 1]\nperiodic = [false, false, true]\n",
+        );
+        couplet_protocol::Scene::parse(&text, std::path::Path::new("t.toml")).unwrap()
+    };
+    let on_period = MarkerSet::from_scene(&periodic(body(0.5))).unwrap();
+    assert_eq!(on_period.len(), spanning.len());
+    match MarkerSet::from_scene(&periodic(body(0.45))) {
+        Err(DemError::Body { source, .. }) => {
+            assert!(
+                matches!(*source, DemError::PeriodicSpan { axis: 2, .. }),
+                "{source}"
+            )
+        }
+        other => panic!("expected a PeriodicSpan error, got {other:?}"),
+    }
     let short = MarkerSet::from_scene(&scene(&format!("{WATER}\n{}", body(0.45)))).unwrap();
     let caps = 2.0 * 3.0 * r * r;
     assert!(

@@ -216,8 +216,10 @@ pub struct Domain {
     /// the other, and particles interact across the faces through their nearest image.
     /// Each period must be a whole number of fluid spacings (the lattice tiles it
     /// without a seam) and at least 2.5 support radii long (the fluid server names the
-    /// axis otherwise). Not with bodies (a body crossing a periodic face is not
-    /// handled), nor a periodic y with `closed_top` or with gravity along y on the fluid.
+    /// axis otherwise). Bodies: only resolved ones that span every periodic axis from
+    /// face to face, each its own periodic image (Joubert's infinitely long cylinder;
+    /// the DEM server checks the span; a body crossing a periodic face is not handled).
+    /// Not a periodic y with `closed_top` or with gravity along y on the fluid.
     #[serde(default)]
     pub periodic: [bool; 3],
     /// Velocity of the +y wall, m/s: the lid of a driven cavity, the moving plate of
@@ -773,11 +775,14 @@ impl Scene {
                 "contradicts a periodic y axis (domain.periodic[1]): a periodic axis has no walls",
             );
         }
-        if d.periodic.iter().any(|p| *p) && !self.bodies.is_empty() {
+        // A body crossing a periodic face is not handled; a resolved body that spans the
+        // periodic axis from face to face is its own periodic image (the DEM server checks
+        // the span, where the shapes' geometry is known).
+        if d.periodic.iter().any(|p| *p) && self.bodies.iter().any(|b| !self.is_marker_coupled(b)) {
             return bad(
                 "domain.periodic".into(),
                 format!("{:?}", d.periodic),
-                "periodic axes are not supported with bodies yet (a body crossing a periodic face is not handled)",
+                "periodic axes take only resolved bodies that span them from face to face (a body crossing a periodic face is not handled)",
             );
         }
         if d.lid_velocity.iter().any(|v| !v.is_finite()) || d.lid_velocity[1] != 0.0 {
