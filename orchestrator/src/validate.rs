@@ -762,29 +762,10 @@ fn settling_sphere(scene: &Scene, rec: &Recording, report: &mut Report) -> Resul
         return Err("body 0 is not a sphere".into());
     };
     let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
-    let g = scene
-        .gravity
-        .vector
-        .iter()
-        .map(|x| x * x)
-        .sum::<f64>()
-        .sqrt();
+    let g = gravity_magnitude(scene);
     let d = 2.0 * r;
     let floor = scene.domain.min[1];
-    let s = track(rec, 0);
-    if s.len() < 20 {
-        return Err(format!("only {} body states recorded", s.len()));
-    }
-    let finite = s
-        .iter()
-        .all(|b| b.position.iter().chain(&b.velocity).all(|v| v.is_finite()));
-    report.judge(
-        "body state finite",
-        finite.to_string(),
-        "true".into(),
-        "exact".into(),
-        Some(finite),
-    );
+    let s = judged_track(rec, report)?;
     let early = s
         .iter()
         .find(|b| b.time >= 0.05)
@@ -870,6 +851,36 @@ fn settling_sphere(scene: &Scene, rec: &Recording, report: &mut Report) -> Resul
     Ok(())
 }
 
+/// |g| of the scene's gravity vector, m/s².
+fn gravity_magnitude(scene: &Scene) -> f64 {
+    scene
+        .gravity
+        .vector
+        .iter()
+        .map(|x| x * x)
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Body 0's recorded states (at least 20), with the row that judges them finite.
+fn judged_track(rec: &Recording, report: &mut Report) -> Result<Vec<BodySample>, String> {
+    let s = track(rec, 0);
+    if s.len() < 20 {
+        return Err(format!("only {} body states recorded", s.len()));
+    }
+    let finite = s
+        .iter()
+        .all(|b| b.position.iter().chain(&b.velocity).all(|v| v.is_finite()));
+    report.judge(
+        "body state finite",
+        finite.to_string(),
+        "true".into(),
+        "exact".into(),
+        Some(finite),
+    );
+    Ok(s)
+}
+
 /// The settled part of a fall: over the last fifth of the descent to `stop` (the body's
 /// centre height where the floor starts to slow it), the mean downward velocity and its
 /// change between the first and last fifths of that stretch, relative to the mean
@@ -936,28 +947,9 @@ fn settling_cylinder(scene: &Scene, rec: &Recording, report: &mut Report) -> Res
         _ => return Err("body 0 is not a prism or a cylinder".into()),
     };
     let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
-    let g = scene
-        .gravity
-        .vector
-        .iter()
-        .map(|x| x * x)
-        .sum::<f64>()
-        .sqrt();
+    let g = gravity_magnitude(scene);
     let d = 2.0 * r;
-    let s = track(rec, 0);
-    if s.len() < 20 {
-        return Err(format!("only {} body states recorded", s.len()));
-    }
-    let finite = s
-        .iter()
-        .all(|b| b.position.iter().chain(&b.velocity).all(|v| v.is_finite()));
-    report.judge(
-        "body state finite",
-        finite.to_string(),
-        "true".into(),
-        "exact".into(),
-        Some(finite),
-    );
+    let s = judged_track(rec, report)?;
     let Fall {
         t_end,
         plateau,
