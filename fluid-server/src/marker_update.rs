@@ -164,8 +164,15 @@ pub fn point_acceleration(acc: &BodyAcceleration, omega: [f64; 3], r: [f64; 3]) 
 /// body states it was given.
 #[derive(Debug, Default, Clone)]
 pub struct AccelerationEstimate {
-    /// Per body index: time, linear and angular velocity at the last update.
-    last: Vec<Option<(f64, [f64; 3], [f64; 3])>>,
+    /// Per body index: the velocities at the last update.
+    last: Vec<Option<VelocitySample>>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct VelocitySample {
+    t: f64,
+    linear: [f64; 3],
+    angular: [f64; 3],
 }
 
 impl AccelerationEstimate {
@@ -180,15 +187,21 @@ impl AccelerationEstimate {
                     self.last.resize(b + 1, None);
                 }
                 let acc = match self.last[b] {
-                    Some((t0, v0, w0)) if t > t0 => BodyAcceleration {
-                        linear: std::array::from_fn(|k| (s.linear_velocity[k] - v0[k]) / (t - t0)),
+                    Some(last) if t > last.t => BodyAcceleration {
+                        linear: std::array::from_fn(|k| {
+                            (s.linear_velocity[k] - last.linear[k]) / (t - last.t)
+                        }),
                         angular: std::array::from_fn(|k| {
-                            (s.angular_velocity[k] - w0[k]) / (t - t0)
+                            (s.angular_velocity[k] - last.angular[k]) / (t - last.t)
                         }),
                     },
                     _ => BodyAcceleration::default(),
                 };
-                self.last[b] = Some((t, s.linear_velocity, s.angular_velocity));
+                self.last[b] = Some(VelocitySample {
+                    t,
+                    linear: s.linear_velocity,
+                    angular: s.angular_velocity,
+                });
                 acc
             })
             .collect()
