@@ -229,6 +229,27 @@ impl Polyhedron {
         (vol, c)
     }
 
+    /// Second moment ∫ x xᵀ dV about the frame origin, m⁵: a tetrahedron p₀…p₃ of signed
+    /// volume V contributes V/20 (Σ pᵢ pᵢᵀ + (Σ pᵢ)(Σ pᵢ)ᵀ) (Tonon 2004, J. Math. Stat.
+    /// 1(1)), over the same fan of tetrahedra as the volume.
+    pub fn second_moment(&self) -> nalgebra::Matrix3<f64> {
+        let r = self.vertices.first().map_or(V3::zeros(), |p| v3(*p));
+        let mut m = nalgebra::Matrix3::zeros();
+        for f in &self.faces {
+            let p = self.face_points(f);
+            for k in 1..p.len().saturating_sub(1) {
+                let t = [r, v3(p[0]), v3(p[k]), v3(p[k + 1])];
+                let v = (t[1] - r).dot(&(t[2] - r).cross(&(t[3] - r))) / 6.0;
+                let sum: V3 = t.iter().sum();
+                let own = t
+                    .iter()
+                    .fold(nalgebra::Matrix3::zeros(), |acc, q| acc + q * q.transpose());
+                m += v / 20.0 * (own + sum * sum.transpose());
+            }
+        }
+        m
+    }
+
     /// Surface area, m².
     pub fn area(&self) -> f64 {
         self.faces
@@ -454,37 +475,78 @@ impl BodyGeometry {
                     *half_height,
                 ))?]))
             }
-            Shape::Compound { parts } => {
-                let hulls = parts
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| {
-                        Polyhedron::convex_hull(p).map_err(|e| match e {
-                            DemError::Shape { value, why, .. } => DemError::Shape {
-                                what: format!("compound.parts[{i}]"),
-                                value,
-                                why,
-                            },
-                            other => other,
-                        })
-                    })
-                    .collect::<Result<Vec<_>, _>>()?;
-                let size = hulls.iter().map(Polyhedron::size).fold(0.0, f64::max);
-                for i in 0..hulls.len() {
-                    for j in i + 1..hulls.len() {
-                        let depth = overlap_depth(&hulls[i], &hulls[j]);
-                        if depth > GEOMETRY_REL_TOL * size {
-                            return Err(DemError::OverlappingParts {
-                                first: i,
-                                second: j,
-                                depth,
-                            });
-                        }
-                    }
+            Shape::Ring {
+                sides,
+                inner_radius,
+                outer_radius,
+                half_height,
+            } => {
+                positive("ring.inner_radius", *inner_radius)?;
+                positive("ring.half_height", *half_height)?;
+                if !(outer_radius > inner_radius && outer_radius.is_finite()) {
+                    return Err(DemError::Shape {
+                        what: "ring.outer_radius".into(),
+                        value: outer_radius.to_string(),
+                        why: format!("must be finite and exceed the inner radius {inner_radius}"),
+                    });
                 }
-                Self::Polyhedra(recentre(hulls))
+                if *sides < 3 {
+                    return Err(DemError::Shape {
+                        what: "ring.sides".into(),
+                        value: sides.to_string(),
+                        why: "a ring needs at least 3 sides".into(),
+                    });
+                }
+                Self::compound(
+                    &ring_parts(*sides, *inner_radius, *outer_radius, *half_height),
+                    "ring",
+                )?
             }
+            Shape::Cross {
+                base,
+                width,
+                height,
+            } => {
+                positive("cross.base", *base)?;
+                positive("cross.width", *width)?;
+                positive("cross.height", *height)?;
+                Self::compound(&cross_parts(*base, *width, *height), "cross")?
+            }
+            Shape::Compound { parts } => Self::compound(parts, "compound")?,
         })
+    }
+
+    /// The compound of the convex hulls of `parts`, recentred on their common centroid;
+    /// parts that overlap are refused (`what` names the shape in errors).
+    fn compound(parts: &[Vec<[f64; 3]>], what: &str) -> Result<Self, DemError> {
+        let hulls = parts
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                Polyhedron::convex_hull(p).map_err(|e| match e {
+                    DemError::Shape { value, why, .. } => DemError::Shape {
+                        what: format!("{what}.parts[{i}]"),
+                        value,
+                        why,
+                    },
+                    other => other,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let size = hulls.iter().map(Polyhedron::size).fold(0.0, f64::max);
+        for i in 0..hulls.len() {
+            for j in i + 1..hulls.len() {
+                let depth = overlap_depth(&hulls[i], &hulls[j]);
+                if depth > GEOMETRY_REL_TOL * size {
+                    return Err(DemError::OverlappingParts {
+                        first: i,
+                        second: j,
+                        depth,
+                    });
+                }
+            }
+        }
+        Ok(Self::Polyhedra(recentre(hulls)))
     }
 
     /// Solid volume, m³: exact for the primitives and hulls; a compound's is the sum of
@@ -501,6 +563,43 @@ impl BodyGeometry {
                 half_height,
             } => PI * radius * radius * 2.0 * half_height,
             Self::Polyhedra(parts) => parts.iter().map(Polyhedron::volume).sum(),
+        }
+    }
+
+    /// Inertia tensor about the centre of mass (the body-frame origin) at uniform
+    /// `density`, kg·m², in `f64`: the textbook formulas for the primitives, and
+    /// ρ (tr C 𝟙 − C) from the second moment C of the polyhedra. The DEM engines take it
+    /// from here rather than from parry, whose `f32` principal-axis decomposition loses
+    /// the axes of bodies of millimetre size (see `rapier_engine.rs`).
+    pub fn inertia(&self, density: f64) -> nalgebra::Matrix3<f64> {
+        let m = density * self.volume();
+        let diag = |a: f64, b: f64, c: f64| nalgebra::Matrix3::from_diagonal(&V3::new(a, b, c));
+        match self {
+            Self::Sphere { radius } => {
+                let i = 0.4 * m * radius * radius;
+                diag(i, i, i)
+            }
+            Self::Box {
+                half_extents: [a, b, c],
+            } => {
+                let (a2, b2, c2) = ((2.0 * a).powi(2), (2.0 * b).powi(2), (2.0 * c).powi(2));
+                diag(
+                    m * (b2 + c2) / 12.0,
+                    m * (a2 + c2) / 12.0,
+                    m * (a2 + b2) / 12.0,
+                )
+            }
+            Self::Cylinder {
+                radius,
+                half_height,
+            } => {
+                let side = m * (3.0 * radius * radius + 4.0 * half_height * half_height) / 12.0;
+                diag(side, 0.5 * m * radius * radius, side)
+            }
+            Self::Polyhedra(parts) => {
+                let c: nalgebra::Matrix3<f64> = parts.iter().map(Polyhedron::second_moment).sum();
+                density * (nalgebra::Matrix3::identity() * c.trace() - c)
+            }
         }
     }
 
@@ -526,21 +625,64 @@ impl BodyGeometry {
     }
 }
 
-/// Shifts the parts so that their common volume centroid is the origin.
 /// Vertices of a right regular prism along y with its edges on a circle of `radius`;
 /// vertices at angles 2π(k + ½)/sides from +x in the x–z plane, so that face normals
 /// sit at 2πk/sides.
 pub fn prism_vertices(sides: u32, radius: f64, half_height: f64) -> Vec<[f64; 3]> {
-    let n = f64::from(sides);
     (0..sides)
-        .flat_map(|k| {
-            let a = 2.0 * std::f64::consts::PI * (f64::from(k) + 0.5) / n;
-            let (x, z) = (radius * a.cos(), radius * a.sin());
-            [[x, -half_height, z], [x, half_height, z]]
+        .map(|k| polygon_corner(k, sides, radius))
+        .flat_map(|(x, z)| [[x, -half_height, z], [x, half_height, z]])
+        .collect()
+}
+
+/// Corner (x, z) of a regular polygon of `sides` on a circle of `radius`, at angle
+/// 2π(k + ½)/sides from +x (the corners of [`prism_vertices`]). `k` is taken modulo
+/// `sides` so that neighbouring parts get bit-identical shared corners.
+fn polygon_corner(k: u32, sides: u32, radius: f64) -> (f64, f64) {
+    let a = 2.0 * std::f64::consts::PI * (f64::from(k % sides) + 0.5) / f64::from(sides);
+    (radius * a.cos(), radius * a.sin())
+}
+
+/// The `sides` trapezoidal prisms of Joubert's ring (§4.2, Fig. 17c): part k spans the
+/// polygon corners k and k + 1 on the inner and outer circles, from y = −h to h.
+/// Neighbouring parts share a radial face exactly, so the marker generator drops both
+/// copies and only the outer surface is meshed.
+pub fn ring_parts(sides: u32, inner: f64, outer: f64, half_height: f64) -> Vec<Vec<[f64; 3]>> {
+    (0..sides)
+        .map(|k| {
+            [k, k + 1]
+                .into_iter()
+                .flat_map(|c| [inner, outer].map(|r| polygon_corner(c, sides, r)))
+                .flat_map(|(x, z)| [[x, -half_height, z], [x, half_height, z]])
+                .collect()
         })
         .collect()
 }
 
+/// The five cuboids of Joubert's cross (§4.2, Fig. 17d; the layout is argued at
+/// `Shape::Cross`): `base` along x, `height` along y, `width` along z, centred at the
+/// origin, ±width along z and ±height along y.
+pub fn cross_parts(base: f64, width: f64, height: f64) -> Vec<Vec<[f64; 3]>> {
+    let half = [0.5 * base, 0.5 * height, 0.5 * width];
+    [
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, width],
+        [0.0, 0.0, -width],
+        [0.0, height, 0.0],
+        [0.0, -height, 0.0],
+    ]
+    .iter()
+    .map(|c| {
+        Polyhedron::cuboid(half)
+            .vertices
+            .iter()
+            .map(|v| [c[0] + v[0], c[1] + v[1], c[2] + v[2]])
+            .collect()
+    })
+    .collect()
+}
+
+/// Shifts the parts so that their common volume centroid is the origin.
 fn recentre(mut parts: Vec<Polyhedron>) -> Vec<Polyhedron> {
     let (mut vol, mut moment) = (0.0, V3::zeros());
     for p in &parts {

@@ -7,7 +7,7 @@ use crate::markers::quat_from_scaled_axis;
 use couplet_protocol::{BodyLoad, BodyState, CouplingMode, Motion, Scene};
 use rapier3d::prelude::{
     CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Pose, Real, RigidBodyBuilder,
-    RigidBodyHandle, Vector,
+    RigidBodyHandle, Rotation, SharedShape, Vector,
 };
 use std::collections::HashMap;
 
@@ -157,48 +157,55 @@ impl RapierEngine {
                 builder = builder.gravity_scale(gravity_scale(scene, i) as Real);
             }
             let handle = world.insert_body(builder);
-            let colliders = match geometry {
-                BodyGeometry::Sphere { radius } => vec![ColliderBuilder::ball(*radius as Real)],
+            let shape = match geometry {
+                BodyGeometry::Sphere { radius } => ColliderBuilder::ball(*radius as Real),
                 BodyGeometry::Box {
                     half_extents: [a, b, c],
-                } => {
-                    vec![ColliderBuilder::cuboid(*a as Real, *b as Real, *c as Real)]
-                }
+                } => ColliderBuilder::cuboid(*a as Real, *b as Real, *c as Real),
                 BodyGeometry::Cylinder {
                     radius,
                     half_height,
-                } => {
-                    vec![ColliderBuilder::cylinder(
-                        *half_height as Real,
-                        *radius as Real,
-                    )]
-                }
-                BodyGeometry::Polyhedra(parts) => parts
-                    .iter()
-                    .enumerate()
-                    .map(|(k, part)| {
-                        let pts: Vec<Vector> = part.vertices.iter().map(|v| vec3(*v)).collect();
-                        ColliderBuilder::convex_hull(&pts).ok_or_else(|| {
-                            DemError::Shape {
-                                what: format!("part {k} vertices"),
-                                value: format!("{:?}", part.vertices),
-                                why:
-                                    "rapier cannot build a convex hull of them (degenerate in f32)"
+                } => ColliderBuilder::cylinder(*half_height as Real, *radius as Real),
+                BodyGeometry::Polyhedra(parts) => {
+                    let hulls = parts
+                        .iter()
+                        .enumerate()
+                        .map(|(k, part)| {
+                            let pts: Vec<Vector> =
+                                part.vertices.iter().map(|v| vec3(*v)).collect();
+                            SharedShape::convex_hull(&pts).ok_or_else(|| {
+                                DemError::Shape {
+                                    what: format!("part {k} vertices"),
+                                    value: format!("{:?}", part.vertices),
+                                    why: "rapier cannot build a convex hull of them (degenerate in f32)"
                                         .into(),
-                            }
-                            .in_body(i, &spec.name)
+                                }
+                                .in_body(i, &spec.name)
+                            })
                         })
-                    })
-                    .collect::<Result<Vec<_>, _>>()?,
+                        .collect::<Result<Vec<_>, _>>()?;
+                    match <[SharedShape; 1]>::try_from(hulls) {
+                        Ok([hull]) => ColliderBuilder::new(hull),
+                        Err(hulls) => ColliderBuilder::compound(
+                            hulls.into_iter().map(|h| (Pose::IDENTITY, h)).collect(),
+                        ),
+                    }
+                }
             };
-            for c in colliders {
-                world.insert_collider(
-                    c.density(spec.density as Real)
-                        .friction(spec.friction as Real)
-                        .restitution(spec.restitution as Real),
-                    Some(handle),
-                );
-            }
+            // One collider per body, with the mass properties given, not integrated by
+            // parry: parry's f32 principal-axis decomposition (glamx `SymmetricEigen3`)
+            // builds eigenvectors from cross products of inertia columns, whose squares
+            // underflow f32 below about 1e-10 kg·m², so a body of millimetre size gets its
+            // principal moments on the wrong axes (a 12-face prism r = 1.25 mm put its
+            // small axial moment on x). The same decomposition runs whenever rapier adds
+            // the mass properties of two colliders, hence the single collider.
+            world.insert_collider(
+                shape
+                    .mass_properties(mass_properties(geometry, spec.density))
+                    .friction(spec.friction as Real)
+                    .restitution(spec.restitution as Real),
+                Some(handle),
+            );
             index_of.insert(handle, i);
             let kinematic = (spec.motion == Motion::Kinematic).then(|| Kinematic {
                 x0: spec.position,
@@ -479,4 +486,23 @@ impl DemEngine for RapierEngine {
     fn stable_dt(&self) -> f64 {
         self.max_dt
     }
+}
+
+/// rapier's mass properties of a body from the `f64` geometry: mass ρV, centre of mass
+/// at the body origin, principal moments and axes from nalgebra's `f64` eigen
+/// decomposition of [`BodyGeometry::inertia`] (axes made right-handed).
+fn mass_properties(geometry: &BodyGeometry, density: f64) -> rapier3d::prelude::MassProperties {
+    let eigen = geometry.inertia(density).symmetric_eigen();
+    let mut axes = eigen.eigenvectors;
+    if axes.determinant() < 0.0 {
+        axes.set_column(2, &(-axes.column(2)));
+    }
+    let q = nalgebra::UnitQuaternion::from_matrix(&axes);
+    let v = eigen.eigenvalues;
+    rapier3d::prelude::MassProperties::with_principal_inertia_frame(
+        Vector::ZERO,
+        (density * geometry.volume()) as Real,
+        Vector::new(v.x as Real, v.y as Real, v.z as Real),
+        Rotation::from_xyzw(q.i as Real, q.j as Real, q.k as Real, q.w as Real),
+    )
 }

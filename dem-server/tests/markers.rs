@@ -191,6 +191,106 @@ fn twelve_sided_prism_area_and_faces_are_exact() {
     );
 }
 
+/// Sum of area · max(0, −n_y): the projection along −y of the downward-facing surface,
+/// which is the projected area A_p of Joubert eq. (36) when no downward face hides another.
+fn projected_down(m: &[LocalMarker]) -> f64 {
+    m.iter().map(|k| k.area * (-k.normal[1]).max(0.0)).sum()
+}
+
+/// Joubert's cross (§4.2, Tables 3–4) as `shape.cross`, b = 2.25, w = 0.75, h = 1 mm
+/// at δ = 0.25 mm: markers cover the outer surface only, 5 · 2(bw + bh + wh) less the
+/// four faces the centre cuboid shares with its arms, counted twice (2 · (2bh + 2bw));
+/// no marker lies on a shared face. Table 4's ratios to the r = 1.25 mm sphere follow to
+/// its three digits: volume 5bwh → m_s/m_ref = 1.031, projection b · 3w → A_p/A_ref =
+/// 1.031, width b → l_c/D = 0.900. References: the cross's exact geometry and Table 4.
+#[test]
+fn joubert_cross_markers_cover_its_outer_surface_only() {
+    let (b, w, h, d, r): (f64, f64, f64, f64, f64) = (2.25e-3, 0.75e-3, 1.0e-3, 2.5e-4, 1.25e-3);
+    let m = generate_markers(
+        &Shape::Cross {
+            base: b,
+            width: w,
+            height: h,
+        },
+        d,
+    )
+    .unwrap();
+    let exact = 5.0 * 2.0 * (b * w + b * h + w * h) - 2.0 * (2.0 * b * h + 2.0 * b * w);
+    assert!(
+        rel(total_area(&m), exact) < 1e-9,
+        "{} vs {exact}",
+        total_area(&m)
+    );
+    // Shared faces: the centre's ±z faces at |z| = w/2 with |y| < h/2, and its ±y faces at
+    // |y| = h/2 with |z| < w/2.
+    let tol = 1e-9 * b;
+    for k in &m {
+        let [_, y, z] = k.position;
+        let on_z = (z.abs() - 0.5 * w).abs() < tol && y.abs() < 0.5 * h;
+        let on_y = (y.abs() - 0.5 * h).abs() < tol && z.abs() < 0.5 * w;
+        assert!(!(on_z || on_y), "marker on a shared face: {k:?}");
+    }
+    let sphere_volume = 4.0 / 3.0 * PI * r.powi(3);
+    let sphere_area = PI * r * r;
+    let a_p = projected_down(&m);
+    assert!(rel(a_p, 3.0 * b * w) < 1e-9, "A_p {a_p:e}");
+    assert!(
+        (a_p / sphere_area - 1.031).abs() < 5e-4,
+        "A_p ratio {}",
+        a_p / sphere_area
+    );
+    assert!((5.0 * b * w * h / sphere_volume - 1.031).abs() < 5e-4);
+    assert!((b / (2.0 * r) - 0.900).abs() < 5e-4);
+    let spacing = mean_nearest(&m);
+    assert!(spacing > 0.5 * d && spacing < 1.2 * d, "{spacing:e}");
+}
+
+/// Joubert's ring (§4.2, Table 3) as `shape.ring`: 12 trapezoidal prisms, corners on
+/// circles of 0.725 and 1.45 mm, height 1.75 mm, at δ = 0.25 mm. Markers cover the outer
+/// surface only: two 12-gon annuli 3 (r_o² − r_i²), the outer and inner side faces
+/// 12 · 2r sin(π/12) · 2h; none lies on a radial face two prisms share; side normals
+/// point away from the axis outside and towards it inside. The downward projection is
+/// the annulus, 0.964 of the sphere's πr², where Table 4's 1.009 is the round annulus
+/// π (r_o² − r_i²): the ratio 3/π is the polygon's. Reference: the ring's exact geometry.
+#[test]
+fn joubert_ring_markers_cover_its_outer_surface_only() {
+    let (ri, ro, hh, d) = (0.725e-3, 1.45e-3, 0.875e-3, 2.5e-4);
+    let m = generate_markers(
+        &Shape::Ring {
+            sides: 12,
+            inner_radius: ri,
+            outer_radius: ro,
+            half_height: hh,
+        },
+        d,
+    )
+    .unwrap();
+    let edge = |r: f64| 2.0 * r * (PI / 12.0).sin();
+    let annulus = 3.0 * (ro * ro - ri * ri);
+    let exact = 2.0 * annulus + 12.0 * (edge(ro) + edge(ri)) * 2.0 * hh;
+    assert!(
+        rel(total_area(&m), exact) < 1e-9,
+        "{} vs {exact}",
+        total_area(&m)
+    );
+    assert!(rel(projected_down(&m), annulus) < 1e-9);
+    assert!((annulus / (PI * 1.25e-3 * 1.25e-3) - 0.964).abs() < 5e-4);
+    for k in m.iter().filter(|k| k.normal[1].abs() < 1e-9) {
+        let [x, _, z] = k.position;
+        let radius = (x * x + z * z).sqrt();
+        let outward = (k.normal[0] * x + k.normal[2] * z) / radius;
+        // Radial faces lie at angles 2π(j + ½)/12; their normals are tangential.
+        assert!(
+            outward.abs() > 0.9,
+            "marker on a radial (shared) face: {k:?}"
+        );
+        let outer = radius > 0.5 * (ri + ro);
+        assert_eq!(outward > 0.0, outer, "{k:?}");
+    }
+    let spacing = mean_nearest(&m);
+    assert!(spacing > 0.4 * d && spacing < 1.2 * d, "{spacing:e}");
+}
+
 /// A 12-sided prism laid along z (rotation π/2 about x) from z = 0 to z = 1, the whole
 /// domain: its caps lie on the domain's z faces and get no markers (Joubert §3.2's
 /// infinitely long cylinder), so the areas sum to the 12 side faces alone (rel 1e-9) and

@@ -454,6 +454,25 @@ pub enum Shape {
         radius: f64,
         half_height: f64,
     },
+    /// Joubert's ring (§4.2, Table 3, Fig. 17c; `shape.ring.sides`, `inner_radius`,
+    /// `outer_radius`, `half_height`, m): a non-convex compound of `sides` ≥ 3 identical
+    /// trapezoidal prisms around the body y axis, whose corners lie on circles of
+    /// `inner_radius` and `outer_radius` at angles 2π(k + ½)/sides from body +x, like
+    /// [`Shape::Prism`]'s. Joubert's ring is 12 prisms, 0.725 and 1.45 mm, height 1.75 mm.
+    Ring {
+        sides: u32,
+        inner_radius: f64,
+        outer_radius: f64,
+        half_height: f64,
+    },
+    /// Joubert's cross (§4.2, Table 3, Fig. 17d; `shape.cross.base`, `width`, `height`,
+    /// m): five identical cuboids of `base` along body x, `height` along y and `width`
+    /// along z, laid as a plus sign in the y–z plane (a centre cuboid, two beside it in
+    /// ±z, two above and below it in ±y) and extruded along x. Joubert's cuboids are
+    /// b = 2.25, w = 0.75, h = 1 mm. Table 3 gives only these three lengths; the layout
+    /// is the one that reproduces Table 4: volume 5 b w h (m_s/m_ref = 1.031), projection
+    /// along y of b × 3w = 2.25 mm square (A_p/A_ref = 1.031) and width b (l_c/D = 0.900).
+    Cross { base: f64, width: f64, height: f64 },
     /// Non-convex compound of convex parts, each the hull of its vertices, m.
     Compound { parts: Vec<Vec<[f64; 3]>> },
 }
@@ -976,6 +995,22 @@ impl Scene {
                     radius,
                     half_height,
                 } => *sides >= 3 && *radius > 0.0 && *half_height > 0.0,
+                Shape::Ring {
+                    sides,
+                    inner_radius,
+                    outer_radius,
+                    half_height,
+                } => {
+                    *sides >= 3
+                        && *inner_radius > 0.0
+                        && outer_radius > inner_radius
+                        && *half_height > 0.0
+                }
+                Shape::Cross {
+                    base,
+                    width,
+                    height,
+                } => *base > 0.0 && *width > 0.0 && *height > 0.0,
                 Shape::Compound { parts } => {
                     !parts.is_empty() && parts.iter().all(|p| p.len() >= 4)
                 }
@@ -984,7 +1019,7 @@ impl Scene {
                 return bad(
                     format!("bodies[{i}].shape"),
                     format!("{:?}", b.shape),
-                    "dimensions must be positive; a hull needs at least 4 vertices, a prism 3 sides",
+                    "dimensions must be positive; a hull needs at least 4 vertices, a prism or a ring 3 sides, a ring an outer radius above its inner one",
                 );
             }
             for k in 0..3 {
