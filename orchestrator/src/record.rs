@@ -307,6 +307,17 @@ pub struct BodySample {
     pub velocity: [f64; 3],
 }
 
+/// One body's fluid load at one window, from `/bodies/loads`.
+#[derive(Debug, Clone, Copy)]
+pub struct LoadSample {
+    pub time: f64,
+    pub body: usize,
+    /// Fluid force, N.
+    pub force: [f64; 3],
+    /// Fluid moment about the centre of mass, N·m.
+    pub moment: [f64; 3],
+}
+
 /// A particle of a `/fluid/particles` snapshot: x y z pressure vx vy vz density.
 pub type Particle = [f32; 8];
 
@@ -315,7 +326,7 @@ pub type Particle = [f32; 8];
 pub struct Recording {
     pub snapshots: Vec<(f64, Vec<Particle>)>,
     pub bodies: Vec<BodySample>,
-    pub loads: usize,
+    pub loads: Vec<LoadSample>,
     pub windows: usize,
     /// The file ends with a summary and footer (it was closed properly).
     pub has_summary: bool,
@@ -378,7 +389,18 @@ pub fn read_recording(path: &Path) -> Result<Recording, String> {
                     });
                 }
             }
-            "/bodies/loads" => rec.loads += 1,
+            "/bodies/loads" => {
+                let v: serde_json::Value =
+                    serde_json::from_slice(&m.data).map_err(|e| e.to_string())?;
+                for l in v["loads"].as_array().into_iter().flatten() {
+                    rec.loads.push(LoadSample {
+                        time: v["time"].as_f64().unwrap_or(f64::NAN),
+                        body: l["body"].as_u64().unwrap_or(u64::MAX) as usize,
+                        force: arr(&l["force"]),
+                        moment: arr(&l["moment"]),
+                    });
+                }
+            }
             "/run/windows" => rec.windows += 1,
             _ => {}
         }
