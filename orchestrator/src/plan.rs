@@ -15,6 +15,9 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
     if let Some(src) = &scene.meta.source {
         let _ = writeln!(w, "source: {src}");
     }
+    for warning in scene.warnings() {
+        let _ = writeln!(w, "warning: {warning}");
+    }
 
     let _ = writeln!(w, "\nprocesses:");
     let fluid_limits = match &scene.fluid {

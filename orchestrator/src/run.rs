@@ -126,6 +126,9 @@ impl Peers {
 /// Runs a scene end to end.
 pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
     let (scene, text) = resolve_scene(&opts.scene, &opts.overrides)?;
+    for w in scene.warnings() {
+        eprintln!("warning: {w}");
+    }
     let has_fluid = scene.fluid.is_some();
     let has_dem = scene.needs_dem();
     if !has_fluid && !has_dem {
