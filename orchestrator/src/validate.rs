@@ -561,18 +561,43 @@ fn run_case(
         return Ok(report);
     }
     let mut parts = Vec::new();
+    let mut failed = Vec::new();
     for (label, variant) in case.variants {
         eprintln!("validate {}: {label} …", case.name);
-        let mut r = run_one(
+        let t0 = Instant::now();
+        // A variant that fails (a blow-up, say) is a result of the case: the others run.
+        let r = match run_one(
             case,
             quick,
             with(variant),
             out.join(slug(label)),
             scenes_dir,
             progress,
-        )?;
-        r.case = format!("{} ({label})", case.name);
-        write_outputs(&r)?;
+        ) {
+            Ok(mut r) => {
+                r.case = format!("{} ({label})", case.name);
+                write_outputs(&r)?;
+                r
+            }
+            Err(e) => {
+                eprintln!("validate {}: {label} failed: {e}", case.name);
+                failed.push(*label);
+                let mut r = Report {
+                    case: format!("{} ({label})", case.name),
+                    quick,
+                    wall_s: t0.elapsed().as_secs_f64(),
+                    ..Default::default()
+                };
+                r.judge(
+                    "run",
+                    format!("failed: {}", e.to_string().replace('|', "/")),
+                    "runs to the end".into(),
+                    "exact".into(),
+                    Some(false),
+                );
+                r
+            }
+        };
         parts.push(r);
     }
     let mut report = Report {
@@ -597,8 +622,16 @@ fn run_case(
         .filter_map(|r| r.headline.clone())
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(name, e)| (format!("{name} (worst variant)"), e));
-    if let Some(compare) = case.compare {
-        compare(&parts, &mut report).map_err(ValidateError::Analysis)?;
+    match case.compare {
+        Some(_) if !failed.is_empty() => report.judge(
+            "comparison across variants",
+            format!("not made: {} did not run", failed.join(", ")),
+            "every variant".into(),
+            "exact".into(),
+            Some(false),
+        ),
+        Some(compare) => compare(&parts, &mut report).map_err(ValidateError::Analysis)?,
+        None => {}
     }
     std::fs::create_dir_all(&out).map_err(|source| ValidateError::Io {
         what: format!("creating {}", out.display()),
