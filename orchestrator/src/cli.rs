@@ -99,6 +99,11 @@ enum Cmd {
         /// Folder of the scene files. Default: ./scenes, else the repository's.
         #[arg(long)]
         scenes: Option<PathBuf>,
+        /// Analyse the run already in this folder (its scene.toml and run.mcap, as
+        /// `couplet run --out` leaves them) instead of running: a run made on another
+        /// machine, or one variant of a case run by hand. The report goes to the folder.
+        #[arg(long, conflicts_with_all = ["quick", "sweep"])]
+        recording: Option<PathBuf>,
         #[command(flatten)]
         overrides: Overrides,
     },
@@ -153,6 +158,19 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                     "{:<18} {}\n{:<18} --quick: {}",
                     c.name, c.about, "", c.quick_why
                 );
+            }
+        }
+        Cmd::Validate {
+            name,
+            recording: Some(dir),
+            ..
+        } => {
+            let name = name.unwrap_or_default();
+            let r = validate::analyse_recording(&name, &dir)
+                .with_context(|| format!("analysing {} as {name}", dir.display()))?;
+            println!("{}", r.markdown());
+            if !r.passed() {
+                std::process::exit(1);
             }
         }
         Cmd::Validate {

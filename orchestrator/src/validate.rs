@@ -520,6 +520,18 @@ pub fn validate(
     run_case(case, quick, &base, extra, out, scenes_dir, progress)
 }
 
+/// Analyses the run in `dir` (`scene.toml`, `run.mcap`) as case `name` without running
+/// it, and writes the report there. A case of variants is analysed as one of them (no
+/// comparison across variants).
+pub fn analyse_recording(name: &str, dir: &Path) -> Result<Report, ValidateError> {
+    let case = find(name)?;
+    let (scene, _) = resolve_scene(&dir.join("scene.toml"), &[])?;
+    let rec = read_recording(&dir.join("run.mcap")).map_err(ValidateError::Recording)?;
+    let report = analysed(case, &scene, &rec, dir.to_owned())?;
+    write_outputs(&report)?;
+    Ok(report)
+}
+
 fn find(name: &str) -> Result<&'static Case, ValidateError> {
     cases()
         .iter()
@@ -663,10 +675,22 @@ fn run_one(
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
     let rec = read_recording(&out.join("run.mcap")).map_err(ValidateError::Recording)?;
-    let mut report = Report {
-        case: case.name.to_owned(),
+    Ok(Report {
         quick,
         wall_s,
+        ..analysed(case, &scene, &rec, out)?
+    })
+}
+
+/// The report of `case` on the recording `rec` of `scene`, to be written to `out`.
+fn analysed(
+    case: &Case,
+    scene: &Scene,
+    rec: &Recording,
+    out: PathBuf,
+) -> Result<Report, ValidateError> {
+    let mut report = Report {
+        case: case.name.to_owned(),
         out,
         particles: rec.snapshots.first().map_or(0, |s| s.1.len()),
         ..Default::default()
@@ -678,7 +702,7 @@ fn run_one(
         "exact".into(),
         Some(rec.has_summary),
     );
-    (case.analyse)(&scene, &rec, &mut report).map_err(ValidateError::Analysis)?;
+    (case.analyse)(scene, rec, &mut report).map_err(ValidateError::Analysis)?;
     Ok(report)
 }
 

@@ -30,6 +30,14 @@ fn hydrostatic_tank_quick_validation_passes() {
         "mass row: {rows:?}"
     );
     assert!(o.status.success(), "a judged row failed: {rows:?}");
+    // `--recording` analyses the same run again without running it: the same verdicts.
+    let again = std::process::Command::new(CLI)
+        .args(["validate", "hydrostatic-tank", "--recording"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+    assert_eq!(report_rows(out.path()), rows, "re-analysis of the recording");
 }
 
 /// Joubert's scheme with his one-layer walls (`domain.wall_model = "joubert"`, pressure by
