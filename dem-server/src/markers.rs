@@ -378,7 +378,7 @@ pub(crate) fn quat_from_scaled_axis(a: [f64; 3]) -> [f64; 4] {
 }
 
 /// Rotates `v` by the unit quaternion `q = [x, y, z, w]`.
-fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
     let u = [q[0], q[1], q[2]];
     let t = scale(cross(u, v), 2.0);
     add(v, add(scale(t, q[3]), cross(u, t)))

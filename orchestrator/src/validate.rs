@@ -33,6 +33,9 @@ pub enum ValidateError {
     Analysis(String),
 }
 
+/// A case's judgement of its variants' reports against each other.
+type Compare = fn(&[Report], &mut Report) -> Result<(), String>;
+
 /// One named case.
 pub struct Case {
     pub name: &'static str,
@@ -53,7 +56,7 @@ pub struct Case {
     pub variants: &'static [(&'static str, &'static [&'static str])],
     analyse: fn(&Scene, &Recording, &mut Report) -> Result<(), String>,
     /// Judges the variants' reports against each other (their `values`).
-    compare: Option<fn(&[Report], &mut Report) -> Result<(), String>>,
+    compare: Option<Compare>,
 }
 
 /// One line of the report.
@@ -1582,26 +1585,11 @@ fn placed_hull(
     let [part] = parts.as_slice() else {
         return Err("the DKT bodies must be convex (one part)".into());
     };
-    let [x, y, z, w] = b.orientation;
-    let rotate = |v: [f64; 3]| {
-        // v + 2 w (u × v) + 2 u × (u × v), u = (x, y, z): the unit quaternion's rotation.
-        let u = [x, y, z];
-        let cross = |a: [f64; 3], c: [f64; 3]| {
-            [
-                a[1] * c[2] - a[2] * c[1],
-                a[2] * c[0] - a[0] * c[2],
-                a[0] * c[1] - a[1] * c[0],
-            ]
-        };
-        let t = cross(u, v).map(|c| 2.0 * c);
-        let ut = cross(u, t);
-        [0, 1, 2].map(|k| v[k] + w * t[k] + ut[k])
-    };
     let vertices: Vec<[f64; 3]> = part
         .vertices
         .iter()
         .map(|v| {
-            let r = rotate(*v);
+            let r = couplet_dem::markers::rotate(b.orientation, *v);
             [0, 1, 2].map(|k| r[k] + b.position[k])
         })
         .collect();

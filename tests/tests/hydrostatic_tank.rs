@@ -36,8 +36,16 @@ fn hydrostatic_tank_quick_validation_passes() {
         .arg(out.path())
         .output()
         .unwrap();
-    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
-    assert_eq!(report_rows(out.path()), rows, "re-analysis of the recording");
+    assert!(
+        again.status.success(),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
+    assert_eq!(
+        report_rows(out.path()),
+        rows,
+        "re-analysis of the recording"
+    );
 }
 
 /// Joubert's scheme with his one-layer walls (`domain.wall_model = "joubert"`, pressure by
