@@ -2,7 +2,8 @@
 //! (`rapier_engine.rs`, …), one registry (`registry.rs`), one conformance suite
 //! (`tests/conformance.rs`) that every engine passes.
 
-use couplet_protocol::{BodyLoad, BodyState};
+use crate::markers::quat_from_scaled_axis;
+use couplet_protocol::{BodyLoad, BodyState, CouplingMode, Domain, Scene};
 
 /// How an engine resolves contacts. The orchestrator needs it to pick the window:
 /// a spring–dashpot engine has a contact time step that bounds the window, a
@@ -120,6 +121,24 @@ pub enum DemError {
         position: [f64; 3],
         velocity: [f64; 3],
     },
+    /// A body's centre left the domain (through an open face, or pushed through a wall).
+    #[error(
+        "body {body} \"{name}\" left the domain in DEM step {step} (t = {time} s): centre {position:?} m, \
+         velocity {velocity:?} m/s, domain {min:?}..{max:?} m; the fluid cannot follow it (enlarge the domain or close its top)"
+    )]
+    LeftDomain {
+        body: usize,
+        name: String,
+        step: u64,
+        time: f64,
+        position: [f64; 3],
+        velocity: [f64; 3],
+        min: [f64; 3],
+        max: [f64; 3],
+    },
+    /// A scene this engine cannot simulate (a shape or boundary it does not have).
+    #[error("dem.engine = \"{engine}\": {what}")]
+    Unsupported { engine: &'static str, what: String },
 }
 
 impl DemError {
@@ -160,4 +179,125 @@ pub trait DemEngine: Send {
     fn step(&mut self, dt: f64) -> Result<(), DemError>;
     /// Largest stable substep of this engine, s.
     fn stable_dt(&self) -> f64;
+}
+
+/// The first body whose centre lies outside the domain on a non-periodic axis, as a
+/// [`DemError::LeftDomain`] (the engines call it after every step: the failure model
+/// reports a body leaving, it does not let it go silently).
+pub(crate) fn check_in_domain(
+    domain: &Domain,
+    states: &[BodyState],
+    names: impl Fn(usize) -> String,
+    step: u64,
+    time: f64,
+) -> Result<(), DemError> {
+    let out = |s: &BodyState| {
+        (0..3).any(|k| {
+            !domain.periodic[k]
+                && !(s.position[k] >= domain.min[k] && s.position[k] <= domain.max[k])
+        })
+    };
+    match states.iter().position(out) {
+        None => Ok(()),
+        Some(i) => Err(DemError::LeftDomain {
+            body: i,
+            name: names(i),
+            step,
+            time,
+            position: states[i].position,
+            velocity: states[i].linear_velocity,
+            min: domain.min,
+            max: domain.max,
+        }),
+    }
+}
+
+/// A kinematic body's prescribed motion, kept in `f64`: x(t) = x₀ + v t and
+/// q(t) = exp(ω t) q₀ (world-frame ω). an engine in `f32` (rapier) would accumulate `x += v dt` in `f32`
+/// every substep, which drifts by 1e-3 of the travel over a few thousand steps; the
+/// engine instead puts the body where this says after each step.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Kinematic {
+    /// Scene coordinates at t = 0, m.
+    pub x0: [f64; 3],
+    /// Unit quaternion [x, y, z, w] at t = 0.
+    pub q0: [f64; 4],
+    pub v: [f64; 3],
+    pub w: [f64; 3],
+}
+
+impl Kinematic {
+    pub fn pose(&self, t: f64) -> ([f64; 3], [f64; 4]) {
+        let x = [0, 1, 2].map(|k| self.x0[k] + self.v[k] * t);
+        (
+            x,
+            quat_mul(quat_from_scaled_axis(self.w.map(|c| c * t)), self.q0),
+        )
+    }
+}
+
+/// Hamilton product p q (apply q, then p).
+pub(crate) fn quat_mul(p: [f64; 4], q: [f64; 4]) -> [f64; 4] {
+    let [px, py, pz, pw] = p;
+    let [qx, qy, qz, qw] = q;
+    [
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+        pw * qw - px * qx - py * qy - pz * qz,
+    ]
+}
+
+
+/// `1 − ρ_f/ρ_s` for a dynamic resolved body when gravity does not act on the fluid
+/// (Joubert eq. 28: `F_s = (m_s − ρ_f V_s) g = m_s g (1 − ρ_f/ρ_s)`), else 1.
+pub(crate) fn gravity_scale(scene: &Scene, i: usize) -> f64 {
+    let b = &scene.bodies[i];
+    match &scene.fluid {
+        // Joubert eq. (28); with gravity on the fluid, its pressure carries the buoyancy instead.
+        Some(f) if !scene.gravity.on_fluid && b.coupling == CouplingMode::Resolved => {
+            1.0 - f.density / b.density
+        }
+        _ => 1.0,
+    }
+}
+
+
+/// Refuses a set of fluid loads that names a body the scene lacks, names one twice, or
+/// carries NaN/infinity; `name(i)` names body i in the message. Engines call it before
+/// touching their bodies, so that a refused set leaves the previous loads in place.
+pub(crate) fn check_loads(
+    loads: &[BodyLoad],
+    count: usize,
+    name: impl Fn(usize) -> String,
+) -> Result<(), DemError> {
+    let mut seen = vec![usize::MAX; count];
+    for (entry, l) in loads.iter().enumerate() {
+        let b = l.body as usize;
+        if b >= count {
+            return Err(DemError::LoadBody {
+                entry,
+                body: l.body,
+                count,
+            });
+        }
+        if seen[b] != usize::MAX {
+            return Err(DemError::DuplicateLoad {
+                first: seen[b],
+                second: entry,
+                body: l.body,
+                name: name(b),
+            });
+        }
+        seen[b] = entry;
+        if l.force.iter().chain(&l.moment).any(|x| !x.is_finite()) {
+            return Err(DemError::NonFiniteLoad {
+                body: l.body,
+                name: name(b),
+                force: l.force,
+                moment: l.moment,
+            });
+        }
+    }
+    Ok(())
 }

@@ -5,6 +5,7 @@ pub use geometry::BodyGeometry;
 pub use markers::{LocalMarker, MarkerSet, generate_markers};
 pub use rapier_engine::RapierEngine;
 pub use registry::{create_engine, engine_names};
+pub use soft_sphere_engine::SoftSphereEngine;
 
 pub mod engine;
 pub mod geometry;
@@ -12,3 +13,4 @@ pub mod markers;
 pub mod rapier_engine;
 pub mod registry;
 pub mod server;
+pub mod soft_sphere_engine;

@@ -1,10 +1,12 @@
 //! The rapier3d engine (`dem.engine = "rapier"`): contacts as velocity constraints
 //! (rapier's soft TGS solver), bodies and domain walls as rapier colliders.
 
-use crate::engine::{ContactModel, DemEngine, DemError};
+use crate::engine::{
+    ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, gravity_scale,
+};
 use crate::geometry::BodyGeometry;
 use crate::markers::quat_from_scaled_axis;
-use couplet_protocol::{BodyLoad, BodyState, CouplingMode, Motion, Scene};
+use couplet_protocol::{BodyLoad, BodyState, Motion, Scene};
 use rapier3d::prelude::{
     CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Pose, Real, RigidBodyBuilder,
     RigidBodyHandle, Rotation, SharedShape, Vector,
@@ -28,42 +30,6 @@ struct Body {
     volume: f64,
     /// Kinematic bodies only: their motion in closed form (see [`Kinematic`]).
     kinematic: Option<Kinematic>,
-}
-
-/// A kinematic body's prescribed motion, kept in `f64`: x(t) = x₀ + v t and
-/// q(t) = exp(ω t) q₀ (world-frame ω). rapier would accumulate `x += v dt` in `f32`
-/// every substep, which drifts by 1e-3 of the travel over a few thousand steps; the
-/// engine instead puts the body where this says after each step.
-#[derive(Debug, Clone, Copy)]
-struct Kinematic {
-    /// Scene coordinates at t = 0, m.
-    x0: [f64; 3],
-    /// Unit quaternion [x, y, z, w] at t = 0.
-    q0: [f64; 4],
-    v: [f64; 3],
-    w: [f64; 3],
-}
-
-impl Kinematic {
-    fn pose(&self, t: f64) -> ([f64; 3], [f64; 4]) {
-        let x = [0, 1, 2].map(|k| self.x0[k] + self.v[k] * t);
-        (
-            x,
-            quat_mul(quat_from_scaled_axis(self.w.map(|c| c * t)), self.q0),
-        )
-    }
-}
-
-/// Hamilton product p q (apply q, then p).
-fn quat_mul(p: [f64; 4], q: [f64; 4]) -> [f64; 4] {
-    let [px, py, pz, pw] = p;
-    let [qx, qy, qz, qw] = q;
-    [
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-        pw * qw - px * qx - py * qy - pz * qz,
-    ]
 }
 
 /// Mass properties of one body as rapier integrates it (body frame, about the COM).
@@ -98,6 +64,7 @@ pub struct RapierEngine {
     index_of: HashMap<RigidBodyHandle, usize>,
     /// Scene coordinates of rapier's origin (the domain centre), m.
     origin: [f64; 3],
+    domain: couplet_protocol::Domain,
     max_dt: f64,
     time: f64,
     steps: u64,
@@ -228,6 +195,7 @@ impl RapierEngine {
             bodies,
             index_of,
             origin,
+            domain: scene.domain.clone(),
             max_dt: scene.dem.max_dt,
             time: 0.0,
             steps: 0,
@@ -291,19 +259,6 @@ impl RapierEngine {
             (s.linear_velocity, s.angular_velocity) = (k.v, k.w);
         }
         s
-    }
-}
-
-/// `1 − ρ_f/ρ_s` for a dynamic resolved body when gravity does not act on the fluid
-/// (Joubert eq. 28: `F_s = (m_s − ρ_f V_s) g = m_s g (1 − ρ_f/ρ_s)`), else 1.
-fn gravity_scale(scene: &Scene, i: usize) -> f64 {
-    let b = &scene.bodies[i];
-    match &scene.fluid {
-        // Joubert eq. (28); with gravity on the fluid, its pressure carries the buoyancy instead.
-        Some(f) if !scene.gravity.on_fluid && b.coupling == CouplingMode::Resolved => {
-            1.0 - f.density / b.density
-        }
-        _ => 1.0,
     }
 }
 
@@ -371,34 +326,7 @@ impl DemEngine for RapierEngine {
 
     fn set_fluid_loads(&mut self, loads: &[BodyLoad]) -> Result<(), DemError> {
         // Check everything before touching the bodies: a refused set leaves the old loads.
-        let mut seen = vec![usize::MAX; self.bodies.len()];
-        for (entry, l) in loads.iter().enumerate() {
-            let b = l.body as usize;
-            let Some(body) = self.bodies.get(b) else {
-                return Err(DemError::LoadBody {
-                    entry,
-                    body: l.body,
-                    count: self.bodies.len(),
-                });
-            };
-            if seen[b] != usize::MAX {
-                return Err(DemError::DuplicateLoad {
-                    first: seen[b],
-                    second: entry,
-                    body: l.body,
-                    name: body.name.clone(),
-                });
-            }
-            seen[b] = entry;
-            if l.force.iter().chain(&l.moment).any(|x| !x.is_finite()) {
-                return Err(DemError::NonFiniteLoad {
-                    body: l.body,
-                    name: body.name.clone(),
-                    force: l.force,
-                    moment: l.moment,
-                });
-            }
-        }
+        check_loads(loads, self.bodies.len(), |i| self.bodies[i].name.clone())?;
         for b in &self.bodies {
             if let Some(rb) = self.world.bodies.get_mut(b.handle) {
                 rb.reset_forces(false);
@@ -476,7 +404,16 @@ impl DemEngine for RapierEngine {
                 velocity: s.linear_velocity,
             });
         }
-        Ok(())
+        let states: Vec<BodyState> = (self.bodies.iter().enumerate())
+            .map(|(i, b)| self.state_of(i, b))
+            .collect();
+        check_in_domain(
+            &self.domain,
+            &states,
+            |i| self.bodies[i].name.clone(),
+            self.steps,
+            self.time,
+        )
     }
 
     /// `scene.dem.max_dt`: rapier solves contacts as velocity constraints, which are

@@ -7,6 +7,7 @@ pub use payload::{
     ParticleRecord, Role, SideReport, WindowHeader, monotonic_ns,
 };
 pub use scene::{
+    ContactLaw, SoftSphereSpec,
     BodySpec, CouplingMode, CouplingScheme, DemSpec, Domain, EffectsSpec, FluidBlock, FluidSpec,
     GravitySpec, InitialFlow, KernelKind, Meta, Motion, Scene, SceneError, Shape, TimeSpec,
     ViscosityModel, WallKind, WallModel,

@@ -418,6 +418,58 @@ pub struct DemSpec {
     /// substepped down to it anyway.
     #[serde(default = "default_dem_dt")]
     pub max_dt: f64,
+    /// `[dem.soft_sphere]`: contact law and material of the `soft-sphere` engine;
+    /// required by that engine and refused with any other.
+    #[serde(default)]
+    pub soft_sphere: Option<SoftSphereSpec>,
+}
+
+/// Normal contact law of the `soft-sphere` engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ContactLaw {
+    /// Linear spring–dashpot, Robinson eq. (21): `F_n = k δ + β δ̇`, with β from the
+    /// bodies' restitution. Needs `stiffness`.
+    Linear,
+    /// Hertz–Mindlin, DEMocritus eqs. (18)–(31): `F_n = k_n δ^{3/2} + c_n δ̇`,
+    /// `k_n = 4/3 E* √R*`, with a tangential spring and Coulomb limit. Needs
+    /// `youngs_modulus`.
+    HertzMindlin,
+}
+
+/// `[dem.soft_sphere]`: one material for every sphere of the scene (friction and
+/// restitution stay per body).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SoftSphereSpec {
+    /// `"linear"` (Robinson eq. 21) or `"hertz-mindlin"` (DEMocritus eqs. 18–31).
+    pub contact: ContactLaw,
+    /// Linear law only: normal spring stiffness k, N/m (Robinson Table 1 uses 1e-4 for
+    /// 0.1 mm grains, chosen soft so that the fluid, not the contacts, sets the step).
+    pub stiffness: Option<f64>,
+    /// Hertz–Mindlin only: Young's modulus E of the spheres (and of the rigid domain
+    /// walls' partner), Pa.
+    pub youngs_modulus: Option<f64>,
+    /// Poisson's ratio ν. Default 0.3, typical of glass, quartz and steel (0.2–0.3): it
+    /// sets the tangential stiffness `k_t = k_n / (2 (1 + ν))` (DEMocritus eq. 31) and,
+    /// for Hertz–Mindlin, `E* = E / (2 (1 − ν²))`.
+    #[serde(default = "default_poisson")]
+    pub poisson_ratio: f64,
+    /// DEM steps per contact duration: Δt = t_c / this. Default 50 (Robinson §3.2).
+    #[serde(default = "default_steps_per_contact")]
+    pub steps_per_contact: f64,
+    /// Hertz–Mindlin only: the fastest impact the step must resolve, m/s (the Hertz
+    /// contact is shorter the faster the impact, `t_c ∝ v^{-1/5}`). Default: the speed
+    /// of a fall through the domain height under gravity, `√(2 |g| H)`, or 1 m/s
+    /// without gravity; a faster body at run time shortens the step further.
+    pub impact_speed: Option<f64>,
+}
+
+fn default_poisson() -> f64 {
+    0.3
+}
+fn default_steps_per_contact() -> f64 {
+    50.0
 }
 
 fn default_engine() -> String {
@@ -432,6 +484,7 @@ impl Default for DemSpec {
         Self {
             engine: default_engine(),
             max_dt: default_dem_dt(),
+            soft_sphere: None,
         }
     }
 }
@@ -759,6 +812,105 @@ impl Scene {
         w
     }
 
+    /// `[dem.soft_sphere]` is present exactly when the engine is `soft-sphere`, names
+    /// the parameters its contact law needs and none it ignores.
+    fn check_soft_sphere(&self, file: &Path) -> Result<(), SceneError> {
+        let bad = |field: &str, value: String, why: &str| {
+            Err(SceneError::Invalid {
+                file: file.to_owned(),
+                field: field.into(),
+                value,
+                why: why.to_owned(),
+            })
+        };
+        let soft = self.dem.engine == "soft-sphere";
+        let Some(s) = &self.dem.soft_sphere else {
+            if soft {
+                return bad(
+                    "dem.soft_sphere",
+                    "missing".into(),
+                    "the soft-sphere engine needs its contact law: [dem.soft_sphere] contact = \"linear\" with stiffness, or \"hertz-mindlin\" with youngs_modulus",
+                );
+            }
+            return Ok(());
+        };
+        if !soft {
+            return bad(
+                "dem.soft_sphere",
+                "present".into(),
+                &format!(
+                    "is read only by dem.engine = \"soft-sphere\"; this scene's engine is \"{}\"",
+                    self.dem.engine
+                ),
+            );
+        }
+        let (needed, needed_name, unused, unused_name) = match s.contact {
+            ContactLaw::Linear => (s.stiffness, "stiffness", s.youngs_modulus, "youngs_modulus"),
+            ContactLaw::HertzMindlin => {
+                (s.youngs_modulus, "youngs_modulus", s.stiffness, "stiffness")
+            }
+        };
+        let law = match s.contact {
+            ContactLaw::Linear => "linear",
+            ContactLaw::HertzMindlin => "hertz-mindlin",
+        };
+        match needed {
+            None => {
+                return bad(
+                    &format!("dem.soft_sphere.{needed_name}"),
+                    "missing".into(),
+                    &format!("contact = \"{law}\" needs it"),
+                );
+            }
+            Some(v) if !(v.is_finite() && v > 0.0) => {
+                return bad(
+                    &format!("dem.soft_sphere.{needed_name}"),
+                    v.to_string(),
+                    "must be a positive finite number",
+                );
+            }
+            _ => {}
+        }
+        if let Some(v) = unused {
+            return bad(
+                &format!("dem.soft_sphere.{unused_name}"),
+                v.to_string(),
+                &format!("is not a parameter of contact = \"{law}\""),
+            );
+        }
+        if !(s.poisson_ratio > -1.0 && s.poisson_ratio < 0.5) {
+            return bad(
+                "dem.soft_sphere.poisson_ratio",
+                s.poisson_ratio.to_string(),
+                "must lie in (−1, 0.5) (a stable isotropic solid)",
+            );
+        }
+        if !(s.steps_per_contact.is_finite() && s.steps_per_contact >= 10.0) {
+            return bad(
+                "dem.soft_sphere.steps_per_contact",
+                s.steps_per_contact.to_string(),
+                "must be at least 10: fewer steps per contact do not resolve the collision (Robinson §3.2 uses 50)",
+            );
+        }
+        if let Some(v) = s.impact_speed {
+            if s.contact != ContactLaw::HertzMindlin {
+                return bad(
+                    "dem.soft_sphere.impact_speed",
+                    v.to_string(),
+                    "only the Hertz contact duration depends on the impact speed; the linear one does not",
+                );
+            }
+            if !(v.is_finite() && v > 0.0) {
+                return bad(
+                    "dem.soft_sphere.impact_speed",
+                    v.to_string(),
+                    "must be a positive finite speed",
+                );
+            }
+        }
+        Ok(())
+    }
+
     fn check(&self, file: &Path) -> Result<(), SceneError> {
         let bad = |field: String, value: String, why: &str| {
             Err(SceneError::Invalid {
@@ -792,6 +944,7 @@ impl Scene {
             pos("time.max_window", w)?;
         }
         pos("dem.max_dt", self.dem.max_dt)?;
+        self.check_soft_sphere(file)?;
         if self.coupling.window_substeps == 0 {
             return bad(
                 "coupling.window_substeps".into(),

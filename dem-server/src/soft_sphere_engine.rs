@@ -1,0 +1,850 @@
+//! The native soft-sphere engine (`dem.engine = "soft-sphere"`): spheres only, contacts
+//! as spring–dashpot forces, in `f64`. The engine of many small grains (Robinson,
+//! DEMocritus): a linear spring–dashpot (Robinson eq. 21) or Hertz–Mindlin with a
+//! tangential spring and a Coulomb limit (DEMocritus eqs. 18–31), contact detection on
+//! a hashed cell grid, the step from the contact duration (Robinson §3.2, t_c / 50).
+//!
+//! Where this departs from the papers' text, and why:
+//! * Hertz normal force `k_n δ^{3/2}`: DEMocritus eq. (18) writes `−k_n δ_n` with the
+//!   Hertz coefficient of eq. (28), `k_n = 4/3 E* √R*` (N/m^{3/2}); only `δ^{3/2}` makes
+//!   that a force (Hertz's law, their ref. [20]).
+//! * Damping from the bodies' restitution e: DEMocritus eqs. (32)–(33) fix
+//!   `c = 2 √(2 m* k)`, a damping ratio of √2 (over-damped, e = 0) and no restitution
+//!   parameter. Here the linear law takes `c_n = 2 ζ √(m* k)` with
+//!   `ζ = −ln e / √(π² + ln² e)` (exact restitution of the linear oscillator), and the Hertz
+//!   law takes Tsuji et al.'s (1992) `c_n = α √(m* k_n) δ^{1/4}` with α solved from e
+//!   (see [`hertz_alpha`]), whose restitution does not depend on the impact speed. A scene
+//!   that wants DEMocritus's inelastic contacts sets restitution = 0.
+//! * Tangential velocity `v_t = v_ij − (v_ij·n) n − (R_i ω_i + R_j ω_j) × n` with n from j
+//!   to i: DEMocritus eq. (23) prints `+`, which is the slip of the contact points only for
+//!   n from i to j; the rolling-sphere conformance case fails with `+`.
+//! * Tangential history: the spring ξ is carried over to the new tangent plane
+//!   (projected, length kept), then `ξ += v_t Δt`; at the Coulomb limit (eq. 27) it is
+//!   reset to the length the limit allows. DEMocritus eq. (25) instead turns ξ along the
+//!   current v_t every step, which flips the spring force whenever the slip reverses
+//!   (a rolling sphere's v_t oscillates about zero).
+//! * Tangential stiffness `k_t = k_n' / (2 (1 + ν))` (DEMocritus eq. 31) with `k_n'` the
+//!   normal stiffness `dF_n/dδ`: k for the linear law, `3/2 k_n √δ` for Hertz.
+//! * Robinson's `t_c = π / √(2k/m − β/m)` is the damped period of two equal spheres with
+//!   `β/m` for `(β/m)²`; its Table 1 value (2.54e-3 s) does not follow from the listed k and
+//!   m (it gives 8.0e-3 s). The step here uses the undamped duration `π √(m*/k)`, which
+//!   is what bounds the explicit integration's stability.
+//!
+//! Integration is velocity Verlet (kick–drift–kick), exact for a constant force, with
+//! the dashpots acting on the end-of-step velocity predicted from the step's start.
+
+use crate::engine::{
+    ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, gravity_scale,
+};
+use crate::geometry::BodyGeometry;
+use crate::markers::quat_from_scaled_axis;
+use couplet_protocol::{BodyLoad, BodyState, ContactLaw, Domain, Motion, Scene, Shape};
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// Normal law with its material constants.
+#[derive(Debug, Clone, Copy)]
+enum Law {
+    /// Robinson eq. (21); k in N/m.
+    Linear { k: f64 },
+    /// DEMocritus eqs. (18)–(30): `k_n = 4/3 E* √R*`; E* of two spheres and of a sphere
+    /// on a rigid wall, Pa.
+    Hertz { e_pair: f64, e_wall: f64 },
+}
+
+/// A planar domain face: points with `x[axis]` beyond `coord` on the outside.
+#[derive(Debug, Clone, Copy)]
+struct Wall {
+    axis: usize,
+    /// +1 for the face at `domain.min` (normal into the domain along +axis), −1 at `max`.
+    inward: f64,
+    coord: f64,
+}
+
+/// Contact between sphere i and partner j (a sphere or a wall), as [`contact_force`] needs it.
+struct Contact {
+    /// Unit normal from j to i.
+    n: [f64; 3],
+    /// Overlap, m (> 0).
+    overlap: f64,
+    /// Relative velocity of i's contact point to j's, m/s.
+    v_rel: [f64; 3],
+    /// Effective mass `1/(1/m_i + 1/m_j)`, kg.
+    m_eff: f64,
+    /// Effective radius `R_i R_j / (R_i + R_j)` (R_i for a wall), m.
+    r_eff: f64,
+    /// E* of the pair (Hertz), Pa.
+    e_star: f64,
+    /// Normal damping: ζ (linear) or α (Hertz).
+    damping: f64,
+    /// Damping ratio of the tangential dashpot.
+    zeta_t: f64,
+    /// Coulomb coefficient of the pair.
+    mu: f64,
+}
+
+/// Multiply–rotate hash for the contact-history keys (pair indices packed in a u64): the
+/// default SipHash costs more than the contact force itself.
+#[derive(Default)]
+struct PairHasher(u64);
+
+impl Hasher for PairHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(*b as u64);
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+type History = HashMap<u64, [f64; 3], BuildHasherDefault<PairHasher>>;
+
+/// Spheres of a scene under spring–dashpot contacts, gravity (with the buoyancy of
+/// Joubert eq. 28 when gravity is off the fluid, as in every engine) and held fluid loads.
+pub struct SoftSphereEngine {
+    names: Vec<String>,
+    motion: Vec<Motion>,
+    kinematic: Vec<Option<Kinematic>>,
+    radius: Vec<f64>,
+    mass: Vec<f64>,
+    volume: Vec<f64>,
+    /// 1/m for dynamic bodies, 0 for fixed and kinematic ones (infinite mass in contacts).
+    inv_mass: Vec<f64>,
+    /// 1/(2/5 m r²), 0 for fixed and kinematic bodies.
+    inv_inertia: Vec<f64>,
+    gravity_scale: Vec<f64>,
+    friction: Vec<f64>,
+    /// Index into `damping` of the body's restitution (its rank among the scene's
+    /// distinct restitutions).
+    restitution_class: Vec<usize>,
+    /// Normal damping (ζ or α) and tangential ζ per pair of restitution classes, and per
+    /// class against a wall (the body's own restitution).
+    damping: Vec<Vec<(f64, f64)>>,
+    wall_damping: Vec<(f64, f64)>,
+    x: Vec<[f64; 3]>,
+    v: Vec<[f64; 3]>,
+    w: Vec<[f64; 3]>,
+    q: Vec<[f64; 4]>,
+    /// Predicted end-of-step velocities the dashpots act on (see [`Self::predict`]).
+    v_pred: Vec<[f64; 3]>,
+    w_pred: Vec<[f64; 3]>,
+    contact_force: Vec<[f64; 3]>,
+    contact_torque: Vec<[f64; 3]>,
+    fluid_force: Vec<[f64; 3]>,
+    fluid_torque: Vec<[f64; 3]>,
+    law: Law,
+    /// `1 / (2 (1 + ν))` (DEMocritus eq. 31).
+    tangential_ratio: f64,
+    history: History,
+    next_history: History,
+    walls: Vec<Wall>,
+    gravity: [f64; 3],
+    domain: Domain,
+    grid: Grid,
+    max_dt: f64,
+    steps_per_contact: f64,
+    /// Hertz: the impact speed the step resolves at least, m/s.
+    impact_speed: f64,
+    /// Hertz: dimensionless undamped contact duration (≈ 3.218).
+    hertz_tau: f64,
+    time: f64,
+    steps: u64,
+}
+
+impl SoftSphereEngine {
+    /// Registry name.
+    pub const NAME: &'static str = "soft-sphere";
+
+    /// Builds the spheres and domain walls of `scene`; refuses other shapes and periodic axes.
+    pub fn new(scene: &Scene) -> Result<Self, DemError> {
+        let unsupported = |what: String| DemError::Unsupported {
+            engine: Self::NAME,
+            what,
+        };
+        let spec = scene.dem.soft_sphere.as_ref().ok_or_else(|| {
+            unsupported("needs [dem.soft_sphere] (contact law and material)".into())
+        })?;
+        if let Some(k) = (0..3).find(|k| scene.domain.periodic[*k]) {
+            return Err(unsupported(format!(
+                "domain.periodic[{k}]: periodic axes are not implemented in this engine"
+            )));
+        }
+        let n = scene.bodies.len();
+        let mut radius = Vec::with_capacity(n);
+        for (i, b) in scene.bodies.iter().enumerate() {
+            match b.shape {
+                Shape::Sphere { radius: r } => radius.push(r),
+                _ => {
+                    return Err(unsupported(
+                        "spheres only (shape.sphere); use dem.engine = \"rapier\" for boxes, prisms and compounds"
+                            .into(),
+                    )
+                    .in_body(i, &b.name));
+                }
+            }
+        }
+        let nu = spec.poisson_ratio;
+        let law = match spec.contact {
+            ContactLaw::Linear => Law::Linear {
+                k: spec.stiffness.unwrap_or(f64::NAN),
+            },
+            // DEMocritus eqs. (29)–(30): 1/E* = (1 − ν_i²)/E_i + (1 − ν_j²)/E_j; a rigid
+            // wall contributes nothing.
+            ContactLaw::HertzMindlin => {
+                let e = spec.youngs_modulus.unwrap_or(f64::NAN);
+                Law::Hertz {
+                    e_pair: e / (2.0 * (1.0 - nu * nu)),
+                    e_wall: e / (1.0 - nu * nu),
+                }
+            }
+        };
+        if let Law::Linear { k } | Law::Hertz { e_pair: k, .. } = law
+            && !(k.is_finite() && k > 0.0)
+        {
+            return Err(unsupported(
+                "the contact law's stiffness or Young's modulus is missing or not positive"
+                    .into(),
+            ));
+        }
+
+        let mut restitutions: Vec<f64> = Vec::new();
+        let mut restitution_class = Vec::with_capacity(n);
+        for (i, b) in scene.bodies.iter().enumerate() {
+            if !(0.0..=1.0).contains(&b.restitution) {
+                return Err(DemError::Shape {
+                    what: "restitution".into(),
+                    value: b.restitution.to_string(),
+                    why: "must lie in [0, 1]".into(),
+                }
+                .in_body(i, &b.name));
+            }
+            let c = match restitutions.iter().position(|e| *e == b.restitution) {
+                Some(c) => c,
+                None => {
+                    restitutions.push(b.restitution);
+                    restitutions.len() - 1
+                }
+            };
+            restitution_class.push(c);
+        }
+        let damp = |e: f64| match law {
+            Law::Linear { .. } => (linear_zeta(e), linear_zeta(e)),
+            Law::Hertz { .. } => (hertz_alpha(e), linear_zeta(e)),
+        };
+        // A pair takes the mean of the two restitutions (rapier's default rule, so that
+        // a scene behaves alike on both engines); a wall takes the body's own.
+        let damping = (restitutions.iter())
+            .map(|a| restitutions.iter().map(|b| damp(0.5 * (a + b))).collect())
+            .collect();
+        let wall_damping = restitutions.iter().map(|e| damp(*e)).collect();
+
+        let mut e = Self {
+            names: scene.bodies.iter().map(|b| b.name.clone()).collect(),
+            motion: scene.bodies.iter().map(|b| b.motion).collect(),
+            kinematic: (scene.bodies.iter())
+                .map(|b| {
+                    (b.motion == Motion::Kinematic).then(|| Kinematic {
+                        x0: b.position,
+                        q0: quat_from_scaled_axis(b.rotation),
+                        v: b.velocity,
+                        w: b.angular_velocity,
+                    })
+                })
+                .collect(),
+            mass: Vec::with_capacity(n),
+            volume: Vec::with_capacity(n),
+            inv_mass: Vec::with_capacity(n),
+            inv_inertia: Vec::with_capacity(n),
+            gravity_scale: (0..n).map(|i| gravity_scale(scene, i)).collect(),
+            friction: scene.bodies.iter().map(|b| b.friction).collect(),
+            restitution_class,
+            damping,
+            wall_damping,
+            x: scene.bodies.iter().map(|b| b.position).collect(),
+            v: (scene.bodies.iter())
+                .map(|b| match b.motion {
+                    Motion::Fixed => [0.0; 3],
+                    _ => b.velocity,
+                })
+                .collect(),
+            w: (scene.bodies.iter())
+                .map(|b| match b.motion {
+                    Motion::Fixed => [0.0; 3],
+                    _ => b.angular_velocity,
+                })
+                .collect(),
+            q: (scene.bodies.iter())
+                .map(|b| quat_from_scaled_axis(b.rotation))
+                .collect(),
+            v_pred: Vec::new(),
+            w_pred: Vec::new(),
+            contact_force: vec![[0.0; 3]; n],
+            contact_torque: vec![[0.0; 3]; n],
+            fluid_force: vec![[0.0; 3]; n],
+            fluid_torque: vec![[0.0; 3]; n],
+            law,
+            tangential_ratio: 1.0 / (2.0 * (1.0 + nu)),
+            history: History::default(),
+            next_history: History::default(),
+            walls: walls(&scene.domain),
+            gravity: scene.gravity.vector,
+            domain: scene.domain.clone(),
+            grid: Grid::default(),
+            max_dt: scene.dem.max_dt,
+            steps_per_contact: spec.steps_per_contact,
+            impact_speed: 0.0,
+            hertz_tau: 0.0,
+            radius,
+            time: 0.0,
+            steps: 0,
+        };
+        for (i, b) in scene.bodies.iter().enumerate() {
+            let g = BodyGeometry::from_shape(&b.shape).map_err(|e| e.in_body(i, &b.name))?;
+            let volume = g.volume();
+            let mass = b.density * volume;
+            let dynamic = b.motion == Motion::Dynamic;
+            e.volume.push(volume);
+            e.mass.push(mass);
+            e.inv_mass.push(if dynamic { 1.0 / mass } else { 0.0 });
+            e.inv_inertia.push(if dynamic {
+                1.0 / (0.4 * mass * e.radius[i] * e.radius[i])
+            } else {
+                0.0
+            });
+        }
+        if let Law::Hertz { .. } = law {
+            e.hertz_tau = hertz_impact(0.0).1;
+            let height = scene.domain.max[1] - scene.domain.min[1];
+            let g = scene.gravity.vector.iter().map(|g| g * g).sum::<f64>().sqrt();
+            // The fall through the domain height: the fastest impact gravity alone makes.
+            e.impact_speed = spec.impact_speed.unwrap_or(if g > 0.0 {
+                (2.0 * g * height).sqrt()
+            } else {
+                1.0
+            });
+        }
+        e.predict(0.0);
+        e.compute_forces(0.0);
+        Ok(e)
+    }
+
+    /// Simulated time since construction, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Undamped contact duration that bounds the step, s: the shortest over a pair of
+    /// identical dynamic spheres and a sphere on a wall, for every dynamic sphere. Linear:
+    /// `π √(m*/k)`; Hertz: `τ (m*/k_n)^{2/5} v^{-1/5}` at the larger of the impact speed
+    /// and twice the fastest body's speed (two bodies meeting head on).
+    pub fn contact_duration(&self) -> f64 {
+        let vmax = (0..self.x.len())
+            .filter(|i| self.inv_mass[*i] > 0.0)
+            .map(|i| norm(self.v[i]))
+            .fold(0.0, f64::max);
+        let mut t = f64::INFINITY;
+        for i in (0..self.x.len()).filter(|i| self.inv_mass[*i] > 0.0) {
+            let (m, r) = (self.mass[i], self.radius[i]);
+            // (m*, R*, E*) of the sphere against its twin and against a wall.
+            for (m_eff, r_eff, wall) in [(0.5 * m, 0.5 * r, false), (m, r, true)] {
+                let tc = match self.law {
+                    Law::Linear { k } => std::f64::consts::PI * (m_eff / k).sqrt(),
+                    Law::Hertz { e_pair, e_wall } => {
+                        let kn = 4.0 / 3.0 * if wall { e_wall } else { e_pair } * r_eff.sqrt();
+                        let v = self.impact_speed.max(2.0 * vmax);
+                        self.hertz_tau * (m_eff / kn).powf(0.4) * v.powf(-0.2)
+                    }
+                };
+                t = t.min(tc);
+            }
+        }
+        t
+    }
+
+    /// Sphere–sphere and sphere–wall contact forces and torques at the current positions
+    /// and velocities; the tangential springs advance by `dt`.
+    fn compute_forces(&mut self, dt: f64) {
+        let n = self.x.len();
+        for f in self.contact_force.iter_mut().chain(&mut self.contact_torque) {
+            *f = [0.0; 3];
+        }
+        self.next_history.clear();
+        let rmax = self.radius.iter().copied().fold(0.0, f64::max);
+        self.grid.build(&self.x, 2.0 * rmax);
+        let mut neighbours = Vec::with_capacity(64);
+        let walls = std::mem::take(&mut self.walls);
+        for i in 0..n {
+            self.grid.candidates(self.x[i], &mut neighbours);
+            for &j in &neighbours {
+                let j = j as usize;
+                if j <= i || self.inv_mass[i] + self.inv_mass[j] == 0.0 {
+                    continue;
+                }
+                let d = sub(self.x[i], self.x[j]);
+                let dist2 = dot(d, d);
+                let reach = self.radius[i] + self.radius[j];
+                if dist2 >= reach * reach || dist2 == 0.0 {
+                    continue;
+                }
+                let dist = dist2.sqrt();
+                let nrm = scale(d, 1.0 / dist);
+                let (ri, rj) = (self.radius[i], self.radius[j]);
+                let (v, w) = (&self.v_pred, &self.w_pred);
+                let spin = add(scale(w[i], ri), scale(w[j], rj));
+                let (damping, zeta_t) =
+                    self.damping[self.restitution_class[i]][self.restitution_class[j]];
+                let c = Contact {
+                    n: nrm,
+                    overlap: reach - dist,
+                    v_rel: sub(sub(v[i], v[j]), cross(spin, nrm)),
+                    m_eff: 1.0 / (self.inv_mass[i] + self.inv_mass[j]),
+                    r_eff: ri * rj / (ri + rj),
+                    e_star: match self.law {
+                        Law::Hertz { e_pair, .. } => e_pair,
+                        Law::Linear { .. } => 0.0,
+                    },
+                    damping,
+                    zeta_t,
+                    mu: 0.5 * (self.friction[i] + self.friction[j]),
+                };
+                let key = (i as u64) << 32 | j as u64;
+                let (f, ft) = self.resolve(&c, key, dt);
+                let t = cross(nrm, ft);
+                add_to(&mut self.contact_force[i], f);
+                add_to(&mut self.contact_force[j], scale(f, -1.0));
+                add_to(&mut self.contact_torque[i], scale(t, -ri));
+                add_to(&mut self.contact_torque[j], scale(t, -rj));
+            }
+            if self.inv_mass[i] == 0.0 {
+                continue;
+            }
+            for (k, wall) in walls.iter().enumerate() {
+                let gap = wall.inward * (self.x[i][wall.axis] - wall.coord);
+                let r = self.radius[i];
+                if gap >= r {
+                    continue;
+                }
+                let mut nrm = [0.0; 3];
+                nrm[wall.axis] = wall.inward;
+                let (damping, zeta_t) = self.wall_damping[self.restitution_class[i]];
+                let c = Contact {
+                    n: nrm,
+                    overlap: r - gap,
+                    v_rel: sub(self.v_pred[i], cross(scale(self.w_pred[i], r), nrm)),
+                    m_eff: self.mass[i],
+                    r_eff: r,
+                    e_star: match self.law {
+                        Law::Hertz { e_wall, .. } => e_wall,
+                        Law::Linear { .. } => 0.0,
+                    },
+                    damping,
+                    zeta_t,
+                    mu: self.friction[i],
+                };
+                let key = (i as u64) << 32 | (n + k) as u64;
+                let (f, ft) = self.resolve(&c, key, dt);
+                add_to(&mut self.contact_force[i], f);
+                add_to(&mut self.contact_torque[i], scale(cross(nrm, ft), -r));
+            }
+        }
+        self.walls = walls;
+        std::mem::swap(&mut self.history, &mut self.next_history);
+    }
+
+    /// Force on i of one contact and its tangential part; carries the contact's spring
+    /// from `history` into `next_history`.
+    fn resolve(&mut self, c: &Contact, key: u64, dt: f64) -> ([f64; 3], [f64; 3]) {
+        let spring = self.history.get(&key).copied().unwrap_or([0.0; 3]);
+        let (f, ft, spring) = contact_force(self.law, self.tangential_ratio, c, spring, dt);
+        self.next_history.insert(key, spring);
+        (f, ft)
+    }
+
+    fn check_finite(&self) -> Result<(), DemError> {
+        let bad = (0..self.x.len()).find(|i| {
+            !(self.x[*i].iter())
+                .chain(&self.v[*i])
+                .chain(&self.w[*i])
+                .all(|c| c.is_finite())
+        });
+        match bad {
+            None => Ok(()),
+            Some(i) => Err(DemError::NonFiniteState {
+                body: i,
+                name: self.names[i].clone(),
+                step: self.steps,
+                time: self.time,
+                position: self.x[i],
+                velocity: self.v[i],
+            }),
+        }
+    }
+
+    /// Half a kick: v += a dt/2, ω += α dt/2 for every dynamic sphere.
+    fn kick(&mut self, half_dt: f64) {
+        let (mut v, mut w) = (std::mem::take(&mut self.v), std::mem::take(&mut self.w));
+        self.kick_into(&mut v, &mut w, half_dt);
+        (self.v, self.w) = (v, w);
+    }
+
+    /// The velocities at the end of the step as the forces of its start predict them
+    /// (`v_{n+½} + a_n dt/2`): the dashpots act on these. Damping on the half-step
+    /// velocity lags by half a step and took 3 % off a linear contact's restitution at
+    /// 50 steps per contact (0.484 for e = 0.5); the prediction leaves 0.3 %.
+    fn predict(&mut self, half_dt: f64) {
+        let (mut v, mut w) = (std::mem::take(&mut self.v_pred), std::mem::take(&mut self.w_pred));
+        v.clone_from(&self.v);
+        w.clone_from(&self.w);
+        self.kick_into(&mut v, &mut w, half_dt);
+        (self.v_pred, self.w_pred) = (v, w);
+    }
+
+    fn kick_into(&self, v: &mut [[f64; 3]], w: &mut [[f64; 3]], half_dt: f64) {
+        for i in 0..self.x.len() {
+            let (im, ii) = (self.inv_mass[i], self.inv_inertia[i]);
+            if im == 0.0 {
+                continue;
+            }
+            let force = add(self.contact_force[i], self.fluid_force[i]);
+            let torque = add(self.contact_torque[i], self.fluid_torque[i]);
+            for k in 0..3 {
+                let a = force[k] * im + self.gravity[k] * self.gravity_scale[i];
+                v[i][k] += a * half_dt;
+                w[i][k] += torque[k] * ii * half_dt;
+            }
+        }
+    }
+}
+
+/// The faces of the domain as walls: every face but the top when it is open.
+fn walls(d: &Domain) -> Vec<Wall> {
+    let mut out = Vec::new();
+    for axis in 0..3 {
+        out.push(Wall {
+            axis,
+            inward: 1.0,
+            coord: d.min[axis],
+        });
+        if axis != 1 || d.closed_top {
+            out.push(Wall {
+                axis,
+                inward: -1.0,
+                coord: d.max[axis],
+            });
+        }
+    }
+    out
+}
+
+/// Force on body i of one contact `c` (normal plus tangential, N), its tangential part,
+/// and the tangential spring ξ after the step `dt` (DEMocritus eqs. 18–27 with the
+/// departures listed in the module notes).
+fn contact_force(
+    law: Law,
+    tangential_ratio: f64,
+    c: &Contact,
+    spring: [f64; 3],
+    dt: f64,
+) -> ([f64; 3], [f64; 3], [f64; 3]) {
+    let vn = dot(c.v_rel, c.n);
+    let overlap_rate = -vn;
+    // Normal force along n (positive pushes i away from j) and the normal stiffness dF/dδ.
+    let (fn_, kn_tangent) = match law {
+        // Robinson eq. (21); β = 2 ζ √(m* k).
+        Law::Linear { k } => {
+            let beta = 2.0 * c.damping * (c.m_eff * k).sqrt();
+            (k * c.overlap + beta * overlap_rate, k)
+        }
+        // DEMocritus eqs. (18), (28): k_n = 4/3 E* √R*; Tsuji's c_n = α √(m* k_n) δ^{1/4}.
+        Law::Hertz { .. } => {
+            let kn = 4.0 / 3.0 * c.e_star * c.r_eff.sqrt();
+            let cn = c.damping * (c.m_eff * kn).sqrt() * c.overlap.powf(0.25);
+            (
+                kn * c.overlap.powf(1.5) + cn * overlap_rate,
+                1.5 * kn * c.overlap.sqrt(),
+            )
+        }
+    };
+    // DEMocritus eq. (31) and the Kelvin–Voigt tangential dashpot of eq. (33).
+    let kt = tangential_ratio * kn_tangent;
+    let ct = 2.0 * c.zeta_t * (c.m_eff * kt).sqrt();
+    let vt = sub(c.v_rel, scale(c.n, vn));
+    // Carry the spring into the current tangent plane, keeping its length, then add the slip.
+    let along = sub(spring, scale(c.n, dot(spring, c.n)));
+    let (len, len_t) = (norm(spring), norm(along));
+    let carried = if len_t > 0.0 {
+        scale(along, len / len_t)
+    } else {
+        [0.0; 3]
+    };
+    let mut xi = add(carried, scale(vt, dt));
+    let mut ft = scale(add(scale(xi, kt), scale(vt, ct)), -1.0);
+    // DEMocritus eq. (27): Coulomb's limit; the spring keeps the length that gives it.
+    let limit = c.mu * fn_.abs();
+    let ft_len = norm(ft);
+    if ft_len > limit {
+        ft = scale(ft, limit / ft_len);
+        xi = if kt > 0.0 {
+            scale(add(ft, scale(vt, ct)), -1.0 / kt)
+        } else {
+            [0.0; 3]
+        };
+    }
+    (add(scale(c.n, fn_), ft), ft, xi)
+}
+
+/// Damping ratio of a linear spring–dashpot with restitution e:
+/// `e = exp(−π ζ / √(1 − ζ²))`, so `ζ = −ln e / √(π² + ln² e)`; e = 0 → critical (ζ = 1).
+pub fn linear_zeta(e: f64) -> f64 {
+    if e <= 0.0 {
+        return 1.0;
+    }
+    let l = e.ln();
+    -l / (std::f64::consts::PI.powi(2) + l * l).sqrt()
+}
+
+/// Restitution and duration of a Hertz contact with Tsuji's damping, in the units that
+/// make it parameter-free: `s'' = −s^{3/2} − α s^{1/4} s'`, s(0) = 0, s'(0) = 1 (s the
+/// overlap over `v (m*/k_n)^{2/5} v^{-1/5}…`, τ time over `(m*/k_n)^{2/5} v^{-1/5}`).
+/// Returns (e, τ_c): the rebound speed and the contact duration; e = 0 and τ_c = ∞ when
+/// the spheres do not separate. RK4 at Δτ = 2e-4 (τ_c ≈ 3.22 undamped).
+pub fn hertz_impact(alpha: f64) -> (f64, f64) {
+    let rhs = |s: f64, u: f64| {
+        let s = s.max(0.0);
+        -s.powf(1.5) - alpha * s.powf(0.25) * u
+    };
+    let h = 2e-4;
+    let (mut s, mut u, mut t) = (0.0f64, 1.0f64, 0.0f64);
+    // Ten undamped durations: a sphere still pressed by then has e < 1e-4 (it creeps back).
+    while t < 32.0 {
+        let (k1s, k1u) = (u, rhs(s, u));
+        let (k2s, k2u) = (u + 0.5 * h * k1u, rhs(s + 0.5 * h * k1s, u + 0.5 * h * k1u));
+        let (k3s, k3u) = (u + 0.5 * h * k2u, rhs(s + 0.5 * h * k2s, u + 0.5 * h * k2u));
+        let (k4s, k4u) = (u + h * k3u, rhs(s + h * k3s, u + h * k3u));
+        let s_new = s + h / 6.0 * (k1s + 2.0 * k2s + 2.0 * k3s + k4s);
+        let u_new = u + h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u);
+        if s_new < 0.0 {
+            // Linear interpolation of the crossing for the duration.
+            let frac = s / (s - s_new);
+            return (-(u + frac * (u_new - u)), t + frac * h);
+        }
+        if u_new >= 0.0 && u < 0.0 {
+            return (0.0, f64::INFINITY); // stopped while pressed: no rebound
+        }
+        (s, u, t) = (s_new, u_new, t + h);
+    }
+    (0.0, f64::INFINITY)
+}
+
+/// Tsuji's α for restitution e: the smallest α with `hertz_impact(α).0 ≤ e`, by bisection
+/// to 1e-6 (e = 0 gives the threshold beyond which spheres stick, ≈ 1.27).
+pub fn hertz_alpha(e: f64) -> f64 {
+    if e >= 1.0 {
+        return 0.0;
+    }
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while hertz_impact(hi).0 > e {
+        hi *= 2.0;
+    }
+    while hi - lo > 1e-6 {
+        let mid = 0.5 * (lo + hi);
+        if hertz_impact(mid).0 > e {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+/// Cell grid hashed into a table of `2^b ≥ 2N` buckets, rebuilt every step by a counting
+/// sort: the domain may hold many more cells than spheres (a metre box of millimetre
+/// grains), so cells are not stored densely. A hash collision only adds candidates that
+/// the distance test rejects.
+#[derive(Default)]
+struct Grid {
+    cell: f64,
+    mask: u64,
+    /// Bucket start offsets (len buckets + 1) and sphere indices sorted by bucket.
+    start: Vec<u32>,
+    entries: Vec<u32>,
+    bucket_of: Vec<u64>,
+}
+
+impl Grid {
+    fn key(&self, x: [f64; 3]) -> [i64; 3] {
+        x.map(|c| (c / self.cell).floor() as i64)
+    }
+
+    fn bucket(&self, k: [i64; 3]) -> u64 {
+        let h = (k[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ (k[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ (k[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
+        (h ^ (h >> 29)) & self.mask
+    }
+
+    fn build(&mut self, x: &[[f64; 3]], cell: f64) {
+        self.cell = cell;
+        let buckets = (2 * x.len()).next_power_of_two().max(2);
+        self.mask = buckets as u64 - 1;
+        let mut bucket_of = std::mem::take(&mut self.bucket_of);
+        bucket_of.clear();
+        bucket_of.extend(x.iter().map(|p| self.bucket(self.key(*p))));
+        self.bucket_of = bucket_of;
+        self.start.clear();
+        self.start.resize(buckets + 1, 0);
+        for b in &self.bucket_of {
+            self.start[*b as usize + 1] += 1;
+        }
+        for k in 0..buckets {
+            self.start[k + 1] += self.start[k];
+        }
+        self.entries.resize(x.len(), 0);
+        let mut fill = self.start.clone();
+        for (i, b) in self.bucket_of.iter().enumerate() {
+            self.entries[fill[*b as usize] as usize] = i as u32;
+            fill[*b as usize] += 1;
+        }
+    }
+
+    /// Every sphere in the 27 cells around `p` (and whatever shares their buckets), each once.
+    fn candidates(&self, p: [f64; 3], out: &mut Vec<u32>) {
+        out.clear();
+        let k = self.key(p);
+        let mut seen = [u64::MAX; 27];
+        let mut m = 0;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let b = self.bucket([k[0] + dx, k[1] + dy, k[2] + dz]);
+                    if seen[..m].contains(&b) {
+                        continue;
+                    }
+                    seen[m] = b;
+                    m += 1;
+                    let (s, e) = (self.start[b as usize], self.start[b as usize + 1]);
+                    out.extend_from_slice(&self.entries[s as usize..e as usize]);
+                }
+            }
+        }
+    }
+}
+
+impl DemEngine for SoftSphereEngine {
+    fn name(&self) -> &'static str {
+        Self::NAME
+    }
+
+    fn contact_model(&self) -> ContactModel {
+        ContactModel::SpringDashpot
+    }
+
+    fn body_count(&self) -> usize {
+        self.x.len()
+    }
+
+    fn states(&self, out: &mut Vec<BodyState>) {
+        out.clear();
+        out.extend((0..self.x.len()).map(|i| BodyState {
+            body: i as u32,
+            motion: self.motion[i].as_u32(),
+            mass: self.mass[i],
+            volume: self.volume[i],
+            position: self.x[i],
+            orientation: self.q[i],
+            linear_velocity: self.v[i],
+            angular_velocity: self.w[i],
+            ..Default::default()
+        }));
+    }
+
+    fn set_fluid_loads(&mut self, loads: &[BodyLoad]) -> Result<(), DemError> {
+        check_loads(loads, self.x.len(), |i| self.names[i].clone())?;
+        self.fluid_force.fill([0.0; 3]);
+        self.fluid_torque.fill([0.0; 3]);
+        for l in loads {
+            self.fluid_force[l.body as usize] = l.force;
+            self.fluid_torque[l.body as usize] = l.moment;
+        }
+        Ok(())
+    }
+
+    fn step(&mut self, dt: f64) -> Result<(), DemError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(DemError::InvalidStep {
+                dt,
+                max_dt: self.stable_dt(),
+            });
+        }
+        self.kick(0.5 * dt);
+        let t_new = self.time + dt;
+        for i in 0..self.x.len() {
+            if let Some(k) = &self.kinematic[i] {
+                (self.x[i], self.q[i]) = k.pose(t_new);
+            } else if self.inv_mass[i] > 0.0 {
+                for c in 0..3 {
+                    self.x[i][c] += self.v[i][c] * dt;
+                }
+                let turn = quat_from_scaled_axis(scale(self.w[i], dt));
+                let q = crate::engine::quat_mul(turn, self.q[i]);
+                let len = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+                self.q[i] = q.map(|c| c / len);
+            }
+        }
+        self.time = t_new;
+        self.predict(0.5 * dt);
+        self.compute_forces(dt);
+        self.kick(0.5 * dt);
+        self.steps += 1;
+        self.check_finite()?;
+        let mut states = Vec::new();
+        self.states(&mut states);
+        check_in_domain(
+            &self.domain,
+            &states,
+            |i| self.names[i].clone(),
+            self.steps,
+            self.time,
+        )
+    }
+
+    /// `min(dem.max_dt, t_c / steps_per_contact)` with t_c from
+    /// [`contact_duration`](SoftSphereEngine::contact_duration) (Robinson §3.2: t_c / 50).
+    fn stable_dt(&self) -> f64 {
+        self.max_dt
+            .min(self.contact_duration() / self.steps_per_contact)
+    }
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    a.map(|c| c * s)
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+fn add_to(a: &mut [f64; 3], b: [f64; 3]) {
+    for k in 0..3 {
+        a[k] += b[k];
+    }
+}
