@@ -848,3 +848,49 @@ fn add_to(a: &mut [f64; 3], b: [f64; 3]) {
         a[k] += b[k];
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// SplitMix64 mapped to [lo, hi): deterministic, no dependency.
+    fn uniform(state: &mut u64, lo: f64, hi: f64) -> f64 {
+        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = *state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        lo + (hi - lo) * ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// The hashed grid lists, for every sphere, every other sphere it overlaps (checked
+    /// against all N² pairs), each once, for 2000 polydisperse spheres (r 0.5–2 mm) packed
+    /// densely enough to touch, including negative coordinates (floor of the cell key).
+    #[test]
+    fn grid_candidates_cover_every_touching_pair_once() {
+        let mut rng = 7;
+        let n = 2000;
+        let r: Vec<f64> = (0..n).map(|_| uniform(&mut rng, 0.5e-3, 2e-3)).collect();
+        let x: Vec<[f64; 3]> = (0..n)
+            .map(|_| [0, 1, 2].map(|_| uniform(&mut rng, -0.02, 0.02)))
+            .collect();
+        let mut grid = Grid::default();
+        grid.build(&x, 2.0 * 2e-3);
+        let mut c = Vec::new();
+        let mut touching = 0;
+        for i in 0..n {
+            grid.candidates(x[i], &mut c);
+            let mut sorted = c.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            assert_eq!(sorted.len(), c.len(), "sphere {i} listed a candidate twice");
+            for j in (0..n).filter(|j| *j != i) {
+                let d = norm(sub(x[i], x[j]));
+                if d < r[i] + r[j] {
+                    touching += 1;
+                    assert!(c.contains(&(j as u32)), "pair {i}–{j} at {d} m missed");
+                }
+            }
+        }
+        assert!(touching > 1000, "only {touching} touching pairs: the test is too sparse");
+    }
+}
