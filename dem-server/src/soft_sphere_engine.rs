@@ -338,6 +338,11 @@ impl SoftSphereEngine {
         self.time
     }
 
+    /// Contacts (sphere–sphere and sphere–wall) active at the last force evaluation.
+    pub fn contact_count(&self) -> usize {
+        self.history.len()
+    }
+
     /// Undamped contact duration that bounds the step, s: the shortest over a pair of
     /// identical dynamic spheres and a sphere on a wall, for every dynamic sphere. Linear:
     /// `π √(m*/k)`; Hertz: `τ (m*/k_n)^{2/5} v^{-1/5}` at the larger of the impact speed

@@ -166,3 +166,73 @@ pub fn bench(
     }
     Ok(o)
 }
+
+/// `couplet bench-dem`: the soft-sphere engine alone on `spheres` spheres (r = 1 mm,
+/// ρ = 2500, e = 0.5, μ = 0.5) on a cubic lattice of spacing 1.98 mm, so that every
+/// sphere starts pressed against its six neighbours and the contacts stay busy while
+/// the block relaxes under gravity; `steps` steps at the engine's stable step after 10
+/// of warm-up. Reports steps/s, sphere-steps/s and contacts per sphere (BENCHMARKS.md
+/// units for particle methods).
+pub fn bench_dem(spheres: usize, contact: &str, steps: u32) -> Result<String, BenchError> {
+    use couplet_dem::DemEngine;
+    let (r, pitch) = (1e-3, 1.98e-3);
+    let side = (spheres as f64).cbrt().ceil() as usize;
+    let extent = side as f64 * pitch + 4.0 * r;
+    let law = match contact {
+        "linear" => "contact = \"linear\"\nstiffness = 100.0",
+        _ => "contact = \"hertz-mindlin\"\nyoungs_modulus = 1e7",
+    };
+    let text = format!(
+        "[meta]\nname = \"bench-dem\"\n[time]\nend = 1.0\noutput_interval = 0.1\n\
+         [domain]\nmin = [0, 0, 0]\nmax = [{extent}, {}, {extent}]\n\
+         [dem]\nengine = \"soft-sphere\"\n[dem.soft_sphere]\n{law}\n\
+         [[bodies]]\nname = \"grain\"\nshape.sphere.radius = {r}\ndensity = 2500.0\n\
+         position = [{r}, {r}, {r}]\nrestitution = 0.5\nfriction = 0.5\n",
+        2.0 * extent
+    );
+    let mut scene = couplet_protocol::Scene::parse(&text, Path::new("bench-dem"))
+        .map_err(|e| RunError::Io {
+            what: "building the bench scene".into(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+    let template = scene.bodies.pop().expect("the template body");
+    for k in 0..spheres {
+        let (i, j, l) = (k % side, (k / side) % side, k / (side * side));
+        let mut b = template.clone();
+        b.name = format!("grain{k}");
+        b.position = [i, j, l].map(|c| 2.0 * r + c as f64 * pitch);
+        scene.bodies.push(b);
+    }
+    let dem_err = |e: couplet_dem::DemError| RunError::Io {
+        what: "the soft-sphere bench".into(),
+        source: std::io::Error::other(e.to_string()),
+    };
+    let built = Instant::now();
+    let mut engine = couplet_dem::SoftSphereEngine::new(&scene).map_err(dem_err)?;
+    let build_s = built.elapsed().as_secs_f64();
+    let dt = engine.stable_dt();
+    for _ in 0..10 {
+        engine.step(dt).map_err(dem_err)?;
+    }
+    let t = Instant::now();
+    for _ in 0..steps {
+        engine.step(dt).map_err(dem_err)?;
+    }
+    let secs = t.elapsed().as_secs_f64();
+    let mut o = String::new();
+    let _ = writeln!(o, "soft-sphere DEM, contact = {contact}, {spheres} spheres");
+    let _ = writeln!(o, "  setup                {build_s:.3} s");
+    let _ = writeln!(o, "  step                 {dt:.3e} s (t_c / 50)");
+    let _ = writeln!(
+        o,
+        "  contacts per sphere  {:.2}",
+        2.0 * engine.contact_count() as f64 / spheres as f64
+    );
+    let _ = writeln!(o, "  steps/s              {:.1}", steps as f64 / secs);
+    let _ = writeln!(
+        o,
+        "  sphere-steps/s       {:.3e}",
+        steps as f64 * spheres as f64 / secs
+    );
+    Ok(o)
+}

@@ -77,6 +77,18 @@ enum Cmd {
         #[command(flatten)]
         overrides: Overrides,
     },
+    /// Time the soft-sphere DEM engine alone on a block of pressed spheres.
+    BenchDem {
+        /// Number of spheres.
+        #[arg(long, default_value_t = 10_000)]
+        spheres: usize,
+        /// Contact law: linear or hertz-mindlin.
+        #[arg(long, default_value = "hertz-mindlin", value_parser = ["linear", "hertz-mindlin"])]
+        contact: String,
+        /// Steps to time.
+        #[arg(long, default_value_t = 200)]
+        steps: u32,
+    },
     /// Run a validation case and compare it with its reference: prints a markdown table
     /// and writes it with CSV series and SVG plots to OUT; fails when a judged row fails.
     Validate {
@@ -152,6 +164,11 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             steps,
             overrides,
         } => print!("{}", bench::bench(&scene, steps, &overrides.list()?)?),
+        Cmd::BenchDem {
+            spheres,
+            contact,
+            steps,
+        } => print!("{}", bench::bench_dem(spheres, &contact, steps)?),
         Cmd::Validate { list: true, .. } => {
             for c in validate::cases() {
                 println!(

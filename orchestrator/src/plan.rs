@@ -112,12 +112,25 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
         );
         let _ = writeln!(w, "  fluid step           {:.3e} s", l.dt);
     }
-    let dem_dt = scene.needs_dem().then_some(scene.dem.max_dt);
+    // The engine's own limit, as its server will report it in its hello.
+    let dem_dt = match scene.needs_dem() {
+        false => None,
+        true => Some(
+            couplet_dem::create_engine(&scene)
+                .map_err(|e| RunError::Io {
+                    what: "building the DEM engine".into(),
+                    source: std::io::Error::other(e.to_string()),
+                })?
+                .stable_dt(),
+        ),
+    };
     if let Some(dt) = dem_dt {
-        let _ = writeln!(
-            w,
-            "  DEM step             {dt:.3e} s  (dem.max_dt; rapier's constraint solver is stable for contacts at any step)"
-        );
+        let why = if scene.dem.engine == couplet_dem::SoftSphereEngine::NAME {
+            "the contact duration over dem.soft_sphere.steps_per_contact (Robinson §3.2), at most dem.max_dt"
+        } else {
+            "dem.max_dt; rapier's constraint solver is stable for contacts at any step"
+        };
+        let _ = writeln!(w, "  DEM step             {dt:.3e} s  ({why})");
     }
     let p = choose_window(&scene, fluid_limits.as_ref().map(|l| l.dt), dem_dt);
     let _ = writeln!(
