@@ -124,7 +124,9 @@ pub enum DemError {
     /// A body's centre left the domain (through an open face, or pushed through a wall).
     #[error(
         "body {body} \"{name}\" left the domain in DEM step {step} (t = {time} s): centre {position:?} m, \
-         velocity {velocity:?} m/s, domain {min:?}..{max:?} m; the fluid cannot follow it (enlarge the domain or close its top)"
+         velocity {velocity:?} m/s, domain {:?}..{:?} m; the fluid cannot follow it (enlarge the domain or close its top)",
+        domain.0,
+        domain.1
     )]
     LeftDomain {
         body: usize,
@@ -133,8 +135,8 @@ pub enum DemError {
         time: f64,
         position: [f64; 3],
         velocity: [f64; 3],
-        min: [f64; 3],
-        max: [f64; 3],
+        /// The domain's min and max corners, m (boxed: keeps `DemError` small).
+        domain: Box<([f64; 3], [f64; 3])>,
     },
     /// A scene this engine cannot simulate (a shape or boundary it does not have).
     #[error("dem.engine = \"{engine}\": {what}")]
@@ -193,8 +195,8 @@ pub(crate) fn check_in_domain(
 ) -> Result<(), DemError> {
     let out = |s: &BodyState| {
         (0..3).any(|k| {
-            !domain.periodic[k]
-                && !(s.position[k] >= domain.min[k] && s.position[k] <= domain.max[k])
+            let inside = (domain.min[k]..=domain.max[k]).contains(&s.position[k]);
+            !(domain.periodic[k] || inside)
         })
     };
     match states.iter().position(out) {
@@ -206,8 +208,7 @@ pub(crate) fn check_in_domain(
             time,
             position: states[i].position,
             velocity: states[i].linear_velocity,
-            min: domain.min,
-            max: domain.max,
+            domain: Box::new((domain.min, domain.max)),
         }),
     }
 }
@@ -248,7 +249,6 @@ pub(crate) fn quat_mul(p: [f64; 4], q: [f64; 4]) -> [f64; 4] {
     ]
 }
 
-
 /// `1 − ρ_f/ρ_s` for a dynamic resolved body when gravity does not act on the fluid
 /// (Joubert eq. 28: `F_s = (m_s − ρ_f V_s) g = m_s g (1 − ρ_f/ρ_s)`), else 1.
 pub(crate) fn gravity_scale(scene: &Scene, i: usize) -> f64 {
@@ -261,7 +261,6 @@ pub(crate) fn gravity_scale(scene: &Scene, i: usize) -> f64 {
         _ => 1.0,
     }
 }
-
 
 /// Refuses a set of fluid loads that names a body the scene lacks, names one twice, or
 /// carries NaN/infinity; `name(i)` names body i in the message. Engines call it before

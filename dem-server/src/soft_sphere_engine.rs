@@ -207,8 +207,7 @@ impl SoftSphereEngine {
             && !(k.is_finite() && k > 0.0)
         {
             return Err(unsupported(
-                "the contact law's stiffness or Young's modulus is missing or not positive"
-                    .into(),
+                "the contact law's stiffness or Young's modulus is missing or not positive".into(),
             ));
         }
 
@@ -320,7 +319,13 @@ impl SoftSphereEngine {
         if let Law::Hertz { .. } = law {
             e.hertz_tau = hertz_impact(0.0).1;
             let height = scene.domain.max[1] - scene.domain.min[1];
-            let g = scene.gravity.vector.iter().map(|g| g * g).sum::<f64>().sqrt();
+            let g = scene
+                .gravity
+                .vector
+                .iter()
+                .map(|g| g * g)
+                .sum::<f64>()
+                .sqrt();
             // The fall through the domain height: the fastest impact gravity alone makes.
             e.impact_speed = spec.impact_speed.unwrap_or(if g > 0.0 {
                 (2.0 * g * height).sqrt()
@@ -375,7 +380,11 @@ impl SoftSphereEngine {
     /// and velocities; the tangential springs advance by `dt`.
     fn compute_forces(&mut self, dt: f64) {
         let n = self.x.len();
-        for f in self.contact_force.iter_mut().chain(&mut self.contact_torque) {
+        for f in self
+            .contact_force
+            .iter_mut()
+            .chain(&mut self.contact_torque)
+        {
             *f = [0.0; 3];
         }
         self.next_history.clear();
@@ -502,7 +511,10 @@ impl SoftSphereEngine {
     /// velocity lags by half a step and took 3 % off a linear contact's restitution at
     /// 50 steps per contact (0.484 for e = 0.5); the prediction leaves 0.3 %.
     fn predict(&mut self, half_dt: f64) {
-        let (mut v, mut w) = (std::mem::take(&mut self.v_pred), std::mem::take(&mut self.w_pred));
+        let (mut v, mut w) = (
+            std::mem::take(&mut self.v_pred),
+            std::mem::take(&mut self.w_pred),
+        );
         v.clone_from(&self.v);
         w.clone_from(&self.w);
         self.kick_into(&mut v, &mut w, half_dt);
@@ -764,7 +776,6 @@ impl DemEngine for SoftSphereEngine {
             orientation: self.q[i],
             linear_velocity: self.v[i],
             angular_velocity: self.w[i],
-            ..Default::default()
         }));
     }
 
@@ -896,6 +907,9 @@ mod tests {
                 }
             }
         }
-        assert!(touching > 1000, "only {touching} touching pairs: the test is too sparse");
+        assert!(
+            touching > 1000,
+            "only {touching} touching pairs: the test is too sparse"
+        );
     }
 }

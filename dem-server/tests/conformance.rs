@@ -226,7 +226,10 @@ pub fn boxes_do_not_interpenetrate(allow: Allowance) {
             "[dem]\nengine = \"{}\"\n{}\n{bodies}",
             allow.engine, allow.dem
         ));
-        let msg = create_engine(&s).err().map(|e| e.to_string()).unwrap_or_default();
+        let msg = create_engine(&s)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(
             msg.contains("bodies[0] \"lower\"") && msg.contains("spheres only"),
             "{msg}"
@@ -358,7 +361,13 @@ pub fn friction_on_slope(allow: Allowance) {
     );
     let t = 0.3;
     for mu in [0.5, 0.05] {
-        let ball = sphere("ball", r, 2000.0, [0.2, r, 0.5], &format!("friction = {mu}"));
+        let ball = sphere(
+            "ball",
+            r,
+            2000.0,
+            [0.2, r, 0.5],
+            &format!("friction = {mu}"),
+        );
         let mut e = engine(allow, &format!("{gravity}\n{ball}"));
         run(&mut *e, t, 0.01, &[]);
         let s = states(&*e)[0];
@@ -371,7 +380,11 @@ pub fn friction_on_slope(allow: Allowance) {
             )
         };
         let (v, w) = (s.linear_velocity[0], -s.angular_velocity[2]);
-        assert!(rel(v, a * t) < 0.02, "μ = {mu}: v = {v}, expected {}", a * t);
+        assert!(
+            rel(v, a * t) < 0.02,
+            "μ = {mu}: v = {v}, expected {}",
+            a * t
+        );
         assert!(
             rel(w, alpha * t) < 0.02,
             "μ = {mu}: ω = {w}, expected {}",
@@ -386,7 +399,13 @@ pub fn friction_on_slope(allow: Allowance) {
 pub fn leaving_the_domain_is_reported(allow: Allowance) {
     let mut e = engine(
         allow,
-        &sphere("ball", 0.05, 1000.0, [0.5, 0.5, 0.5], "velocity = [0, 8, 0]"),
+        &sphere(
+            "ball",
+            0.05,
+            1000.0,
+            [0.5, 0.5, 0.5],
+            "velocity = [0, 8, 0]",
+        ),
     );
     let exit = (8.0 - (64.0 - 2.0 * G * 0.5f64).sqrt()) / G;
     let dt = e.stable_dt();
@@ -403,7 +422,10 @@ pub fn leaving_the_domain_is_reported(allow: Allowance) {
         matches!(err, DemError::LeftDomain { body: 0, .. }) && msg.contains("\"ball\""),
         "{msg}"
     );
-    assert!(t + dt >= exit && t < exit + dt, "reported at {t} s, left at {exit} s");
+    assert!(
+        t + dt >= exit && t < exit + dt,
+        "reported at {t} s, left at {exit} s"
+    );
 }
 
 /// Bad loads are refused with the body and the value named; good loads still apply after.

@@ -105,15 +105,17 @@ fn undamped_hertz_contact_has_the_analytic_duration() {
 fn linear_restitution_converges_first_order() {
     let e_set = 0.5;
     let worst = |steps: f64| {
-        let dem =
-            format!("contact = \"linear\"\nstiffness = 1e6\nsteps_per_contact = {steps}");
+        let dem = format!("contact = \"linear\"\nstiffness = 1e6\nsteps_per_contact = {steps}");
         [2.0, 2.01, 2.02, 2.03, 2.04]
             .map(|v| (head_on(&dem, e_set, v) - e_set).abs() / e_set)
             .into_iter()
             .fold(0.0, f64::max)
     };
     let (e50, e200) = (worst(50.0), worst(200.0));
-    assert!(e50 / e200 > 2.5, "worst errors {e50:.2e} (50), {e200:.2e} (200)");
+    assert!(
+        e50 / e200 > 2.5,
+        "worst errors {e50:.2e} (50), {e200:.2e} (200)"
+    );
     assert!(e200 < 5e-3, "worst error at 200 steps {e200}");
 }
 
@@ -123,9 +125,7 @@ fn linear_restitution_converges_first_order() {
 #[test]
 fn hertz_restitution_is_independent_of_speed() {
     for v in [0.2, 2.0, 10.0] {
-        let dem = format!(
-            "contact = \"hertz-mindlin\"\nyoungs_modulus = 1e8\nimpact_speed = {v}"
-        );
+        let dem = format!("contact = \"hertz-mindlin\"\nyoungs_modulus = 1e8\nimpact_speed = {v}");
         let e = head_on(&dem, 0.7, v);
         assert!((e - 0.7).abs() < 0.007, "v = {v} m/s: e = {e}");
     }
@@ -160,7 +160,7 @@ fn tangential_spring_holds_below_coulomb_and_slides_above() {
                 ..Default::default()
             };
             let t = 0.5;
-            run(&mut *e, 0.5 * t, &[load.clone()]);
+            run(&mut *e, 0.5 * t, &[load]);
             let half = states(&*e)[0].position[0] - x0;
             run(&mut *e, 0.5 * t, &[load]);
             let s = states(&*e)[0];
@@ -168,14 +168,25 @@ fn tangential_spring_holds_below_coulomb_and_slides_above() {
             if ratio < 1.0 {
                 // The spring's own stretch F / k_t is a few µm; it must not grow.
                 assert!(dx.abs() < 2e-5, "{dem}: stuck sphere moved {dx} m");
-                assert!((dx - half).abs() < 1e-9, "{dem}: creeps, {half} m then {dx} m");
-                assert!(s.angular_velocity[2].abs() < 1e-4, "{dem}: ω {:?}", s.angular_velocity);
+                assert!(
+                    (dx - half).abs() < 1e-9,
+                    "{dem}: creeps, {half} m then {dx} m"
+                );
+                assert!(
+                    s.angular_velocity[2].abs() < 1e-4,
+                    "{dem}: ω {:?}",
+                    s.angular_velocity
+                );
             } else {
                 let a = (f - mu * m * G) / m;
                 let alpha = (f * r - mu * m * G * r) / inertia;
                 let v = s.linear_velocity[0];
                 let w = s.angular_velocity[2];
-                assert!((v - a * t).abs() < 0.01 * a * t, "{dem}: v = {v}, expected {}", a * t);
+                assert!(
+                    (v - a * t).abs() < 0.01 * a * t,
+                    "{dem}: v = {v}, expected {}",
+                    a * t
+                );
                 assert!(
                     (w - alpha * t).abs() < 0.01 * alpha * t,
                     "{dem}: ω = {w}, expected {}",
@@ -224,11 +235,19 @@ fn soft_sphere_scene_errors_name_the_field() {
     let m = parse(
         "[dem]\nengine = \"soft-sphere\"\n[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1.0\nyoungs_modulus = 1e9",
     );
-    assert!(m.contains("youngs_modulus") && m.contains("not a parameter"), "{m}");
-    let m = parse("[dem]\nengine = \"rapier\"\n[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1.0");
+    assert!(
+        m.contains("youngs_modulus") && m.contains("not a parameter"),
+        "{m}"
+    );
+    let m = parse(
+        "[dem]\nengine = \"rapier\"\n[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1.0",
+    );
     assert!(m.contains("read only by") && m.contains("rapier"), "{m}");
     let m = parse(
         "[dem]\nengine = \"soft-sphere\"\n[dem.soft_sphere]\ncontact = \"hertz-mindlin\"\nyoungs_modulus = 1e9\nsteps_per_contact = 5",
     );
-    assert!(m.contains("steps_per_contact") && m.contains("at least 10"), "{m}");
+    assert!(
+        m.contains("steps_per_contact") && m.contains("at least 10"),
+        "{m}"
+    );
 }

@@ -190,11 +190,12 @@ pub fn bench_dem(spheres: usize, contact: &str, steps: u32) -> Result<String, Be
          position = [{r}, {r}, {r}]\nrestitution = 0.5\nfriction = 0.5\n",
         2.0 * extent
     );
-    let mut scene = couplet_protocol::Scene::parse(&text, Path::new("bench-dem"))
-        .map_err(|e| RunError::Io {
+    let mut scene = couplet_protocol::Scene::parse(&text, Path::new("bench-dem")).map_err(|e| {
+        RunError::Io {
             what: "building the bench scene".into(),
             source: std::io::Error::other(e.to_string()),
-        })?;
+        }
+    })?;
     let template = scene.bodies.pop().expect("the template body");
     for k in 0..spheres {
         let (i, j, l) = (k % side, (k / side) % side, k / (side * side));
