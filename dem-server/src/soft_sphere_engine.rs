@@ -143,6 +143,8 @@ pub struct SoftSphereEngine {
     history: History,
     next_history: History,
     walls: Vec<Wall>,
+    /// Length of each periodic axis, m (spheres wrap, pairs take the minimum image).
+    period: [Option<f64>; 3],
     gravity: [f64; 3],
     domain: Domain,
     grid: Grid,
@@ -160,7 +162,8 @@ impl SoftSphereEngine {
     /// Registry name.
     pub const NAME: &'static str = "soft-sphere";
 
-    /// Builds the spheres and domain walls of `scene`; refuses other shapes and periodic axes.
+    /// Builds the spheres and domain walls of `scene`; refuses other shapes, and periodic
+    /// axes shorter than two diameters.
     pub fn new(scene: &Scene) -> Result<Self, DemError> {
         let unsupported = |what: String| DemError::Unsupported {
             engine: Self::NAME,
@@ -169,11 +172,6 @@ impl SoftSphereEngine {
         let spec = scene.dem.soft_sphere.as_ref().ok_or_else(|| {
             unsupported("needs [dem.soft_sphere] (contact law and material)".into())
         })?;
-        if let Some(k) = (0..3).find(|k| scene.domain.periodic[*k]) {
-            return Err(unsupported(format!(
-                "domain.periodic[{k}]: periodic axes are not implemented in this engine"
-            )));
-        }
         let n = scene.bodies.len();
         let mut radius = Vec::with_capacity(n);
         for (i, b) in scene.bodies.iter().enumerate() {
@@ -187,6 +185,20 @@ impl SoftSphereEngine {
                     .in_body(i, &b.name));
                 }
             }
+        }
+        let d_max = 2.0 * radius.iter().copied().fold(0.0, f64::max);
+        let d = &scene.domain;
+        let mut period = [None; 3];
+        for k in (0..3).filter(|k| d.periodic[*k]) {
+            let length = d.max[k] - d.min[k];
+            // Minimum image is the only image in reach only if the period is two diameters.
+            if length < 2.0 * d_max {
+                return Err(unsupported(format!(
+                    "periodic axis {k} is {length:e} m long, shorter than two diameters of the largest sphere ({:e} m): a sphere would touch two images of another",
+                    2.0 * d_max
+                )));
+            }
+            period[k] = Some(length);
         }
         let nu = spec.poisson_ratio;
         let law = match spec.contact {
@@ -291,6 +303,7 @@ impl SoftSphereEngine {
             history: History::default(),
             next_history: History::default(),
             walls: walls(&scene.domain),
+            period,
             gravity: scene.gravity.vector,
             domain: scene.domain.clone(),
             grid: Grid::default(),
@@ -389,7 +402,8 @@ impl SoftSphereEngine {
         }
         self.next_history.clear();
         let rmax = self.radius.iter().copied().fold(0.0, f64::max);
-        self.grid.build(&self.x, 2.0 * rmax);
+        self.grid
+            .build(&self.x, 2.0 * rmax, self.domain.min, self.period);
         let mut neighbours = Vec::with_capacity(64);
         let walls = std::mem::take(&mut self.walls);
         for i in 0..n {
@@ -399,7 +413,12 @@ impl SoftSphereEngine {
                 if j <= i || self.inv_mass[i] + self.inv_mass[j] == 0.0 {
                     continue;
                 }
-                let d = sub(self.x[i], self.x[j]);
+                let mut d = sub(self.x[i], self.x[j]);
+                for (k, p) in self.period.iter().enumerate() {
+                    if let Some(l) = p {
+                        d[k] -= l * (d[k] / l).round();
+                    }
+                }
                 let dist2 = dot(d, d);
                 let reach = self.radius[i] + self.radius[j];
                 if dist2 >= reach * reach || dist2 == 0.0 {
@@ -538,10 +557,11 @@ impl SoftSphereEngine {
     }
 }
 
-/// The faces of the domain as walls: every face but the top when it is open.
+/// The faces of the domain as walls: every face but the top when it is open and the
+/// faces of periodic axes.
 fn walls(d: &Domain) -> Vec<Wall> {
     let mut out = Vec::new();
-    for axis in 0..3 {
+    for axis in (0..3).filter(|k| !d.periodic[*k]) {
         out.push(Wall {
             axis,
             inward: 1.0,
@@ -682,10 +702,14 @@ pub fn hertz_alpha(e: f64) -> f64 {
 /// Cell grid hashed into a table of `2^b ≥ 2N` buckets, rebuilt every step by a counting
 /// sort: the domain may hold many more cells than spheres (a metre box of millimetre
 /// grains), so cells are not stored densely. A hash collision only adds candidates that
-/// the distance test rejects.
+/// the distance test rejects. Along a periodic axis the cells divide the period exactly
+/// and their index wraps, so that spheres at opposite faces are neighbours.
 #[derive(Default)]
 struct Grid {
-    cell: f64,
+    origin: [f64; 3],
+    cell: [f64; 3],
+    /// Cells along each periodic axis (cell keys wrap modulo it).
+    wrap: [Option<i64>; 3],
     mask: u64,
     /// Bucket start offsets (len buckets + 1) and sphere indices sorted by bucket.
     start: Vec<u32>,
@@ -695,18 +719,34 @@ struct Grid {
 
 impl Grid {
     fn key(&self, x: [f64; 3]) -> [i64; 3] {
-        x.map(|c| (c / self.cell).floor() as i64)
+        [0, 1, 2].map(|k| ((x[k] - self.origin[k]) / self.cell[k]).floor() as i64)
     }
 
-    fn bucket(&self, k: [i64; 3]) -> u64 {
+    fn bucket(&self, mut k: [i64; 3]) -> u64 {
+        for (c, w) in k.iter_mut().zip(self.wrap) {
+            if let Some(n) = w {
+                *c = c.rem_euclid(n);
+            }
+        }
         let h = (k[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
             ^ (k[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
             ^ (k[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
         (h ^ (h >> 29)) & self.mask
     }
 
-    fn build(&mut self, x: &[[f64; 3]], cell: f64) {
-        self.cell = cell;
+    /// Bins `x` in cells of at least `cell` (the largest diameter) on every axis.
+    /// Periodic axes start at `origin` (the domain's min corner).
+    fn build(&mut self, x: &[[f64; 3]], cell: f64, origin: [f64; 3], period: [Option<f64>; 3]) {
+        self.origin = origin;
+        for k in 0..3 {
+            (self.cell[k], self.wrap[k]) = match period[k] {
+                Some(l) => {
+                    let n = (l / cell).floor().max(1.0);
+                    (l / n, Some(n as i64))
+                }
+                None => (cell, None),
+            };
+        }
         let buckets = (2 * x.len()).next_power_of_two().max(2);
         self.mask = buckets as u64 - 1;
         let mut bucket_of = std::mem::take(&mut self.bucket_of);
@@ -812,6 +852,14 @@ impl DemEngine for SoftSphereEngine {
                 self.q[i] = q.map(|c| c / len);
             }
         }
+        for (k, p) in self.period.iter().enumerate() {
+            if let Some(l) = p {
+                let lo = self.domain.min[k];
+                for x in &mut self.x {
+                    x[k] = lo + (x[k] - lo).rem_euclid(*l);
+                }
+            }
+        }
         self.time = t_new;
         self.predict(0.5 * dt);
         self.compute_forces(dt);
@@ -882,7 +930,7 @@ mod tests {
     /// against all N² pairs), each once, for 2000 polydisperse spheres (r 0.5–2 mm) packed
     /// densely enough to touch, including negative coordinates (floor of the cell key).
     #[test]
-    fn grid_candidates_cover_every_touching_pair_once() {
+    fn grid_candidates_cover_every_touching_pair_once_also_through_periodic_faces() {
         let mut rng = 7;
         let n = 2000;
         let r: Vec<f64> = (0..n).map(|_| uniform(&mut rng, 0.5e-3, 2e-3)).collect();
@@ -890,7 +938,7 @@ mod tests {
             .map(|_| [0, 1, 2].map(|_| uniform(&mut rng, -0.02, 0.02)))
             .collect();
         let mut grid = Grid::default();
-        grid.build(&x, 2.0 * 2e-3);
+        grid.build(&x, 2.0 * 2e-3, [-0.02; 3], [None; 3]);
         let mut c = Vec::new();
         let mut touching = 0;
         for i in 0..n {
@@ -910,6 +958,29 @@ mod tests {
         assert!(
             touching > 1000,
             "only {touching} touching pairs: the test is too sparse"
+        );
+
+        // Periodic in x and z over the same box: pairs touching through the faces
+        // (minimum image) are listed too.
+        let period = [Some(0.04), None, Some(0.04)];
+        grid.build(&x, 2.0 * 2e-3, [-0.02; 3], period);
+        let mut across = 0;
+        for i in 0..n {
+            grid.candidates(x[i], &mut c);
+            for j in (0..n).filter(|j| *j != i) {
+                let mut d = sub(x[i], x[j]);
+                for k in [0, 2] {
+                    d[k] -= 0.04 * (d[k] / 0.04).round();
+                }
+                if norm(d) < r[i] + r[j] {
+                    across += usize::from(norm(sub(x[i], x[j])) >= r[i] + r[j]);
+                    assert!(c.contains(&(j as u32)), "periodic pair {i}–{j} missed");
+                }
+            }
+        }
+        assert!(
+            across > 20,
+            "only {across} pairs touch through a periodic face"
         );
     }
 }

@@ -251,3 +251,76 @@ fn soft_sphere_scene_errors_name_the_field() {
         "{m}"
     );
 }
+
+/// A DEM-only scene periodic along x (no gravity, no walls in x), with `bodies`.
+fn periodic_x(bodies: &str) -> Box<dyn DemEngine> {
+    let text = format!(
+        "[meta]\nname = \"periodic\"\n[time]\nend = 1.0\noutput_interval = 0.1\n\
+         [domain]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nperiodic = [true, false, false]\n\
+         [gravity]\nvector = [0, 0, 0]\n\
+         [dem]\nengine = \"soft-sphere\"\n[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1e6\n{bodies}"
+    );
+    let s = couplet_protocol::Scene::parse(&text, std::path::Path::new("periodic.toml"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    create_engine(&s).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// On a periodic axis a sphere leaving one face enters at the other with its velocity
+/// (x = 0.9 + 1 m/s · 0.3 s − 1 = 0.2), and two spheres meet across the face: at
+/// x = 0.9 and 0.1 moving apart inside the box (+1 and −1 m/s) they collide at the
+/// face and rebound at e = 0.5 of the approach speed (tolerance as the conformance
+/// suite's linear allowance, 2.5 %), with momentum conserved.
+#[test]
+fn spheres_wrap_and_collide_across_a_periodic_face() {
+    let mut e = periodic_x(&sphere(
+        "ball",
+        0.05,
+        1000.0,
+        [0.9, 0.5, 0.5],
+        "velocity = [1, 0, 0]",
+    ));
+    run(&mut *e, 0.3, &[]);
+    let s = states(&*e)[0];
+    assert!((s.position[0] - 0.2).abs() < 1e-9, "x = {}", s.position[0]);
+    assert!((s.linear_velocity[0] - 1.0).abs() < 1e-12);
+
+    let body = |name, x: f64, u: f64| {
+        sphere(
+            name,
+            0.05,
+            1000.0,
+            [x, 0.5, 0.5],
+            &format!("velocity = [{u}, 0, 0]\nrestitution = 0.5\nfriction = 0.0"),
+        )
+    };
+    let mut e = periodic_x(&(body("east", 0.9, 1.0) + &body("west", 0.1, -1.0)));
+    run(&mut *e, 0.2, &[]);
+    let s = states(&*e);
+    let (v0, v1) = (s[0].linear_velocity[0], s[1].linear_velocity[0]);
+    assert!((v0 + 0.5).abs() < 0.025 * 0.5, "east rebounds at {v0}");
+    assert!((v1 - 0.5).abs() < 0.025 * 0.5, "west rebounds at {v1}");
+    assert!((v0 + v1).abs() < 1e-9, "momentum {}", v0 + v1);
+    // They stay near the face they met at, each on its own side.
+    assert!(s[0].position[0] > 0.8 && s[1].position[0] < 0.2, "{s:?}");
+}
+
+/// A periodic axis shorter than two diameters is refused: a sphere would reach two
+/// images of its neighbour.
+#[test]
+fn periodic_axis_shorter_than_two_diameters_is_refused() {
+    let text = format!(
+        "[meta]\nname = \"p\"\n[time]\nend = 1.0\noutput_interval = 0.1\n\
+         [domain]\nmin = [0, 0, 0]\nmax = [0.15, 1, 1]\nperiodic = [true, false, false]\n\
+         [dem]\nengine = \"soft-sphere\"\n[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1e6\n{}",
+        sphere("ball", 0.05, 1000.0, [0.07, 0.5, 0.5], "")
+    );
+    let s = couplet_protocol::Scene::parse(&text, std::path::Path::new("p.toml")).unwrap();
+    let msg = create_engine(&s)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        msg.contains("periodic axis 0") && msg.contains("two diameters"),
+        "{msg}"
+    );
+}

@@ -969,14 +969,22 @@ impl Scene {
                 "contradicts a periodic y axis (domain.periodic[1]): a periodic axis has no walls",
             );
         }
-        // A body crossing a periodic face is not handled; a resolved body that spans the
-        // periodic axis from face to face is its own periodic image (the DEM server checks
-        // the span, where the shapes' geometry is known).
-        if d.periodic.iter().any(|p| *p) && self.bodies.iter().any(|b| !self.is_marker_coupled(b)) {
+        // rapier does not wrap a body across a periodic face; a resolved body that spans
+        // the periodic axis from face to face is its own periodic image (the DEM server
+        // checks the span, where the shapes' geometry is known). The soft-sphere engine
+        // wraps its spheres, so there only resolved bodies (whose markers the fluid would
+        // have to wrap) must span.
+        let wraps = self.dem.engine == "soft-sphere";
+        if d.periodic.iter().any(|p| *p)
+            && self
+                .bodies
+                .iter()
+                .any(|b| !self.is_marker_coupled(b) && !wraps)
+        {
             return bad(
                 "domain.periodic".into(),
                 format!("{:?}", d.periodic),
-                "periodic axes take only resolved bodies that span them from face to face (a body crossing a periodic face is not handled)",
+                "with dem.engine = \"rapier\", periodic axes take only resolved bodies that span them from face to face (rapier does not wrap a body across a periodic face; the soft-sphere engine does)",
             );
         }
         if d.lid_velocity.iter().any(|v| !v.is_finite()) || d.lid_velocity[1] != 0.0 {
