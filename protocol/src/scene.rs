@@ -216,9 +216,11 @@ pub struct Domain {
     /// the other, and particles interact across the faces through their nearest image.
     /// Each period must be a whole number of fluid spacings (the lattice tiles it
     /// without a seam) and at least 2.5 support radii long (the fluid server names the
-    /// axis otherwise). Bodies: only resolved ones that span every periodic axis from
-    /// face to face, each its own periodic image (Joubert's infinitely long cylinder;
-    /// the DEM server checks the span; a body crossing a periodic face is not handled).
+    /// axis otherwise). Bodies: resolved ones must span every periodic axis from face to
+    /// face, each its own periodic image (Joubert's infinitely long cylinder; the DEM
+    /// server checks the span). Unresolved spheres (`coupling = "none"`) of the
+    /// soft-sphere engine wrap across the faces; rapier does not wrap, so with it no
+    /// other body may be on a periodic axis.
     /// Not a periodic y with `closed_top` or with gravity along y on the fluid.
     #[serde(default)]
     pub periodic: [bool; 3],
