@@ -2,7 +2,8 @@
 //! as spring–dashpot forces, in `f64`. The engine of many small grains (Robinson,
 //! DEMocritus): a linear spring–dashpot (Robinson eq. 21) or Hertz–Mindlin with a
 //! tangential spring and a Coulomb limit (DEMocritus eqs. 18–31), contact detection on
-//! a hashed cell grid, the step from the contact duration (Robinson §3.2, t_c / 50).
+//! a hashed cell grid, the step from the contact duration (Robinson §3.2, t_c / 50),
+//! and optionally DEMocritus's lubrication force (eq. 34).
 //!
 //! Where this departs from the papers' text, and why:
 //! * Hertz normal force `k_n δ^{3/2}`: DEMocritus eq. (18) writes `−k_n δ_n` with the
@@ -50,6 +51,18 @@ enum Law {
     /// DEMocritus eqs. (18)–(30): `k_n = 4/3 E* √R*`; E* of two spheres and of a sphere
     /// on a rigid wall, Pa.
     Hertz { e_pair: f64, e_wall: f64 },
+}
+
+/// DEMocritus eq. (34) in the form `F_i = 6π μ R*² (v_j − v_i) / gap` (equal to
+/// `3π μ d² /(8 gap)` for two spheres of diameter d = 4R*).
+#[derive(Debug, Clone, Copy)]
+struct Lubrication {
+    /// Fluid dynamic viscosity ρν, Pa·s.
+    mu: f64,
+    /// Centre distance beyond which no force acts: the fluid's kernel support radius, m.
+    cutoff: f64,
+    /// Smallest gap, as a fraction of the pair's diameter 4R*.
+    min_gap: f64,
 }
 
 /// A planar domain face: points with `x[axis]` beyond `coord` on the outside.
@@ -138,6 +151,7 @@ pub struct SoftSphereEngine {
     fluid_force: Vec<[f64; 3]>,
     fluid_torque: Vec<[f64; 3]>,
     law: Law,
+    lubrication: Option<Lubrication>,
     /// `1 / (2 (1 + ν))` (DEMocritus eq. 31).
     tangential_ratio: f64,
     history: History,
@@ -299,6 +313,14 @@ impl SoftSphereEngine {
             fluid_force: vec![[0.0; 3]; n],
             fluid_torque: vec![[0.0; 3]; n],
             law,
+            lubrication: match (&scene.fluid, spec.lubrication) {
+                (Some(f), true) => Some(Lubrication {
+                    mu: f.density * f.kinematic_viscosity,
+                    cutoff: f.support_radius(),
+                    min_gap: spec.lubrication_min_gap,
+                }),
+                _ => None,
+            },
             tangential_ratio: 1.0 / (2.0 * (1.0 + nu)),
             history: History::default(),
             next_history: History::default(),
@@ -389,6 +411,23 @@ impl SoftSphereEngine {
         t
     }
 
+    /// Largest step at which the stiffest lubrication dashpot c stays within `c Δt / m* ≤ 1`
+    /// (an explicit dashpot is unstable past 2): at the smallest gap, `4 m g_min / (6π μ R)`
+    /// for every dynamic sphere (the same for a pair of twins and against a fixed sphere).
+    /// Infinite without lubrication.
+    pub fn lubrication_dt(&self) -> f64 {
+        let Some(l) = self.lubrication else {
+            return f64::INFINITY;
+        };
+        (0..self.x.len())
+            .filter(|i| self.inv_mass[*i] > 0.0)
+            .map(|i| {
+                4.0 * self.mass[i] * l.min_gap
+                    / (6.0 * std::f64::consts::PI * l.mu * self.radius[i])
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// Sphere–sphere and sphere–wall contact forces and torques at the current positions
     /// and velocities; the tangential springs advance by `dt`.
     fn compute_forces(&mut self, dt: f64) {
@@ -402,8 +441,9 @@ impl SoftSphereEngine {
         }
         self.next_history.clear();
         let rmax = self.radius.iter().copied().fold(0.0, f64::max);
-        self.grid
-            .build(&self.x, 2.0 * rmax, self.domain.min, self.period);
+        let lub_reach = self.lubrication.map_or(0.0, |l| l.cutoff);
+        let cell = (2.0 * rmax).max(lub_reach);
+        self.grid.build(&self.x, cell, self.domain.min, self.period);
         let mut neighbours = Vec::with_capacity(64);
         let walls = std::mem::take(&mut self.walls);
         for i in 0..n {
@@ -421,12 +461,26 @@ impl SoftSphereEngine {
                 }
                 let dist2 = dot(d, d);
                 let reach = self.radius[i] + self.radius[j];
-                if dist2 >= reach * reach || dist2 == 0.0 {
+                let search = reach.max(lub_reach);
+                if dist2 >= search * search || dist2 == 0.0 {
                     continue;
                 }
                 let dist = dist2.sqrt();
-                let nrm = scale(d, 1.0 / dist);
                 let (ri, rj) = (self.radius[i], self.radius[j]);
+                if let Some(l) = self.lubrication
+                    && dist < l.cutoff
+                {
+                    let r_eff = ri * rj / (ri + rj);
+                    let gap = (dist - reach).max(l.min_gap * 4.0 * r_eff);
+                    let c = 6.0 * std::f64::consts::PI * l.mu * r_eff * r_eff / gap;
+                    let f = scale(sub(self.v_pred[j], self.v_pred[i]), c);
+                    add_to(&mut self.contact_force[i], f);
+                    add_to(&mut self.contact_force[j], scale(f, -1.0));
+                }
+                if dist >= reach {
+                    continue;
+                }
+                let nrm = scale(d, 1.0 / dist);
                 let (v, w) = (&self.v_pred, &self.w_pred);
                 let spin = add(scale(w[i], ri), scale(w[j], rj));
                 let (damping, zeta_t) =
@@ -877,11 +931,13 @@ impl DemEngine for SoftSphereEngine {
         )
     }
 
-    /// `min(dem.max_dt, t_c / steps_per_contact)` with t_c from
-    /// [`contact_duration`](SoftSphereEngine::contact_duration) (Robinson §3.2: t_c / 50).
+    /// `min(dem.max_dt, t_c / steps_per_contact, lubrication limit)` with t_c from
+    /// [`contact_duration`](SoftSphereEngine::contact_duration) (Robinson §3.2: t_c / 50)
+    /// and the lubrication limit from [`lubrication_dt`](SoftSphereEngine::lubrication_dt).
     fn stable_dt(&self) -> f64 {
         self.max_dt
             .min(self.contact_duration() / self.steps_per_contact)
+            .min(self.lubrication_dt())
     }
 }
 

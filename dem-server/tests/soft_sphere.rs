@@ -324,3 +324,54 @@ fn periodic_axis_shorter_than_two_diameters_is_refused() {
         "{msg}"
     );
 }
+
+/// DEMocritus eq. (34) between two equal spheres (r = 1 mm, ρ = 2500) approaching head
+/// on in an oil (ρν = 1 Pa·s) with no other force: `m* du/dt = −6π μ R*² u / s` with
+/// ds/dt = −u gives `u(s) = u₀ − (6π μ R*²/m*) ln(s₀/s)`, so they stop at the gap
+/// `s₀ exp(−u₀ m* / (6π μ R*²))` = 0.447 mm from s₀ = 0.5 mm at u₀ = 0.1 m/s. Tolerance
+/// 0.5 % on that gap. The step is the lubrication limit `4 m g_min / (6π μ R)`.
+#[test]
+fn lubrication_stops_an_approach_at_the_analytic_gap() {
+    let (r, rho, mu, s0, u0) = (1e-3, 2500.0, 1.0, 0.5e-3, 0.1);
+    let fluid = "[fluid]\ndensity = 1000.0\nkinematic_viscosity = 1e-3\nsound_speed = 1.0\n\
+                 spacing = 1e-3\nsupport = 3.0\nblocks = [{ min = [0, 0, 0], max = [0.01, 0.01, 0.01] }]\n";
+    let body = |name, x: f64, u: f64| {
+        sphere(
+            name,
+            r,
+            rho,
+            [x, 0.5, 0.5],
+            &format!("velocity = [{u}, 0, 0]\ncoupling = \"none\""),
+        )
+    };
+    let half = r + 0.5 * s0;
+    let mut e = engine(
+        "contact = \"linear\"\nstiffness = 1e-2\nlubrication = true",
+        &format!(
+            "{fluid}[gravity]\nvector = [0, 0, 0]\n{}{}",
+            body("left", 0.5 - half, 0.5 * u0),
+            body("right", 0.5 + half, -0.5 * u0)
+        ),
+    );
+    let m = rho * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+    let c = 6.0 * std::f64::consts::PI * mu * (0.5 * r).powi(2);
+    let dt = 4.0 * m * 0.01 / (6.0 * std::f64::consts::PI * mu * r);
+    assert!(
+        (e.stable_dt() - dt).abs() < 1e-12 * dt,
+        "step {}",
+        e.stable_dt()
+    );
+    run(&mut *e, 0.05, &[]);
+    let s = states(&*e);
+    let gap = s[1].position[0] - s[0].position[0] - 2.0 * r;
+    let expected = s0 * (-u0 * 0.5 * m / c).exp();
+    assert!(
+        (gap - expected).abs() < 5e-3 * expected,
+        "gap {gap} m, expected {expected} m"
+    );
+    assert!(
+        s[0].linear_velocity[0].abs() < 1e-6,
+        "{:?}",
+        s[0].linear_velocity
+    );
+}
