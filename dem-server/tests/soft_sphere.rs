@@ -250,6 +250,13 @@ fn soft_sphere_scene_errors_name_the_field() {
         m.contains("steps_per_contact") && m.contains("at least 10"),
         "{m}"
     );
+    let m = parse(
+        "[dem]\nengine = \"soft-sphere\"\n[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1.0\nlubrication = true",
+    );
+    assert!(
+        m.contains("dem.soft_sphere.lubrication") && m.contains("[fluid]"),
+        "{m}"
+    );
 }
 
 /// A DEM-only scene periodic along x (no gravity, no walls in x), with `bodies`.
