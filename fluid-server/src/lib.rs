@@ -21,6 +21,7 @@ pub mod blowup_check;
 pub mod body_load_reduce;
 pub mod constants;
 pub mod continuity;
+pub mod drag;
 pub mod error;
 pub mod fluid_rates;
 pub mod integrate;
