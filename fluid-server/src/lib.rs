@@ -39,3 +39,4 @@ pub mod plan;
 pub mod solver;
 pub mod sph_kernel;
 pub mod tait_eos;
+pub mod unresolved_coupling;

@@ -1,0 +1,73 @@
+// ---- unresolved_coupling.wgsl: the fluid's force on unresolved grains (CPU twin:
+// unresolved_coupling.rs) ----
+// At each grain, Shepard-corrected sums over the fluid particles within the support
+// (Robinson eq. 8): the fluid velocity u_f, and the resolved force V ρθ̄ of eqs.
+// (23)–(25), θ_b being particle b's SPH acceleration without gravity (dvel − GRAVITY);
+// then the drag of the scene's law (drag.wgsl) on the slip u_f − v at the grain's
+// porosity. Needs: prelude, SPH constants, StepParams, grid_common, kernel, drag,
+// DRAG_LAW and FLUID_MU (unresolved_coupling.rs).
+
+@group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> vel: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> rho: array<f32>;
+@group(0) @binding(4) var<storage, read> id: array<u32>;
+@group(0) @binding(6) var<storage, read> dvel: array<vec4<f32>>;
+// Per grain: xyz position relative to the solver origin, w volume V (m³).
+@group(2) @binding(7) var<storage, read> grain_pos: array<vec4<f32>>;
+// Per grain: xyz velocity, w diameter d (m).
+@group(2) @binding(8) var<storage, read> grain_vel: array<vec4<f32>>;
+// Per grain: porosity ε at the grain.
+@group(2) @binding(9) var<storage, read> grain_porosity: array<f32>;
+// Three vec4 per grain: (u_f, Σ V_b W), (V ρθ̄, 0), (drag, 0).
+@group(2) @binding(10) var<storage, read_write> grain_sample: array<vec4<f32>>;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
+                 @builtin(local_invocation_index) lid: u32,
+                 @builtin(num_workgroups) nwg: vec3<u32>) {
+    let g = linear_id(wid, lid, nwg);
+    if g >= arrayLength(&grain_porosity) {
+        return;
+    }
+    let p = grain_pos[g].xyz;
+    let c = cell_coord(p);
+    var shepard = 0.0;
+    var u = vec3<f32>(0.0);
+    var theta = vec3<f32>(0.0);
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
+            let rs = row_ranges(c, dy, dz);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let j = row_slot(rs, k);
+                if !is_fluid(id[j]) {
+                    continue;
+                }
+                let r = pair_vec(p, pos[j].xyz);
+                let r2 = dot(r, r);
+                if r2 >= SUPPORT_RADIUS2 {
+                    continue;
+                }
+                let w = kernel_w(sqrt(r2));
+                let vw = MASS / rho[j] * w;
+                shepard += vw;
+                u += vw * vel[j].xyz;
+                // Robinson eq. (24): Σ m_b θ_b W / Σ (m_b/ρ_b) W.
+                theta += MASS * w * (dvel[j].xyz - GRAVITY);
+            }
+        }
+    }
+    if shepard == 0.0 {
+        // No fluid within the support: no fluid force (the grain is in the air).
+        grain_sample[3u * g] = vec4<f32>(0.0);
+        grain_sample[3u * g + 1u] = vec4<f32>(0.0);
+        grain_sample[3u * g + 2u] = vec4<f32>(0.0);
+        return;
+    }
+    let u_f = u / shepard;
+    let resolved = grain_pos[g].w * theta / shepard;
+    let drag = drag_force(DRAG_LAW, grain_porosity[g], grain_vel[g].w, RHO0, FLUID_MU,
+                          u_f - grain_vel[g].xyz);
+    grain_sample[3u * g] = vec4<f32>(u_f, shepard);
+    grain_sample[3u * g + 1u] = vec4<f32>(resolved, 0.0);
+    grain_sample[3u * g + 2u] = vec4<f32>(drag, 0.0);
+}

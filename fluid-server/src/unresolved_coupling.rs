@@ -1,0 +1,267 @@
+//! The fluid's force on unresolved grains (issue 5; Robinson §3.3), one thread per
+//! grain: Shepard-corrected interpolation of the fluid velocity (Robinson eq. 8) and of
+//! the resolved force `V (−∇P + ∇·τ)` (eqs. 23–25) from the fluid particles within the
+//! support, then the drag of the scene's law on the slip at the grain's porosity
+//! ([`crate::drag`]). WGSL: `shaders/unresolved_coupling.wgsl`; this file holds its
+//! CPU twin.
+//!
+//! θ_b, particle b's SPH acceleration without gravity, is `dvel − g_fluid` as the last
+//! rate evaluation left it: the force is sampled at a window boundary, after a step.
+//! With gravity on the fluid the hydrostatic part of θ is −g, so `V ρ θ̄` carries the
+//! buoyancy −ρ V g.
+
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
+use crate::drag::{DRAG_WGSL, DragInput, DragLaw, drag_force, law_constants_wgsl};
+use crate::gpu::{Gpu, GpuError};
+use crate::kernel::KERNEL_WGSL;
+use crate::neighbour_grid::GRID_COMMON_WGSL;
+use crate::particles::{Kind, ParticleSet};
+use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
+use wgpu::util::DeviceExt;
+
+pub const UNRESOLVED_COUPLING_WGSL: &str = include_str!("../shaders/unresolved_coupling.wgsl");
+
+/// Grain arrays in the bodies group (2), numbered after the marker bindings.
+pub mod grain_binding {
+    pub const POS: u32 = 7;
+    pub const VEL: u32 = 8;
+    pub const POROSITY: u32 = 9;
+    pub const SAMPLE: u32 = 10;
+}
+
+/// One grain as the fluid sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grain {
+    /// Centre, relative to the solver origin, m.
+    pub position: [f64; 3],
+    pub velocity: [f64; 3],
+    /// Solid volume V, m³.
+    pub volume: f64,
+    pub diameter: f64,
+    /// Porosity ε at the grain (1 for a lone grain).
+    pub porosity: f64,
+}
+
+/// What the fluid gives one grain.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GrainSample {
+    /// Shepard-interpolated fluid velocity u_f (Robinson eq. 8), m/s.
+    pub fluid_velocity: [f64; 3],
+    /// Shepard denominator Σ V_b W: 1 inside the fluid, less near a free surface or a
+    /// wall, 0 with no fluid in reach (then every force is 0).
+    pub shepard: f64,
+    /// `V (−∇P + ∇·τ)` at the grain, Robinson eqs. (23)–(25), N.
+    pub resolved: [f64; 3],
+    /// Drag of the scene's law, N.
+    pub drag: [f64; 3],
+}
+
+impl GrainSample {
+    /// The fluid's whole force on the grain, Robinson eq. (23), N.
+    pub fn force(&self) -> [f64; 3] {
+        std::array::from_fn(|k| self.resolved[k] + self.drag[k])
+    }
+}
+
+/// Compiles `sample_grains` for the scene's constants, drag law and viscosity.
+pub fn kernel(
+    gpu: &Gpu,
+    c: &SphConstants,
+    law: DragLaw,
+    grid_layout: &wgpu::BindGroupLayout,
+) -> SphKernel {
+    let consts = c.wgsl();
+    let coupling = format!(
+        "{}const DRAG_LAW: u32 = {}u;\nconst FLUID_MU: f32 = {:e};\n",
+        law_constants_wgsl(),
+        law.code(),
+        c.rho0 * c.nu
+    );
+    SphKernel::new(
+        gpu,
+        "sph: sample_grains",
+        &[
+            &consts,
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            KERNEL_WGSL,
+            &coupling,
+            DRAG_WGSL,
+            UNRESOLVED_COUPLING_WGSL,
+        ],
+        "sample_grains",
+        &[
+            (
+                PARTICLES,
+                &[
+                    (pb::POS, Access::Read),
+                    (pb::VEL, Access::Read),
+                    (pb::RHO, Access::Read),
+                    (pb::ID, Access::Read),
+                    (pb::DVEL, Access::Read),
+                ],
+            ),
+            (
+                BODIES,
+                &[
+                    (grain_binding::POS, Access::Read),
+                    (grain_binding::VEL, Access::Read),
+                    (grain_binding::POROSITY, Access::Read),
+                    (grain_binding::SAMPLE, Access::ReadWrite),
+                ],
+            ),
+            (PARAMS, &[(0, Access::Uniform)]),
+        ],
+        Some(grid_layout),
+    )
+}
+
+/// The grain buffers of group 2.
+pub struct GrainBuffers {
+    pub pos: wgpu::Buffer,
+    pub vel: wgpu::Buffer,
+    pub porosity: wgpu::Buffer,
+    pub sample: wgpu::Buffer,
+    pub count: u32,
+}
+
+impl GrainBuffers {
+    /// Uploads `grains` (positions already relative to the solver origin).
+    pub fn new(gpu: &Gpu, grains: &[Grain]) -> GrainBuffers {
+        let init = |label: &str, bytes: &[u8], extra: wgpu::BufferUsages| {
+            let mut contents = bytes.to_vec();
+            contents.resize(contents.len().max(16), 0);
+            gpu.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: &contents,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+                })
+        };
+        let f = |x: f64| x as f32;
+        let pos: Vec<[f32; 4]> = (grains.iter())
+            .map(|g| {
+                [
+                    f(g.position[0]),
+                    f(g.position[1]),
+                    f(g.position[2]),
+                    f(g.volume),
+                ]
+            })
+            .collect();
+        let vel: Vec<[f32; 4]> = (grains.iter())
+            .map(|g| {
+                [
+                    f(g.velocity[0]),
+                    f(g.velocity[1]),
+                    f(g.velocity[2]),
+                    f(g.diameter),
+                ]
+            })
+            .collect();
+        let eps: Vec<f32> = grains.iter().map(|g| f(g.porosity)).collect();
+        let zeros = vec![0u8; 48 * grains.len()];
+        GrainBuffers {
+            pos: init(
+                "grain pos",
+                bytemuck::cast_slice(&pos),
+                wgpu::BufferUsages::empty(),
+            ),
+            vel: init(
+                "grain vel",
+                bytemuck::cast_slice(&vel),
+                wgpu::BufferUsages::empty(),
+            ),
+            // The porosity array's length is the grain count the kernel sees: exact size.
+            porosity: gpu
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("grain porosity"),
+                    contents: bytemuck::cast_slice(&eps),
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                }),
+            sample: init("grain sample", &zeros, wgpu::BufferUsages::COPY_SRC),
+            count: grains.len() as u32,
+        }
+    }
+
+    /// The buffer bound at `binding` of group 2.
+    pub fn binding(&self, binding: u32) -> Option<&wgpu::Buffer> {
+        match binding {
+            grain_binding::POS => Some(&self.pos),
+            grain_binding::VEL => Some(&self.vel),
+            grain_binding::POROSITY => Some(&self.porosity),
+            grain_binding::SAMPLE => Some(&self.sample),
+            _ => None,
+        }
+    }
+
+    /// Reads the samples back, in grain order.
+    pub fn read(&self, gpu: &Gpu) -> Result<Vec<GrainSample>, GpuError> {
+        let s: Vec<[f32; 4]> = gpu.read_buffer(&self.sample, 0, 3 * u64::from(self.count))?;
+        let v = |a: [f32; 4]| [0, 1, 2].map(|k| f64::from(a[k]));
+        Ok((0..self.count as usize)
+            .map(|g| GrainSample {
+                fluid_velocity: v(s[3 * g]),
+                shepard: f64::from(s[3 * g][3]),
+                resolved: v(s[3 * g + 1]),
+                drag: v(s[3 * g + 2]),
+            })
+            .collect())
+    }
+}
+
+/// CPU twin of `sample_grains`: the same sums over every fluid particle of `set` (all
+/// pairs, closed domain), with `dvel` the particles' rates (`SphData::read_rates`, same
+/// order as `set`).
+pub fn sample_grains_cpu(
+    c: &SphConstants,
+    law: DragLaw,
+    set: &ParticleSet,
+    dvel: &[[f64; 3]],
+    grains: &[Grain],
+) -> Vec<GrainSample> {
+    let r2max = c.support_radius().powi(2);
+    let g_fluid = c.gravity_fluid;
+    grains
+        .iter()
+        .map(|g| {
+            let (mut s, mut u, mut t) = (0.0, [0.0; 3], [0.0; 3]);
+            for b in (0..set.len()).filter(|b| set.kinds.kind(set.id[*b]) == Kind::Fluid) {
+                let r: [f64; 3] = std::array::from_fn(|k| g.position[k] - set.pos[b][k]);
+                let r2 = r.iter().map(|x| x * x).sum::<f64>();
+                if r2 >= r2max {
+                    continue;
+                }
+                let w = c.kernel.w(r2.sqrt());
+                let vw = c.mass / set.rho[b] * w;
+                s += vw;
+                for k in 0..3 {
+                    u[k] += vw * set.vel[b][k];
+                    // Robinson eq. (24).
+                    t[k] += c.mass * w * (dvel[b][k] - g_fluid[k]);
+                }
+            }
+            if s == 0.0 {
+                return GrainSample::default();
+            }
+            let u_f = u.map(|x| x / s);
+            let drag = drag_force(
+                law,
+                &DragInput {
+                    porosity: g.porosity,
+                    diameter: g.diameter,
+                    density: c.rho0,
+                    viscosity: c.rho0 * c.nu,
+                    slip: std::array::from_fn(|k| u_f[k] - g.velocity[k]),
+                },
+            );
+            GrainSample {
+                fluid_velocity: u_f,
+                shepard: s,
+                resolved: t.map(|x| g.volume * x / s),
+                drag,
+            }
+        })
+        .collect()
+}
