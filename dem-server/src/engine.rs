@@ -249,13 +249,14 @@ pub(crate) fn quat_mul(p: [f64; 4], q: [f64; 4]) -> [f64; 4] {
     ]
 }
 
-/// `1 − ρ_f/ρ_s` for a dynamic resolved body when gravity does not act on the fluid
-/// (Joubert eq. 28: `F_s = (m_s − ρ_f V_s) g = m_s g (1 − ρ_f/ρ_s)`), else 1.
+/// `1 − ρ_f/ρ_s` for a dynamic body the fluid sees (resolved, or an unresolved grain)
+/// when gravity does not act on the fluid (Joubert eq. 28: `F_s = (m_s − ρ_f V_s) g =
+/// m_s g (1 − ρ_f/ρ_s)`), else 1: with gravity on the fluid its pressure carries the
+/// buoyancy (on markers, or in a grain's resolved force V(−∇P), Robinson eq. 23).
 pub(crate) fn gravity_scale(scene: &Scene, i: usize) -> f64 {
     let b = &scene.bodies[i];
     match &scene.fluid {
-        // Joubert eq. (28); with gravity on the fluid, its pressure carries the buoyancy instead.
-        Some(f) if !scene.gravity.on_fluid && b.coupling == CouplingMode::Resolved => {
+        Some(f) if !scene.gravity.on_fluid && b.coupling != CouplingMode::None => {
             1.0 - f.density / b.density
         }
         _ => 1.0,

@@ -40,7 +40,9 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     let parent = std::os::unix::process::parent_id();
     let mut engine = create_engine(scene)?;
     let markers = MarkerSet::from_scene(scene)?;
-    let coupled = scene.has_resolved_bodies();
+    let coupled = scene.exchanges_loads();
+    // One load per body with markers and one per unresolved grain.
+    let expected_loads = markers.body_count() + scene.grains().len();
     let n_bodies = engine.body_count();
 
     let ep = Endpoint::new(run_id)?;
@@ -122,11 +124,11 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
                 }
             })?;
             loads.extend_from_slice(sample.payload());
-            if loads.len() != markers.body_count() {
+            if loads.len() != expected_loads {
                 return Err(ServerError::LoadCount {
                     step,
                     got: loads.len(),
-                    expected: markers.body_count(),
+                    expected: expected_loads,
                 });
             }
             exchange_us += hop_us + t.elapsed().as_secs_f64() * 1e6;

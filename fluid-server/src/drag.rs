@@ -254,3 +254,16 @@ pub fn drag_table_gpu(
     let out = gpu.read_buffer::<[f32; 4]>(&output, 0, rows.len() as u64)?;
     Ok(out.into_iter().map(|v| [v[0], v[1], v[2]]).collect())
 }
+
+impl From<couplet_protocol::DragLawName> for DragLaw {
+    fn from(n: couplet_protocol::DragLawName) -> Self {
+        use couplet_protocol::DragLawName as N;
+        match n {
+            N::Stokes => DragLaw::Stokes,
+            N::CoulsonRichardson => DragLaw::CoulsonRichardson,
+            N::DiFelice => DragLaw::DiFelice,
+            N::ErgunWenYu => DragLaw::ErgunWenYu,
+            N::ErgunWenYuBlend => DragLaw::ErgunWenYuBlend,
+        }
+    }
+}

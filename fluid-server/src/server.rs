@@ -42,7 +42,8 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     }
     let gpu = Gpu::new()?;
     let mut solver = FluidSolver::new(&gpu, scene)?;
-    let coupled = scene.has_resolved_bodies();
+    let coupled = scene.exchanges_loads();
+    let resolved = scene.has_resolved_bodies();
     let n_bodies = scene.bodies.len();
     let counts = solver.counts();
     let limits = solver.limits();
@@ -134,18 +135,23 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
             )?;
             wait_us = wait_start.elapsed().as_secs_f64() * 1e6;
             let t = Instant::now();
-            let accelerations = acceleration_estimate.update(solver.time(), &states);
-            solver.set_bodies(&gpu, &states, &points, &accelerations)?;
+            if resolved {
+                let accelerations = acceleration_estimate.update(solver.time(), &states);
+                solver.set_bodies(&gpu, &states, &points, &accelerations)?;
+            }
             exchange_us += t.elapsed().as_secs_f64() * 1e6;
         }
 
         let compute = Instant::now();
+        // Unresolved grains: the force at t_n, held over the window like the markers' loads.
+        let grain_loads = solver.grain_loads(&gpu, &states)?;
         let substeps = solver.advance(&gpu, cmd.window, None)?;
         let mut compute_us = compute.elapsed().as_secs_f64() * 1e6;
 
         if coupled {
             let t = Instant::now();
-            let loads = solver.loads(&gpu)?;
+            let mut loads = solver.loads(&gpu)?;
+            loads.extend_from_slice(&grain_loads);
             compute_us += t.elapsed().as_secs_f64() * 1e6;
             let t = Instant::now();
             loads_tx.send(

@@ -704,6 +704,8 @@ pub struct FluidSolver {
     /// Joubert walls' frames by wall index (empty with Adami walls); the carve-out of
     /// bodies renumbers fluid ids only, so the wall order, and these, stay valid.
     wall_frames: Vec<BoundaryFrame>,
+    /// The unresolved grains' sampling, when the scene has grains.
+    grains: Option<crate::unresolved_coupling::GrainCoupling>,
 }
 
 impl FluidSolver {
@@ -749,6 +751,12 @@ impl FluidSolver {
             probe.bind_group_layout(),
             scene.has_resolved_bodies(),
         );
+        let grains = crate::unresolved_coupling::GrainCoupling::new(
+            gpu,
+            &consts,
+            scene,
+            probe.bind_group_layout(),
+        );
         drop(probe);
         let wall_frames = if consts.joubert_walls {
             joubert2020_boundary_values::wall_frames(scene, &set)
@@ -792,6 +800,7 @@ impl FluidSolver {
             loads_ready: false,
             near_singular: 0,
             wall_frames,
+            grains,
         };
         // Fluid pressures from the initial densities (Joubert eq. 4).
         solver.write_params(gpu);
@@ -1261,6 +1270,21 @@ impl FluidSolver {
 
     /// Fluid force and moment per body, averaged over the last window (Joubert eqs.
     /// 31–32); one entry per body that has markers, in marker order. Empty without markers.
+    /// The fluid's force on each unresolved grain at the bodies' `states` (world frame),
+    /// one load per grain in body order; empty without grains. Sampled at the window's
+    /// start, from the rates the last step left (Robinson eqs. 23–33; see
+    /// [`crate::unresolved_coupling`]).
+    pub fn grain_loads(
+        &self,
+        gpu: &Gpu,
+        states: &[BodyState],
+    ) -> Result<Vec<BodyLoad>, FluidError> {
+        match &self.grains {
+            Some(g) => g.sample(gpu, &self.data, self.origin, states),
+            None => Ok(Vec::new()),
+        }
+    }
+
     pub fn loads(&mut self, gpu: &Gpu) -> Result<Vec<BodyLoad>, FluidError> {
         let Some(b) = &self.data.bodies else {
             return Ok(Vec::new());

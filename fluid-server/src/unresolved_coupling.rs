@@ -12,11 +12,14 @@
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::drag::{DRAG_WGSL, DragInput, DragLaw, drag_force, law_constants_wgsl};
+use crate::error::FluidError;
 use crate::gpu::{Gpu, GpuError};
 use crate::kernel::KERNEL_WGSL;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet};
+use crate::solver::{Op, SphData};
 use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
+use couplet_protocol::{BodyLoad, BodyState, Scene, Shape};
 use wgpu::util::DeviceExt;
 
 pub const UNRESOLVED_COUPLING_WGSL: &str = include_str!("../shaders/unresolved_coupling.wgsl");
@@ -196,6 +199,39 @@ impl GrainBuffers {
         }
     }
 
+    /// Replaces the grains' data (the same count as at creation).
+    pub fn write(&self, gpu: &Gpu, grains: &[Grain]) {
+        assert_eq!(grains.len(), self.count as usize, "grain count is fixed");
+        let f = |x: f64| x as f32;
+        let pos: Vec<[f32; 4]> = (grains.iter())
+            .map(|g| {
+                [
+                    f(g.position[0]),
+                    f(g.position[1]),
+                    f(g.position[2]),
+                    f(g.volume),
+                ]
+            })
+            .collect();
+        let vel: Vec<[f32; 4]> = (grains.iter())
+            .map(|g| {
+                [
+                    f(g.velocity[0]),
+                    f(g.velocity[1]),
+                    f(g.velocity[2]),
+                    f(g.diameter),
+                ]
+            })
+            .collect();
+        let eps: Vec<f32> = grains.iter().map(|g| f(g.porosity)).collect();
+        gpu.queue
+            .write_buffer(&self.pos, 0, bytemuck::cast_slice(&pos));
+        gpu.queue
+            .write_buffer(&self.vel, 0, bytemuck::cast_slice(&vel));
+        gpu.queue
+            .write_buffer(&self.porosity, 0, bytemuck::cast_slice(&eps));
+    }
+
     /// Reads the samples back, in grain order.
     pub fn read(&self, gpu: &Gpu) -> Result<Vec<GrainSample>, GpuError> {
         let s: Vec<[f32; 4]> = gpu.read_buffer(&self.sample, 0, 3 * u64::from(self.count))?;
@@ -264,4 +300,121 @@ pub fn sample_grains_cpu(
             }
         })
         .collect()
+}
+
+/// The grains of a scene as the fluid server couples them each window: their body
+/// indices and diameters, the compiled kernel and its buffers.
+pub struct GrainCoupling {
+    kernel: SphKernel,
+    buffers: GrainBuffers,
+    bodies: Vec<u32>,
+    diameters: Vec<f64>,
+}
+
+impl GrainCoupling {
+    /// `None` when the scene has no unresolved grain.
+    pub fn new(
+        gpu: &Gpu,
+        c: &SphConstants,
+        scene: &Scene,
+        grid_layout: &wgpu::BindGroupLayout,
+    ) -> Option<GrainCoupling> {
+        let bodies = scene.grains();
+        if bodies.is_empty() {
+            return None;
+        }
+        let diameters: Vec<f64> = (bodies.iter())
+            .map(|&i| match scene.bodies[i].shape {
+                Shape::Sphere { radius } => 2.0 * radius,
+                // Scene::check refuses non-spherical grains.
+                _ => unreachable!("grain {i} is not a sphere"),
+            })
+            .collect();
+        let grains: Vec<Grain> = (diameters.iter())
+            .map(|d| Grain {
+                position: [0.0; 3],
+                velocity: [0.0; 3],
+                volume: 0.0,
+                diameter: *d,
+                porosity: 1.0,
+            })
+            .collect();
+        Some(GrainCoupling {
+            kernel: kernel(gpu, c, scene.coupling.drag.into(), grid_layout),
+            buffers: GrainBuffers::new(gpu, &grains),
+            bodies: bodies.into_iter().map(|i| i as u32).collect(),
+            diameters,
+        })
+    }
+
+    /// The fluid's force on every grain at the bodies' `states` (world frame; `origin`
+    /// is the solver's), as one load per grain, zero moment (a sphere's drag has none at
+    /// its centre). The particles are sorted first, so that the grid is exact.
+    /// One-way: porosity 1 (see [`Scene::warnings`]).
+    pub fn sample(
+        &self,
+        gpu: &Gpu,
+        data: &SphData,
+        origin: [f64; 3],
+        states: &[BodyState],
+    ) -> Result<Vec<BodyLoad>, FluidError> {
+        let grains: Vec<Grain> = (self.bodies.iter().zip(&self.diameters))
+            .map(|(&b, &d)| {
+                let s = &states[b as usize];
+                Grain {
+                    position: std::array::from_fn(|k| s.position[k] - origin[k]),
+                    velocity: s.linear_velocity,
+                    volume: s.volume,
+                    diameter: d,
+                    porosity: 1.0,
+                }
+            })
+            .collect();
+        self.buffers.write(gpu, &grains);
+        let bound = self
+            .kernel
+            .bind(
+                gpu,
+                |g, b| match g {
+                    PARTICLES => match b {
+                        pb::POS => Some(&data.pos),
+                        pb::VEL => Some(&data.vel),
+                        pb::RHO => Some(&data.rho),
+                        pb::ID => Some(&data.id),
+                        pb::DVEL => Some(&data.dvel),
+                        _ => None,
+                    },
+                    BODIES => self.buffers.binding(b),
+                    PARAMS => Some(&data.params),
+                    _ => None,
+                },
+                Some(data.grid.bind_group()),
+            )
+            .ok_or_else(|| FluidError::Grid {
+                step: 0,
+                message: "internal: a binding of sample_grains is missing".into(),
+            })?;
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        data.queue_op(gpu, &mut encoder, None, Op::Sort);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("sph: sample_grains"),
+                timestamp_writes: None,
+            });
+            bound.dispatch(&mut pass, self.buffers.count);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let samples = self.buffers.read(gpu)?;
+        Ok(self
+            .bodies
+            .iter()
+            .zip(&samples)
+            .map(|(&body, s)| BodyLoad {
+                force: s.force(),
+                body,
+                _pad: 0,
+                moment: [0.0; 3],
+            })
+            .collect())
+    }
 }

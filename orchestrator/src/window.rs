@@ -19,9 +19,10 @@ pub struct WindowPlan {
 
 /// Picks the window: the fluid's stable step (Joubert eq. 24: acoustic CFL and viscous
 /// limit) times `coupling.window_substeps`; without fluid, the DEM step; without a DEM
-/// server, the output interval (nothing to exchange). Then no longer
-/// than `time.max_window` or the output interval (so snapshots fall on windows), and
-/// shrunk so that a whole number of windows reaches `time.end` exactly.
+/// server, the output interval (nothing to exchange). Then no longer than a twentieth
+/// of the fastest unresolved grain's drag relaxation time ([`grain_relaxation`]), than
+/// `time.max_window` or the output interval (so snapshots fall on windows), and shrunk
+/// so that a whole number of windows reaches `time.end` exactly.
 pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) -> WindowPlan {
     let mut candidates: Vec<(f64, String)> = Vec::new();
     if dem_dt.is_none() {
@@ -35,6 +36,12 @@ pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) 
         ));
     } else if let Some(dt) = dem_dt {
         candidates.push((dt, format!("DEM step {dt:.3e} s (no fluid)")));
+    }
+    if let Some(t_d) = grain_relaxation(scene) {
+        candidates.push((
+            t_d / 20.0,
+            format!("unresolved grains' drag relaxation t_d = {t_d:.3e} s / 20 (Robinson eq. 36)"),
+        ));
     }
     if let Some(w) = scene.time.max_window {
         candidates.push((w, format!("time.max_window {w:.3e} s")));
@@ -59,6 +66,30 @@ pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) 
         dem_substeps: substeps(dem_dt),
         reason,
     }
+}
+
+/// The shortest drag relaxation time `t_d = m / b` of the scene's unresolved grains,
+/// with b the drag per unit slip of a lone grain in creeping flow, Stokes's `3π μ d`
+/// (Robinson eq. 34; the other laws tend to it, Dallavalle's to 0.96 of it, as Re → 0).
+/// The fluid's force on a grain is held over a window, so the window must be short
+/// against t_d: Robinson eq. (36) asks for t_d / 20. At higher Re or lower porosity the
+/// drag per unit slip grows and t_d shrinks: `time.max_window` bounds the window further.
+/// `None` without grains.
+pub fn grain_relaxation(scene: &Scene) -> Option<f64> {
+    let f = scene.fluid.as_ref()?;
+    let mu = f.density * f.kinematic_viscosity;
+    scene
+        .grains()
+        .into_iter()
+        .filter_map(|i| {
+            let b = &scene.bodies[i];
+            let couplet_protocol::Shape::Sphere { radius } = b.shape else {
+                return None;
+            };
+            let m = b.density * 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
+            Some(m / (3.0 * std::f64::consts::PI * mu * 2.0 * radius))
+        })
+        .min_by(f64::total_cmp)
 }
 
 #[cfg(test)]
@@ -98,5 +129,22 @@ mod tests {
         assert_eq!(p.dem_substeps, 1);
         let p = choose_window(&scene(""), None, Some(0.5));
         assert!((p.window - 0.1).abs() < 1e-15, "{p:?}");
+    }
+
+    /// A grain of d = 0.1 mm, ρ = 2500 in water (μ = 1e-3): t_d = ρ d²/(18 μ) = 1.389e-3 s
+    /// (`stokes_settling_examples.csv`, tau_noAM), so the window is at most t_d / 20.
+    #[test]
+    fn grains_bound_the_window_by_their_drag_relaxation() {
+        let s = scene(
+            "[fluid]\ndensity = 1000.0\nkinematic_viscosity = 1e-6\nsound_speed = 1.0\n\
+             spacing = 0.1\nblocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]\n\
+             [[bodies]]\nname = \"grain\"\nshape.sphere.radius = 5e-5\ndensity = 2500.0\n\
+             position = [0.5, 0.25, 0.5]\ncoupling = \"unresolved\"",
+        );
+        let t_d = grain_relaxation(&s).unwrap();
+        assert!((t_d - 1.3888889e-3).abs() < 1e-9, "t_d = {t_d}");
+        let p = choose_window(&s, Some(1e-3), Some(1e-3));
+        assert!(p.window <= t_d / 20.0 && p.window > 0.99 * t_d / 20.0, "{p:?}");
+        assert!(p.reason.contains("Robinson eq. 36"), "{}", p.reason);
     }
 }

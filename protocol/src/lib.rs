@@ -7,9 +7,9 @@ pub use payload::{
     ParticleRecord, Role, SideReport, WindowHeader, monotonic_ns,
 };
 pub use scene::{
-    BodySpec, ContactLaw, CouplingMode, CouplingScheme, DemSpec, Domain, EffectsSpec, FluidBlock,
-    FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta, Motion, Scene, SceneError, Shape,
-    SoftSphereSpec, TimeSpec, ViscosityModel, WallKind, WallModel,
+    BodySpec, ContactLaw, CouplingMode, CouplingScheme, DemSpec, Domain, DragLawName, EffectsSpec,
+    FluidBlock, FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta, Motion, Scene, SceneError,
+    Shape, SoftSphereSpec, TimeSpec, ViscosityModel, WallKind, WallModel,
 };
 pub use service::{ServiceLeaf, service_name};
 pub use validate::{ValidationError, validate_loads, validate_points, validate_states};

@@ -580,6 +580,11 @@ impl Motion {
 pub enum CouplingMode {
     /// Fully resolved: surface markers at the fluid spacing (Joubert §2.6).
     Resolved,
+    /// Unresolved grain, smaller than the fluid spacing (Robinson §3.3): the fluid's
+    /// force on it is sampled at its centre (interpolated velocity, pressure and viscous
+    /// force, and the drag law of `coupling.drag`). Spheres only. One-way so far: the
+    /// fluid does not feel the grains (no porosity, no reaction force).
+    Unresolved,
     /// The fluid does not see the body.
     None,
 }
@@ -647,6 +652,30 @@ pub struct CouplingSpec {
     /// window for fewer exchanges.
     #[serde(default = "default_window_substeps")]
     pub window_substeps: u32,
+    /// Drag law on unresolved grains (`coupling = "unresolved"`): `"stokes"` (Robinson
+    /// eq. 28), `"coulson-richardson"` (eq. 29), `"di-felice"` (eqs. 30–33),
+    /// `"ergun-wen-yu"` (DEMocritus eqs. 36–37, Gidaspow's switch at ε = 0.8, which
+    /// jumps) or `"ergun-wen-yu-blend"` (the same, blended smoothly by Huilin &
+    /// Gidaspow 2003). Default `"di-felice"`: Robinson's law for every case past a lone
+    /// grain in creeping flow, valid from the Stokes to the Newton regime and in packed
+    /// beds.
+    #[serde(default = "default_drag")]
+    pub drag: DragLawName,
+}
+
+/// `coupling.drag`: the drag law of unresolved grains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DragLawName {
+    Stokes,
+    CoulsonRichardson,
+    DiFelice,
+    ErgunWenYu,
+    ErgunWenYuBlend,
+}
+
+fn default_drag() -> DragLawName {
+    DragLawName::DiFelice
 }
 
 fn default_scheme() -> CouplingScheme {
@@ -661,6 +690,7 @@ impl Default for CouplingSpec {
         Self {
             scheme: default_scheme(),
             window_substeps: default_window_substeps(),
+            drag: default_drag(),
         }
     }
 }
@@ -812,10 +842,36 @@ impl Scene {
         self.bodies.iter().any(|b| self.is_marker_coupled(b))
     }
 
+    /// Whether the fluid samples its force on `body` at the body's centre (an
+    /// unresolved grain, Robinson §3.3).
+    pub fn is_grain(&self, body: &BodySpec) -> bool {
+        self.fluid.is_some() && body.coupling == CouplingMode::Unresolved
+    }
+
+    /// Indices of the unresolved grains, in body order.
+    pub fn grains(&self) -> Vec<usize> {
+        (0..self.bodies.len())
+            .filter(|i| self.is_grain(&self.bodies[*i]))
+            .collect()
+    }
+
+    /// Whether the fluid sends loads every window: to resolved bodies or to grains.
+    pub fn exchanges_loads(&self) -> bool {
+        self.has_resolved_bodies() || self.bodies.iter().any(|b| self.is_grain(b))
+    }
+
     /// Combinations that run but are known to be inaccurate, each a sentence for the
     /// user; `couplet run` and `couplet plan` print them.
     pub fn warnings(&self) -> Vec<String> {
         let mut w = Vec::new();
+        if self.bodies.iter().any(|b| self.is_grain(b)) {
+            w.push(
+                "unresolved grains are coupled one way so far: they feel the fluid, the fluid \
+                 does not feel them (porosity and reaction, Robinson eqs. 9–15 and 26–27, are \
+                 not implemented), which holds only for dilute grains"
+                    .into(),
+            );
+        }
         let weighs = self.gravity.on_fluid && self.gravity.vector.iter().any(|g| *g != 0.0);
         if weighs && self.has_resolved_bodies() && !self.effects.gradient_correction {
             w.push(
@@ -976,6 +1032,25 @@ impl Scene {
         }
         pos("dem.max_dt", self.dem.max_dt)?;
         self.check_soft_sphere(file)?;
+        for (i, b) in self.bodies.iter().enumerate() {
+            if b.coupling != CouplingMode::Unresolved {
+                continue;
+            }
+            let why = if self.fluid.is_none() {
+                "an unresolved grain needs a [fluid] to be coupled to"
+            } else if !matches!(b.shape, Shape::Sphere { .. }) {
+                "unresolved grains are spheres (shape.sphere): the drag laws are for spheres"
+            } else if b.motion != Motion::Dynamic {
+                "unresolved grains are dynamic: a fixed or kinematic grain would take a force it ignores"
+            } else {
+                continue;
+            };
+            return bad(
+                format!("bodies[{i}].coupling"),
+                "\"unresolved\"".into(),
+                why,
+            );
+        }
         if self.coupling.window_substeps == 0 {
             return bad(
                 "coupling.window_substeps".into(),
