@@ -144,7 +144,10 @@ mod tests {
         let t_d = grain_relaxation(&s).unwrap();
         assert!((t_d - 1.3888889e-3).abs() < 1e-9, "t_d = {t_d}");
         let p = choose_window(&s, Some(1e-3), Some(1e-3));
-        assert!(p.window <= t_d / 20.0 && p.window > 0.99 * t_d / 20.0, "{p:?}");
+        assert!(
+            p.window <= t_d / 20.0 && p.window > 0.99 * t_d / 20.0,
+            "{p:?}"
+        );
         assert!(p.reason.contains("Robinson eq. 36"), "{}", p.reason);
     }
 }
