@@ -1,7 +1,7 @@
 //! The list of GPU stages a scene runs, and why: a pure function of the scene, used by
 //! the solver to build its passes and by `couplet plan` (which needs no GPU).
 
-use couplet_protocol::{Scene, ViscosityModel, WallKind, WallModel};
+use couplet_protocol::{DragLawName, Scene, ViscosityModel, WallKind, WallModel};
 
 /// One GPU stage of a fluid step.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -29,6 +29,7 @@ pub const GRADIENTS: &str = "joubert2020_gradients";
 pub const PARTICLE_SHIFTING: &str = "particle_shifting";
 pub const DENSITY_DIFFUSION: &str = "antuono2010_density_diffusion";
 pub const MASS_CORRECTION: &str = "joubert2020_mass_correction";
+pub const SAMPLE_GRAINS: &str = "robinson_sample_grains";
 
 /// Names of the axes `k` (x, y, z) for which `pick(k)` holds.
 fn axis_names(pick: impl Fn(usize) -> bool) -> Vec<&'static str> {
@@ -255,6 +256,24 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
                 } else {
                     ""
                 }
+            ),
+        );
+    }
+    let grains = scene.grains().len();
+    if grains > 0 {
+        let law = match scene.coupling.drag {
+            DragLawName::Stokes => "Stokes (Robinson eq. 28)",
+            DragLawName::CoulsonRichardson => "Coulson–Richardson (Robinson eq. 29)",
+            DragLawName::DiFelice => "Dallavalle + Di Felice (Robinson eqs. 30–33)",
+            DragLawName::ErgunWenYu => "Ergun / Wen–Yu, switch at ε = 0.8 (DEMocritus eqs. 36–37)",
+            DragLawName::ErgunWenYuBlend => {
+                "Ergun / Wen–Yu, Huilin–Gidaspow blend (DEMocritus eqs. 36–37)"
+            }
+        };
+        push(
+            SAMPLE_GRAINS,
+            format!(
+                "{grains} unresolved grain(s), once per window at its start: Shepard-interpolated u_f and V(−∇P + ∇·τ) (Robinson eqs. 8, 23–25), drag {law} at porosity 1 (one-way)"
             ),
         );
     }
