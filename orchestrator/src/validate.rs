@@ -280,7 +280,7 @@ static CASES: [Case; 13] = [
     Case {
         name: "single-particle-sedimentation",
         scene: "single-particle-sedimentation.toml",
-        about: "Robinson §4–5 (SPS): one unresolved grain settling from rest in water — velocity against the Stokes transient of Robinson eq. (34), error < 2 % of v_t after one relaxation time t_d",
+        about: "Robinson §4–5 (SPS): one unresolved grain settling from rest in the three fluids of Table 1 (water, air, water–glycerol) — velocity against the Stokes transient of Robinson eq. (34), error < 2 % of v_t after one relaxation time t_d (air: after a quarter of the fall, which ends on the floor before t_d)",
         quick: &["fluid.spacing=5e-4"],
         quick_why: "δ = 0.5 mm (h/d = 5, inside Robinson's study of 1.5–6): 800 fluid particles, seconds on lavapipe",
         sweep_spacings: &[5e-4, 3.333333333333333e-4, 2.5e-4, 2e-4],
@@ -292,7 +292,7 @@ static CASES: [Case; 13] = [
             ),
         ],
         analyse: single_particle_sedimentation,
-        variants: &[],
+        variants: SPS_FLUIDS,
         compare: None,
     },
     Case {
@@ -1138,11 +1138,43 @@ fn settling_sphere(scene: &Scene, rec: &Recording, report: &mut Report) -> Resul
     Ok(())
 }
 
+/// Robinson Table 1's three fluids, as overrides of the water scene: ν = μ/ρ, and the
+/// run to five relaxation times t_d (water 1.56e-3 s, water–glycerol 1.56e-4 s) or, in
+/// air (t_d = 7.47e-2 s), to 0.025 s, before the grain (released 4.75 mm above the
+/// floor, falling at nearly g) lands; the air fills a closed box.
+const SPS_FLUIDS: &[(&str, &[&str])] = &[
+    ("water", &[]),
+    (
+        "air",
+        &[
+            "fluid.density=1.1839",
+            "fluid.kinematic_viscosity=1.5711e-5",
+            "time.end=0.025",
+            "time.output_interval=0.0025",
+            // The box closed at the column's top: a free surface of air with the
+            // gradient correction blows up at 7.5 ms (issue 3: free surfaces with the
+            // corrected scheme are not yet stable).
+            "domain.max.1=6e-3",
+            "domain.closed_top=true",
+        ],
+    ),
+    (
+        "water-glycerol",
+        &[
+            "fluid.density=1150.0",
+            "fluid.kinematic_viscosity=7.7391e-6",
+            "time.end=7.8e-4",
+            "time.output_interval=7.8e-5",
+        ],
+    ),
+];
+
 /// Robinson §4–5 (SPS): the first unresolved grain's downward velocity against Robinson
 /// eq. (34), `v(t) = (ρ_p − ρ) V g / b (1 − exp(−b t / m))`, `b = 3π μ d`, `m = ρ_p V`
 /// (Stokes drag, no added mass, released from rest at t = 0). Judged: the largest
-/// difference after one relaxation time `t_d = m / b`, as a fraction of `v_t`, below
-/// Robinson's 2 %; the difference at the end is reported.
+/// difference after one relaxation time `t_d = m / b` (or after a quarter of the run
+/// when it is shorter than t_d, as in air), as a fraction of `v_t`, below Robinson's
+/// 2 %; the difference at the end is reported.
 fn single_particle_sedimentation(
     scene: &Scene,
     rec: &Recording,
@@ -1168,8 +1200,10 @@ fn single_particle_sedimentation(
     if s.len() < 20 {
         return Err(format!("only {} grain states recorded", s.len()));
     }
+    let last_time = s.last().map_or(0.0, |p| p.time);
+    let t_judge = t_d.min(0.25 * last_time);
     let after: Vec<(f64, f64)> = (s.iter())
-        .filter(|p| p.time >= t_d)
+        .filter(|p| p.time >= t_judge)
         .map(|p| (p.time, (-p.velocity[1] - stokes(p.time)).abs() / v_t))
         .collect();
     let (t_worst, worst) = after
@@ -1183,7 +1217,7 @@ fn single_particle_sedimentation(
         worst,
     ));
     report.judge(
-        format!("max deviation from eq. (34) over v_t for t ≥ t_d = {t_d:.3e} s"),
+        format!("max deviation from eq. (34) over v_t for t ≥ {t_judge:.3e} s (t_d = {t_d:.3e} s)"),
         format!("{} (at t = {t_worst:.3e} s)", pct(worst)),
         format!("v_t = {v_t:.4e} m/s (Robinson eq. 34)"),
         "< 2 % (Robinson §5.1)".into(),
