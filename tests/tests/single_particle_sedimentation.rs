@@ -7,7 +7,7 @@
 //! is in `orchestrator/src/validate.rs` (`single_particle_sedimentation`).
 //!
 //! Quick version: δ = 0.5 mm (h/d = 5), 800 fluid particles, about 50 s. Measured
-//! 2026-11-23: water 0.13 %, air < 0.005 % (over the last three quarters of its fall),
+//! 2026-11-23: water 0.11 %, air < 0.005 % (over the last three quarters of its fall),
 //! water–glycerol 0.99 %. Without the gradient correction the hydrostatic column sinks
 //! at 1.8 % of g and water–glycerol's slow grain is 10.7 % off.
 
