@@ -1408,6 +1408,48 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         }
     }
 
+    /// Unresolved grains: spheres, dynamic, in a scene with a fluid; the drag law
+    /// defaults to Di Felice and the one-way coupling is warned of.
+    #[test]
+    fn unresolved_grains_are_checked() {
+        let grain = |shape: &str, extra: &str| {
+            format!(
+                "[[bodies]]\nname = \"g\"\n{shape}\ndensity = 2500.0\nposition = [0.5, 0.25, 0.5]\ncoupling = \"unresolved\"\n{extra}\n"
+            )
+        };
+        let err = |text: String| {
+            Scene::parse(&text, Path::new("t.toml"))
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        let s = Scene::parse(
+            &format!("{MINIMAL}{}", grain("shape.sphere.radius = 0.01", "")),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        assert_eq!(s.coupling.drag, DragLawName::DiFelice);
+        assert_eq!(s.grains(), vec![0]);
+        assert!(s.exchanges_loads() && !s.has_resolved_bodies());
+        assert!(s.warnings().iter().any(|w| w.contains("one way")));
+        let e = err(format!(
+            "{MINIMAL}{}",
+            grain("shape.box.half_extents = [0.01, 0.01, 0.01]", "")
+        ));
+        assert!(
+            e.contains("bodies[0].coupling") && e.contains("spheres"),
+            "{e}"
+        );
+        let e = err(format!(
+            "{MINIMAL}{}",
+            grain("shape.sphere.radius = 0.01", "motion = \"fixed\"")
+        ));
+        assert!(e.contains("dynamic"), "{e}");
+        let dry = MINIMAL[..MINIMAL.find("[fluid]").unwrap()].to_owned();
+        let e = err(format!("{dry}{}", grain("shape.sphere.radius = 0.01", "")));
+        assert!(e.contains("needs a [fluid]"), "{e}");
+    }
+
     #[test]
     fn invalid_value_names_field() {
         let text = MINIMAL.replace("spacing = 0.05", "spacing = -0.05");
