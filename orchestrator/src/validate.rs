@@ -929,8 +929,14 @@ fn svg_plot(s: &Series) -> String {
     t + "</svg>\n"
 }
 
+/// A fraction as a percentage: two decimals, or three significant digits below 0.01 %
+/// (so that a tiny error does not read as 0.00 %).
 fn pct(x: f64) -> String {
-    format!("{:.2} %", 100.0 * x)
+    if x != 0.0 && (100.0 * x).abs() < 0.01 {
+        format!("{:.2e} %", 100.0 * x)
+    } else {
+        format!("{:.2} %", 100.0 * x)
+    }
 }
 
 /// Each fluid particle averaged over the snapshots of the last `span` seconds.
