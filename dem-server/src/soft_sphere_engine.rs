@@ -446,6 +446,7 @@ impl SoftSphereEngine {
         self.grid.build(&self.x, cell, self.domain.min, self.period);
         let mut neighbours = Vec::with_capacity(64);
         let walls = std::mem::take(&mut self.walls);
+        let periodic = self.period.iter().any(Option::is_some);
         for i in 0..n {
             self.grid.candidates(self.x[i], &mut neighbours);
             for &j in &neighbours {
@@ -454,9 +455,11 @@ impl SoftSphereEngine {
                     continue;
                 }
                 let mut d = sub(self.x[i], self.x[j]);
-                for (k, p) in self.period.iter().enumerate() {
-                    if let Some(l) = p {
-                        d[k] -= l * (d[k] / l).round();
+                if periodic {
+                    for (k, p) in self.period.iter().enumerate() {
+                        if let Some(l) = p {
+                            d[k] -= l * (d[k] / l).round();
+                        }
                     }
                 }
                 let dist2 = dot(d, d);
@@ -761,9 +764,12 @@ pub fn hertz_alpha(e: f64) -> f64 {
 #[derive(Default)]
 struct Grid {
     origin: [f64; 3],
-    cell: [f64; 3],
+    /// Inverse cell edge per axis.
+    inv_cell: [f64; 3],
     /// Cells along each periodic axis (cell keys wrap modulo it).
     wrap: [Option<i64>; 3],
+    /// Some axis wraps (else `bucket` skips the modulo).
+    wraps: bool,
     mask: u64,
     /// Bucket start offsets (len buckets + 1) and sphere indices sorted by bucket.
     start: Vec<u32>,
@@ -773,13 +779,15 @@ struct Grid {
 
 impl Grid {
     fn key(&self, x: [f64; 3]) -> [i64; 3] {
-        [0, 1, 2].map(|k| ((x[k] - self.origin[k]) / self.cell[k]).floor() as i64)
+        [0, 1, 2].map(|k| ((x[k] - self.origin[k]) * self.inv_cell[k]).floor() as i64)
     }
 
     fn bucket(&self, mut k: [i64; 3]) -> u64 {
-        for (c, w) in k.iter_mut().zip(self.wrap) {
-            if let Some(n) = w {
-                *c = c.rem_euclid(n);
+        if self.wraps {
+            for (c, w) in k.iter_mut().zip(self.wrap) {
+                if let Some(n) = w {
+                    *c = c.rem_euclid(n);
+                }
             }
         }
         let h = (k[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
@@ -793,14 +801,15 @@ impl Grid {
     fn build(&mut self, x: &[[f64; 3]], cell: f64, origin: [f64; 3], period: [Option<f64>; 3]) {
         self.origin = origin;
         for k in 0..3 {
-            (self.cell[k], self.wrap[k]) = match period[k] {
+            (self.inv_cell[k], self.wrap[k]) = match period[k] {
                 Some(l) => {
                     let n = (l / cell).floor().max(1.0);
-                    (l / n, Some(n as i64))
+                    (n / l, Some(n as i64))
                 }
-                None => (cell, None),
+                None => (1.0 / cell, None),
             };
         }
+        self.wraps = self.wrap.iter().any(Option::is_some);
         let buckets = (2 * x.len()).next_power_of_two().max(2);
         self.mask = buckets as u64 - 1;
         let mut bucket_of = std::mem::take(&mut self.bucket_of);
