@@ -12,6 +12,11 @@
 //! 1.12 % / 0.68 %, the same with the gradient correction (the pressure is uniform).
 //! With Morris's Laplacian instead (the sweep's second scheme) Poiseuille's steady state
 //! is 1.62 %: his operator under-estimates ∇²u by about 1.5 % on the lattice.
+//!
+//! CI runs Couette with Adami's walls and Poiseuille with Joubert's (each about three
+//! minutes on lavapipe); Poiseuille with Adami's walls is `couplet validate poiseuille
+//! --quick` (dropped from CI on 2026-11-24 to keep the run under 40 minutes: Couette
+//! already exercises Adami's wall velocity, and the body force is the same code).
 
 use couplet_tests::{couplet_validate, report_rows};
 
@@ -36,11 +41,6 @@ fn passes(name: &str, extra: &[&str]) {
 #[test]
 fn couette_quick_validation_passes() {
     passes("couette", &[]);
-}
-
-#[test]
-fn poiseuille_quick_validation_passes() {
-    passes("poiseuille", &[]);
 }
 
 /// Joubert's scheme with his one-layer walls (`domain.wall_model = "joubert"`, §2.5): the
