@@ -2,10 +2,12 @@
 // unresolved_coupling.rs) ----
 // At each grain, Shepard-corrected sums over the fluid particles within the support
 // (Robinson eq. 8): the fluid velocity u_f, and the resolved force V ρθ̄ of eqs.
-// (23)–(25), θ_b being particle b's SPH acceleration without gravity (dvel − GRAVITY);
+// (23)–(25), θ_b being particle b's SPH acceleration without gravity and without the
+// grains' reaction (dvel − GRAVITY − grain_reaction, eq. 25);
 // then the drag of the scene's law (drag.wgsl) on the slip u_f − v at the grain's
 // porosity. Needs: prelude, SPH constants, StepParams, grid_common, kernel, drag,
-// DRAG_LAW and FLUID_MU (unresolved_coupling.rs).
+// DRAG_LAW and FLUID_MU (unresolved_coupling.rs), `grain_reaction(j)`
+// (grain_reaction_read.wgsl, or zero one-way).
 
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> vel: array<vec4<f32>>;
@@ -52,7 +54,7 @@ fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
                 shepard += vw;
                 u += vw * vel[j].xyz;
                 // Robinson eq. (24): Σ m_b θ_b W / Σ (m_b/ρ_b) W.
-                theta += MASS * w * (dvel[j].xyz - GRAVITY);
+                theta += MASS * w * (dvel[j].xyz - GRAVITY - grain_reaction(j));
             }
         }
     }

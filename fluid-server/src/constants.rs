@@ -58,6 +58,12 @@ pub struct SphConstants {
     pub shifting_beta: f64,
     /// δ-SPH density diffusion coefficient δ (Antuono et al. 2010); 0: off.
     pub density_diffusion: f64,
+    /// The scene has unresolved grains: their sampling reads du/dt after a sort, so
+    /// the grid permutes `dvel` with the particles.
+    pub grains: bool,
+    /// Unresolved grains push back on the fluid (`coupling.two_way`, Robinson eqs.
+    /// 26–27): the reaction buffer and its kernels exist.
+    pub grain_reaction: bool,
 }
 
 /// `η² = 0.01 h²` in the Morris (1997) and Monaghan (1992) denominators `r² + η²`: keeps
@@ -105,6 +111,8 @@ impl SphConstants {
             mass_correction: scene.effects.mass_correction,
             shifting_beta: scene.effects.particle_shifting,
             density_diffusion: scene.effects.density_diffusion,
+            grains: !scene.grains().is_empty(),
+            grain_reaction: scene.coupling.two_way && !scene.grains().is_empty(),
         })
     }
 
@@ -236,7 +244,9 @@ pub struct StepParams {
     pub load_weight: f32,
     /// Bodies with markers (contiguous marker ranges).
     pub n_load_bodies: u32,
-    pub _pad: u32,
+    /// Acceleration of one count of the fixed-point grain reaction, m/s²
+    /// ([`crate::unresolved_coupling`]); chosen per window so that no sum overflows.
+    pub reaction_unit: f32,
 }
 
 /// WGSL mirror of [`StepParams`]; keep in the same order (size checked below and by
@@ -249,7 +259,7 @@ pub const STEP_PARAMS_WGSL: &str = "struct StepParams {
     dt: f32,
     load_weight: f32,
     n_load_bodies: u32,
-    _pad: u32,
+    reaction_unit: f32,
 }
 @group(3) @binding(0) var<uniform> params: StepParams;
 fn is_fluid(id: u32) -> bool { return id < params.n_fluid; }

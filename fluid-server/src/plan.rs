@@ -30,6 +30,7 @@ pub const PARTICLE_SHIFTING: &str = "particle_shifting";
 pub const DENSITY_DIFFUSION: &str = "antuono2010_density_diffusion";
 pub const MASS_CORRECTION: &str = "joubert2020_mass_correction";
 pub const SAMPLE_GRAINS: &str = "robinson_sample_grains";
+pub const GRAIN_REACTION: &str = "robinson_grain_reaction";
 
 /// Names of the axes `k` (x, y, z) for which `pick(k)` holds.
 fn axis_names(pick: impl Fn(usize) -> bool) -> Vec<&'static str> {
@@ -273,9 +274,15 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(
             SAMPLE_GRAINS,
             format!(
-                "{grains} unresolved grain(s), once per window at its start: Shepard-interpolated u_f and V(−∇P + ∇·τ) (Robinson eqs. 8, 23–25), drag {law} at porosity 1 (one-way)"
+                "{grains} unresolved grain(s), once per window at its start: Shepard-interpolated u_f and V(−∇P + ∇·τ) (Robinson eqs. 8, 23–25), drag {law} at porosity 1"
             ),
         );
+        if scene.coupling.two_way {
+            push(
+                GRAIN_REACTION,
+                "two-way: each grain's force spread over the fluid in its support at the window's start, −f_j W/(S_j ρ) per unit mass (Robinson eqs. 26–27, 64-bit fixed-point sums: momentum exact, order-independent), added to du/dt at every rate evaluation".into(),
+            );
+        }
     }
     push(
         BLOWUP_CHECK,

@@ -77,6 +77,8 @@ pub enum Op {
     Gradients,
     /// Particle shifting (absent without it).
     Shift,
+    /// The grains' reaction joins du/dt (absent without two-way grains).
+    GrainReaction,
 }
 
 /// Kernels of the marker coupling (compiled only for scenes with resolved bodies, or at
@@ -100,6 +102,7 @@ pub struct SphPipelines {
     neighbour_count: SphKernel,
     gradients: Option<SphKernel>,
     shift: Option<SphKernel>,
+    grain_reaction: Option<SphKernel>,
     markers: Option<MarkerPipelines>,
 }
 
@@ -127,6 +130,9 @@ impl SphPipelines {
                 .gradient_pass()
                 .then(|| joubert2020_gradients::kernel(gpu, c, grid_layout)),
             shift: (c.shifting_beta > 0.0).then(|| particle_shifting::kernel(gpu, c)),
+            grain_reaction: c
+                .grain_reaction
+                .then(|| crate::unresolved_coupling::add_kernel(gpu, c)),
             markers: with_markers.then(|| MarkerPipelines::new(gpu, c, grid_layout)),
         }
     }
@@ -173,6 +179,7 @@ struct Bound {
     capture_bad: BoundKernel,
     gradients: Option<BoundKernel>,
     shift: Option<BoundKernel>,
+    grain_reaction: Option<BoundKernel>,
     markers: Option<BoundMarkers>,
 }
 
@@ -190,6 +197,8 @@ pub struct SphData {
     /// Original id (kind by range).
     pub id: wgpu::Buffer,
     pub drho: wgpu::Buffer,
+    /// du/dt of the last rate evaluation (permuted by the sort only in scenes with
+    /// grains, whose sampling reads it after a sort).
     pub dvel: wgpu::Buffer,
     /// ρⁿ and uⁿ during a step (written by `predict`, not permuted).
     pub rho_n: wgpu::Buffer,
@@ -210,6 +219,8 @@ pub struct SphData {
     /// [`joubert2020_boundary_values::wall_frames`], then the markers', rewritten by
     /// every [`FluidSolver::set_bodies`]), only with `domain.wall_model = "joubert"`.
     pub boundary_frame: Option<wgpu::Buffer>,
+    /// The grains' reaction per particle (permuted), with two-way grains.
+    pub reaction: Option<crate::unresolved_coupling::ReactionBuffers>,
     bound: Bound,
 }
 
@@ -339,6 +350,20 @@ impl SphData {
         grid.register(gpu, &rho, 4)?;
         grid.register(gpu, &press, 4)?;
         grid.register_ids(gpu, &id)?;
+        if c.grains {
+            // Grains are sampled after a sort, from the rates of the step before it.
+            grid.register(gpu, &dvel, 16)?;
+        }
+        let reaction = c
+            .grain_reaction
+            .then(|| crate::unresolved_coupling::ReactionBuffers {
+                lo: storage_init(gpu, "sph: grain reaction (low words)", &zeros16),
+                hi: storage_init(gpu, "sph: grain reaction (high words)", &zeros16),
+            });
+        if let Some(r) = &reaction {
+            grid.register(gpu, &r.lo, 16)?;
+            grid.register(gpu, &r.hi, 16)?;
+        }
 
         let gradients = pipelines.gradients.is_some().then(|| GradientBuffers {
             bmat: storage_init(gpu, "sph: B matrix", &vec![0u8; n * 48]),
@@ -396,6 +421,8 @@ impl SphData {
                     pb::WALL_VEL => wall_vel.as_ref()?,
                     pb::BOUNDARY_FRAME => boundary_frame.as_ref()?,
                     pb::BHAT => gradients.as_ref()?.bhat.as_ref()?,
+                    pb::REACTION_LO => &reaction.as_ref()?.lo,
+                    pb::REACTION_HI => &reaction.as_ref()?.hi,
                     _ => return None,
                 })
             };
@@ -491,6 +518,13 @@ impl SphData {
                     ),
                     None => None,
                 },
+                grain_reaction: match &p.grain_reaction {
+                    Some(k) => Some(
+                        k.bind(gpu, resolve, None)
+                            .ok_or_else(|| missing("add_grain_reaction"))?,
+                    ),
+                    None => None,
+                },
                 markers,
             }
         };
@@ -514,6 +548,7 @@ impl SphData {
             gradients,
             wall_vel,
             boundary_frame,
+            reaction,
             bound,
         })
     }
@@ -556,6 +591,10 @@ impl SphData {
             },
             Op::Shift => match &b.shift {
                 Some(k) => (k, "sph: particle_shifting"),
+                None => return,
+            },
+            Op::GrainReaction => match &b.grain_reaction {
+                Some(k) => (k, "sph: add_grain_reaction"),
                 None => return,
             },
             Op::Correct => (&b.correct, "sph: correct"),
@@ -1092,6 +1131,7 @@ impl FluidSolver {
         for update in [Op::Predict, Op::Correct] {
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::BoundaryPressure);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::FluidRates);
+            d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::GrainReaction);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerLoads);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), update);
         }
@@ -1274,15 +1314,24 @@ impl FluidSolver {
     /// one load per grain in body order; empty without grains. Sampled at the window's
     /// start, from the rates the last step left (Robinson eqs. 23–33; see
     /// [`crate::unresolved_coupling`]).
+    /// With `coupling.two_way` the fluid's reaction for the coming window is spread
+    /// at once (Robinson eqs. 26–27).
     pub fn grain_loads(
-        &self,
+        &mut self,
         gpu: &Gpu,
         states: &[BodyState],
     ) -> Result<Vec<BodyLoad>, FluidError> {
-        match &self.grains {
-            Some(g) => g.sample(gpu, &self.data, self.origin, states),
-            None => Ok(Vec::new()),
+        let Some(g) = &self.grains else {
+            return Ok(Vec::new());
+        };
+        let (loads, samples) = g.sample(gpu, &self.data, self.origin, states)?;
+        if self.data.reaction.is_some() {
+            self.step_params.reaction_unit =
+                crate::unresolved_coupling::reaction_unit(&self.consts, &samples) as f32;
+            self.write_params(gpu);
+            g.spread(gpu, &self.data)?;
         }
+        Ok(loads)
     }
 
     pub fn loads(&mut self, gpu: &Gpu) -> Result<Vec<BodyLoad>, FluidError> {

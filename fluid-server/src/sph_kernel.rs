@@ -52,6 +52,11 @@ pub mod particle_binding {
     /// Joubert boundaries' `BoundaryFrame` (unit normal, symmetry flag, acceleration),
     /// two vec4 per wall or marker particle indexed by `id − n_fluid` (not permuted).
     pub const BOUNDARY_FRAME: u32 = 13;
+    /// The grains' reaction on each fluid particle (Robinson eq. 26), 64-bit fixed
+    /// point: low words (vec4<u32>) and high words (vec4<i32>), permuted by the sort
+    /// (`grain_reaction.wgsl`); only with `coupling.two_way` grains.
+    pub const REACTION_LO: u32 = 14;
+    pub const REACTION_HI: u32 = 15;
 }
 
 /// Bodies and markers, group 2.

@@ -5,10 +5,18 @@
 //! ([`crate::drag`]). WGSL: `shaders/unresolved_coupling.wgsl`; this file holds its
 //! CPU twin.
 //!
-//! θ_b, particle b's SPH acceleration without gravity, is `dvel − g_fluid` as the last
-//! rate evaluation left it: the force is sampled at a window boundary, after a step.
-//! With gravity on the fluid the hydrostatic part of θ is −g, so `V ρ θ̄` carries the
-//! buoyancy −ρ V g.
+//! θ_b, particle b's SPH acceleration without gravity and without the grains' reaction,
+//! is `dvel − g_fluid − reaction` as the last rate evaluation left it: the force is
+//! sampled at a window boundary, after a step. With gravity on the fluid the
+//! hydrostatic part of θ is −g, so `V ρ θ̄` carries the buoyancy −ρ V g.
+//!
+//! Two-way coupling (`coupling.two_way`, Robinson eqs. 26–27): after the sampling,
+//! `spread_grain_reaction` (`shaders/grain_reaction.wgsl`) gives each fluid particle a
+//! within a grain's support the acceleration −f_j W_aj/(S_j ρ_a), with S_j the grain's
+//! Shepard sum, so that Σ_a m a_a = −Σ_j f_j; `add_grain_reaction` adds it to du/dt in
+//! every rate evaluation of the window. The sums are 64-bit fixed point, exact and
+//! independent of thread order; [`reaction_unit`] sets their unit. CPU twin:
+//! [`grain_reaction_cpu`].
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::drag::{DRAG_WGSL, DragInput, DragLaw, drag_force, law_constants_wgsl};
@@ -23,6 +31,17 @@ use couplet_protocol::{BodyLoad, BodyState, Scene, Shape};
 use wgpu::util::DeviceExt;
 
 pub const UNRESOLVED_COUPLING_WGSL: &str = include_str!("../shaders/unresolved_coupling.wgsl");
+pub const GRAIN_REACTION_WGSL: &str = include_str!("../shaders/grain_reaction.wgsl");
+pub const GRAIN_REACTION_READ_WGSL: &str = include_str!("../shaders/grain_reaction_read.wgsl");
+pub const GRAIN_REACTION_ADD_WGSL: &str = include_str!("../shaders/grain_reaction_add.wgsl");
+/// One-way: no reaction buffer, nothing to subtract from θ.
+const NO_GRAIN_REACTION_WGSL: &str = "fn grain_reaction(i: u32) -> vec3<f32> {
+    return vec3<f32>(0.0);
+}
+";
+
+/// The fixed-point sums stay below 2^37 counts (the WGSL is exact below 2^38).
+const REACTION_COUNTS: f64 = 137_438_953_472.0;
 
 /// Grain arrays in the bodies group (2), numbered after the marker bindings.
 pub mod grain_binding {
@@ -80,6 +99,22 @@ pub fn kernel(
         law.code(),
         c.rho0 * c.nu
     );
+    let mut particles = vec![
+        (pb::POS, Access::Read),
+        (pb::VEL, Access::Read),
+        (pb::RHO, Access::Read),
+        (pb::ID, Access::Read),
+        (pb::DVEL, Access::Read),
+    ];
+    let reaction = if c.grain_reaction {
+        particles.extend([
+            (pb::REACTION_LO, Access::Read),
+            (pb::REACTION_HI, Access::Read),
+        ]);
+        GRAIN_REACTION_READ_WGSL
+    } else {
+        NO_GRAIN_REACTION_WGSL
+    };
     SphKernel::new(
         gpu,
         "sph: sample_grains",
@@ -90,20 +125,12 @@ pub fn kernel(
             KERNEL_WGSL,
             &coupling,
             DRAG_WGSL,
+            reaction,
             UNRESOLVED_COUPLING_WGSL,
         ],
         "sample_grains",
         &[
-            (
-                PARTICLES,
-                &[
-                    (pb::POS, Access::Read),
-                    (pb::VEL, Access::Read),
-                    (pb::RHO, Access::Read),
-                    (pb::ID, Access::Read),
-                    (pb::DVEL, Access::Read),
-                ],
-            ),
+            (PARTICLES, &particles),
             (
                 BODIES,
                 &[
@@ -117,6 +144,134 @@ pub fn kernel(
         ],
         Some(grid_layout),
     )
+}
+
+/// Compiles `spread_grain_reaction` (Robinson eqs. 26–27, at a window's start).
+pub fn spread_kernel(
+    gpu: &Gpu,
+    c: &SphConstants,
+    grid_layout: &wgpu::BindGroupLayout,
+) -> SphKernel {
+    SphKernel::new(
+        gpu,
+        "sph: spread_grain_reaction",
+        &[
+            &c.wgsl(),
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            KERNEL_WGSL,
+            GRAIN_REACTION_WGSL,
+        ],
+        "spread_grain_reaction",
+        &[
+            (
+                PARTICLES,
+                &[
+                    (pb::POS, Access::Read),
+                    (pb::RHO, Access::Read),
+                    (pb::ID, Access::Read),
+                    (pb::REACTION_LO, Access::ReadWrite),
+                    (pb::REACTION_HI, Access::ReadWrite),
+                ],
+            ),
+            (
+                BODIES,
+                &[
+                    (grain_binding::POS, Access::Read),
+                    (grain_binding::SAMPLE, Access::Read),
+                ],
+            ),
+            (PARAMS, &[(0, Access::Uniform)]),
+        ],
+        Some(grid_layout),
+    )
+}
+
+/// Compiles `add_grain_reaction` (after each `fluid_rates`).
+pub fn add_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
+    SphKernel::new(
+        gpu,
+        "sph: add_grain_reaction",
+        &[
+            &c.wgsl(),
+            STEP_PARAMS_WGSL,
+            GRAIN_REACTION_READ_WGSL,
+            GRAIN_REACTION_ADD_WGSL,
+        ],
+        "add_grain_reaction",
+        &[
+            (
+                PARTICLES,
+                &[
+                    (pb::ID, Access::Read),
+                    (pb::DVEL, Access::ReadWrite),
+                    (pb::REACTION_LO, Access::Read),
+                    (pb::REACTION_HI, Access::Read),
+                ],
+            ),
+            (PARAMS, &[(0, Access::Uniform)]),
+        ],
+        None,
+    )
+}
+
+/// The fixed-point unit of the window's reaction sums, m/s² per count: no fluid
+/// particle's sum can exceed `W(0) Σ_j |f_j|∞ / (S_j ρ_min)` per component, with ρ_min the
+/// lowest density the blow-up check lets through; that bound is 2^37 counts. A window
+/// without force gets unit 1 (every count is then 0).
+pub fn reaction_unit(c: &SphConstants, samples: &[GrainSample]) -> f64 {
+    let rho_min = c.rho0 * (1.0 - crate::blowup_check::BLOWUP_DENSITY_DEVIATION);
+    let bound: f64 = (samples.iter())
+        .filter(|s| s.shepard > 0.0)
+        .map(|s| s.force().iter().fold(0.0f64, |m, f| m.max(f.abs())) / s.shepard)
+        .sum::<f64>()
+        * c.kernel.w(0.0)
+        / rho_min;
+    if bound > 0.0 && bound.is_finite() {
+        // The unit is an f32 on the GPU: never below the smallest normal one (a larger
+        // unit only coarsens forces some 10^-38 m/s² small).
+        (bound / REACTION_COUNTS).max(f64::from(f32::MIN_POSITIVE))
+    } else {
+        1.0
+    }
+}
+
+/// CPU twin of `spread_grain_reaction` + `grain_reaction_read`: the grains' reaction on
+/// every entry of `set` as an acceleration (zero for non-fluid entries), Robinson eqs.
+/// (26)–(27), exact sums over all pairs; `samples` as [`sample_grains_cpu`] gives them.
+pub fn grain_reaction_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    grains: &[Grain],
+    samples: &[GrainSample],
+) -> Vec<[f64; 3]> {
+    let r2max = c.support_radius().powi(2);
+    let mut acc = vec![[0.0; 3]; set.len()];
+    for (g, s) in grains.iter().zip(samples) {
+        if s.shepard == 0.0 {
+            continue;
+        }
+        let f = s.force();
+        for a in (0..set.len()).filter(|a| set.kinds.kind(set.id[*a]) == Kind::Fluid) {
+            let r2: f64 = (0..3)
+                .map(|k| (g.position[k] - set.pos[a][k]).powi(2))
+                .sum();
+            if r2 >= r2max {
+                continue;
+            }
+            let w = c.kernel.w(r2.sqrt());
+            for k in 0..3 {
+                acc[a][k] -= w / (s.shepard * set.rho[a]) * f[k];
+            }
+        }
+    }
+    acc
+}
+
+/// The grains' reaction buffers (64-bit fixed point, two words per component).
+pub struct ReactionBuffers {
+    pub lo: wgpu::Buffer,
+    pub hi: wgpu::Buffer,
 }
 
 /// The grain buffers of group 2.
@@ -306,6 +461,8 @@ pub fn sample_grains_cpu(
 /// indices and diameters, the compiled kernel and its buffers.
 pub struct GrainCoupling {
     kernel: SphKernel,
+    /// `spread_grain_reaction`, with `coupling.two_way`.
+    spread: Option<SphKernel>,
     buffers: GrainBuffers,
     bodies: Vec<u32>,
     diameters: Vec<f64>,
@@ -341,6 +498,7 @@ impl GrainCoupling {
             .collect();
         Some(GrainCoupling {
             kernel: kernel(gpu, c, scene.coupling.drag.into(), grid_layout),
+            spread: c.grain_reaction.then(|| spread_kernel(gpu, c, grid_layout)),
             buffers: GrainBuffers::new(gpu, &grains),
             bodies: bodies.into_iter().map(|i| i as u32).collect(),
             diameters,
@@ -349,15 +507,15 @@ impl GrainCoupling {
 
     /// The fluid's force on every grain at the bodies' `states` (world frame; `origin`
     /// is the solver's), as one load per grain, zero moment (a sphere's drag has none at
-    /// its centre). The particles are sorted first, so that the grid is exact.
-    /// One-way: porosity 1 (see [`Scene::warnings`]).
+    /// its centre), and the samples they came from. The particles are sorted first, so
+    /// that the grid is exact. Porosity 1 (see [`Scene::warnings`]).
     pub fn sample(
         &self,
         gpu: &Gpu,
         data: &SphData,
         origin: [f64; 3],
         states: &[BodyState],
-    ) -> Result<Vec<BodyLoad>, FluidError> {
+    ) -> Result<(Vec<BodyLoad>, Vec<GrainSample>), FluidError> {
         let grains: Vec<Grain> = (self.bodies.iter().zip(&self.diameters))
             .map(|(&b, &d)| {
                 let s = &states[b as usize];
@@ -382,6 +540,8 @@ impl GrainCoupling {
                         pb::RHO => Some(&data.rho),
                         pb::ID => Some(&data.id),
                         pb::DVEL => Some(&data.dvel),
+                        pb::REACTION_LO => data.reaction.as_ref().map(|r| &r.lo),
+                        pb::REACTION_HI => data.reaction.as_ref().map(|r| &r.hi),
                         _ => None,
                     },
                     BODIES => self.buffers.binding(b),
@@ -405,16 +565,57 @@ impl GrainCoupling {
         }
         gpu.queue.submit([encoder.finish()]);
         let samples = self.buffers.read(gpu)?;
-        Ok(self
-            .bodies
-            .iter()
-            .zip(&samples)
+        let loads = (self.bodies.iter().zip(&samples))
             .map(|(&body, s)| BodyLoad {
                 force: s.force(),
                 body,
                 _pad: 0,
                 moment: [0.0; 3],
             })
-            .collect())
+            .collect();
+        Ok((loads, samples))
+    }
+
+    /// Replaces the fluid's reaction with that of the last [`GrainCoupling::sample`]
+    /// (Robinson eqs. 26–27), in counts of `params.reaction_unit`, which the caller has
+    /// set to [`reaction_unit`] of those samples. Nothing without `coupling.two_way`.
+    pub fn spread(&self, gpu: &Gpu, data: &SphData) -> Result<(), FluidError> {
+        let (Some(spread), Some(reaction)) = (&self.spread, &data.reaction) else {
+            return Ok(());
+        };
+        let bound = spread
+            .bind(
+                gpu,
+                |g, b| match g {
+                    PARTICLES => match b {
+                        pb::POS => Some(&data.pos),
+                        pb::RHO => Some(&data.rho),
+                        pb::ID => Some(&data.id),
+                        pb::REACTION_LO => Some(&reaction.lo),
+                        pb::REACTION_HI => Some(&reaction.hi),
+                        _ => None,
+                    },
+                    BODIES => self.buffers.binding(b),
+                    PARAMS => Some(&data.params),
+                    _ => None,
+                },
+                Some(data.grid.bind_group()),
+            )
+            .ok_or_else(|| FluidError::Grid {
+                step: 0,
+                message: "internal: a binding of spread_grain_reaction is missing".into(),
+            })?;
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        encoder.clear_buffer(&reaction.lo, 0, None);
+        encoder.clear_buffer(&reaction.hi, 0, None);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("sph: spread_grain_reaction"),
+                timestamp_writes: None,
+            });
+            bound.dispatch(&mut pass, self.buffers.count);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        Ok(())
     }
 }

@@ -582,8 +582,9 @@ pub enum CouplingMode {
     Resolved,
     /// Unresolved grain, smaller than the fluid spacing (Robinson §3.3): the fluid's
     /// force on it is sampled at its centre (interpolated velocity, pressure and viscous
-    /// force, and the drag law of `coupling.drag`). Spheres only. One-way so far: the
-    /// fluid does not feel the grains (no porosity, no reaction force).
+    /// force, and the drag law of `coupling.drag`); with `coupling.two_way` the fluid
+    /// receives the opposite force. Spheres only. The porosity is 1 so far (Robinson
+    /// eqs. 9–15 are not built): valid for dilute grains.
     Unresolved,
     /// The fluid does not see the body.
     None,
@@ -661,6 +662,18 @@ pub struct CouplingSpec {
     /// beds.
     #[serde(default = "default_drag")]
     pub drag: DragLawName,
+    /// Unresolved grains push back on the fluid (Robinson eqs. 26–27): each grain's force
+    /// is spread over the fluid particles within its support, weighted so that the
+    /// fluid receives exactly minus what the grains receive. Default `true`: momentum is
+    /// then conserved between the phases; `false` is one-way coupling (the grains feel
+    /// the fluid, the fluid does not feel them), the approximation of a dilute
+    /// suspension that Robinson §5.1 compares against.
+    #[serde(default = "default_two_way")]
+    pub two_way: bool,
+}
+
+fn default_two_way() -> bool {
+    true
 }
 
 /// `coupling.drag`: the drag law of unresolved grains.
@@ -691,6 +704,7 @@ impl Default for CouplingSpec {
             scheme: default_scheme(),
             window_substeps: default_window_substeps(),
             drag: default_drag(),
+            two_way: default_two_way(),
         }
     }
 }
@@ -866,11 +880,17 @@ impl Scene {
         let mut w = Vec::new();
         if self.bodies.iter().any(|b| self.is_grain(b)) {
             w.push(
-                "unresolved grains are coupled one way so far: they feel the fluid, the fluid \
-                 does not feel them (porosity and reaction, Robinson eqs. 9–15 and 26–27, are \
-                 not implemented), which holds only for dilute grains"
+                "unresolved grains see porosity 1 and the fluid is not scaled by porosity \
+                 (Robinson eqs. 9–15 are not implemented): valid only for dilute grains"
                     .into(),
             );
+            if !self.coupling.two_way {
+                w.push(
+                    "coupling.two_way = false: the grains feel the fluid, the fluid does not \
+                     feel them, and momentum is not conserved between the phases"
+                        .into(),
+                );
+            }
         }
         let weighs = self.gravity.on_fluid && self.gravity.vector.iter().any(|g| *g != 0.0);
         if weighs && self.has_resolved_bodies() && !self.effects.gradient_correction {
@@ -1409,7 +1429,8 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
     }
 
     /// Unresolved grains: spheres, dynamic, in a scene with a fluid; the drag law
-    /// defaults to Di Felice and the one-way coupling is warned of.
+    /// defaults to Di Felice, the coupling to two-way; porosity 1 and one-way coupling
+    /// are warned of.
     #[test]
     fn unresolved_grains_are_checked() {
         let grain = |shape: &str, extra: &str| {
@@ -1431,7 +1452,22 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         assert_eq!(s.coupling.drag, DragLawName::DiFelice);
         assert_eq!(s.grains(), vec![0]);
         assert!(s.exchanges_loads() && !s.has_resolved_bodies());
-        assert!(s.warnings().iter().any(|w| w.contains("one way")));
+        assert!(s.coupling.two_way, "two-way by default");
+        assert!(s.warnings().iter().any(|w| w.contains("porosity 1")));
+        assert!(!s.warnings().iter().any(|w| w.contains("two_way")));
+        let one_way = Scene::parse(
+            &format!("{MINIMAL}{}", grain("shape.sphere.radius = 0.01", ""))
+                .replace("[fluid]", "[coupling]\ntwo_way = false\n\n[fluid]"),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        assert!(!one_way.coupling.two_way);
+        assert!(
+            one_way
+                .warnings()
+                .iter()
+                .any(|w| w.contains("two_way = false"))
+        );
         let e = err(format!(
             "{MINIMAL}{}",
             grain("shape.box.half_extents = [0.01, 0.01, 0.01]", "")
