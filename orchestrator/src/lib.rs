@@ -9,6 +9,7 @@ pub mod cli;
 pub mod launch;
 pub mod plan;
 pub mod record;
+pub mod robinson_reference;
 pub mod run;
 pub mod validate;
 pub mod window;
