@@ -280,7 +280,7 @@ static CASES: [Case; 14] = [
     Case {
         name: "single-particle-sedimentation",
         scene: "single-particle-sedimentation.toml",
-        about: "Robinson §4–5 (SPS): one unresolved grain settling from rest in the three fluids of Table 1 (water, air, water–glycerol) — velocity against the Stokes transient of Robinson eq. (34), error < 2 % of v_t after one relaxation time t_d (air: after a quarter of the fall, which ends on the floor before t_d)",
+        about: "Robinson §4–5 (SPS): one unresolved grain settling from rest in the three fluids of Table 1 (water, air, water–glycerol), two-way, and in water one-way — velocity against the Stokes transient of Robinson eq. (34), error < 2 % of v_t after one relaxation time t_d (air: after a quarter of the fall, which ends on the floor before t_d)",
         quick: &["fluid.spacing=5e-4"],
         quick_why: "δ = 0.5 mm (h/d = 5, inside Robinson's study of 1.5–6): 800 fluid particles, seconds on lavapipe",
         sweep_spacings: &[5e-4, 3.333333333333333e-4, 2.5e-4, 2e-4],
@@ -1325,8 +1325,11 @@ fn sedimentation_regimes(
 /// run to five relaxation times t_d (water 1.56e-3 s, water–glycerol 1.56e-4 s) or, in
 /// air (t_d = 7.47e-2 s), to 0.025 s, before the grain (released 4.75 mm above the
 /// floor, falling at nearly g) lands.
+/// Two-way coupling (the scene's default) in the three fluids of Robinson Table 1, and
+/// water one-way (Robinson §5.1 compares the two in Stokes flow).
 const SPS_FLUIDS: &[(&str, &[&str])] = &[
     ("water", &[]),
+    ("water, one-way", &["coupling.two_way=false"]),
     (
         "air",
         &[

@@ -20,7 +20,7 @@ fn single_particle_sedimentation_quick_validation_passes() {
     let out = tempfile::tempdir().unwrap();
     let o = couplet_validate(CLI, "single-particle-sedimentation", out.path(), &[]);
     let rows = report_rows(out.path());
-    for fluid in ["water", "air", "water-glycerol"] {
+    for fluid in ["water", "water, one-way", "air", "water-glycerol"] {
         assert!(
             rows.iter().any(|(q, r)| q.starts_with(&format!("{fluid}:"))
                 && q.contains("eq. (34)")
