@@ -4,7 +4,8 @@
 // ρ0 (1 + BLOWUP_DENSITY_DEVIATION)] or whose speed exceeds c_s; then copy that
 // particle's values out. Atomics are fine here: this is not a pair loop and it runs
 // once per window.
-// Needs: prelude, SPH constants, StepParams; BLOWUP_DENSITY_DEVIATION (blowup_check.rs).
+// Needs: prelude, SPH constants, StepParams; BLOWUP_DENSITY_DEVIATION (blowup_check.rs),
+// porosity (porosity.rs).
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
@@ -33,7 +34,8 @@ fn bad(i: u32) -> bool {
         || not_finite(u.z) || not_finite(r) {
         return true;
     }
-    return abs(r / RHO0 - 1.0) > BLOWUP_DENSITY_DEVIATION || dot(u, u) > SOUND_SPEED * SOUND_SPEED;
+    // Among grains ρ is superficial: the intrinsic density is ρ/ε (Robinson eq. 15).
+    return abs(r / (RHO0 * porosity(i)) - 1.0) > BLOWUP_DENSITY_DEVIATION || dot(u, u) > SOUND_SPEED * SOUND_SPEED;
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

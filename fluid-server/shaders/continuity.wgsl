@@ -1,23 +1,23 @@
 // ---- continuity.wgsl: standard WCSPH continuity (CPU twin: continuity.rs) ----
-// dρ_i/dt = Σ_j m_j (u_i − u_j)·∇W_ij: the standard (uncorrected) form of Joubert eq. (12),
+// dρ_i/dt = Σ_j m_j (u_i − u_j)·∇W_ij (m_j: the neighbour's own mass, pos[j].w): the standard (uncorrected) form of Joubert eq. (12),
 // summed over fluid, wall and marker neighbours. The pair loop is fused with momentum
 // in fluid_rates.wgsl.
 
-fn continuity_term(u_ij: vec3<f32>, grad_w: vec3<f32>) -> f32 {
-    return MASS * dot(u_ij, grad_w);
+fn continuity_term(m_j: f32, u_ij: vec3<f32>, grad_w: vec3<f32>) -> f32 {
+    return m_j * dot(u_ij, grad_w);
 }
 
 // δ-SPH density diffusion (Antuono, Colagrossi, Marrone & Molteni 2010, eq. 5) for a fluid
 // neighbour j: δ h c_s V_j ψ_ij·∇W_ij, ψ_ij = 2(ρ_j − ρ_i) r_ji/r² − (⟨∇ρ⟩ᶜ_i + ⟨∇ρ⟩ᶜ_j), with
 // r_ji = −r_ij and the renormalised gradients of the gradient pass.
-fn antuono2010_diffusion_term(rho_i: f32, rho_j: f32, r_ij: vec3<f32>, r2: f32, grad_w: vec3<f32>,
+fn antuono2010_diffusion_term(m_j: f32, rho_i: f32, rho_j: f32, r_ij: vec3<f32>, r2: f32, grad_w: vec3<f32>,
                               grad_rho_i: vec3<f32>, grad_rho_j: vec3<f32>) -> f32 {
     let psi = (-2.0 * (rho_j - rho_i) / r2) * r_ij - (grad_rho_i + grad_rho_j);
-    return DIFFUSION_DELTA * H * SOUND_SPEED * (MASS / rho_j) * dot(psi, grad_w);
+    return DIFFUSION_DELTA * H * SOUND_SPEED * (m_j / rho_j) * dot(psi, grad_w);
 }
 
 // Joubert eq. (12), gradient-corrected: dρ_i/dt = −ρ_i Σ_j V_j (u_j − u_i)·B_i ∇W_ij with
 // V_j = m/ρ_j; `grad_w_c` = B_i ∇W_ij.
-fn corrected_continuity_term(rho_i: f32, rho_j: f32, u_ij: vec3<f32>, grad_w_c: vec3<f32>) -> f32 {
-    return rho_i * (MASS / rho_j) * dot(u_ij, grad_w_c);
+fn corrected_continuity_term(m_j: f32, rho_i: f32, rho_j: f32, u_ij: vec3<f32>, grad_w_c: vec3<f32>) -> f32 {
+    return rho_i * (m_j / rho_j) * dot(u_ij, grad_w_c);
 }

@@ -64,18 +64,19 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 let grad_w = kernel_grad_factor(sqrt(r2)) * r_ij;
                 let u_ij = u_i - vel[j].xyz;
                 let rho_j = rho[j];
+                let m_j = pos[j].w;
                 if GRADIENT_CORRECTION {
                     let grad_w_c = b_i * grad_w;
-                    drho_i += corrected_continuity_term(rho_i, rho_j, u_ij, grad_w_c);
-                    acc += corrected_pressure_term(pr_i, rho_i, press[j], rho_j, grad_w_c);
+                    drho_i += corrected_continuity_term(m_j, rho_i, rho_j, u_ij, grad_w_c);
+                    acc += corrected_pressure_term(m_j, pr_i, rho_i, press[j], rho_j, grad_w_c);
                 } else {
-                    drho_i += continuity_term(u_ij, grad_w);
-                    acc += pressure_term(pr_i, rho_i, press[j], rho_j, grad_w);
+                    drho_i += continuity_term(m_j, u_ij, grad_w);
+                    acc += pressure_term(m_j, pr_i, rho_i, press[j], rho_j, grad_w);
                 }
                 if MASS_CORRECTION {
                     let r = sqrt(r2);
                     let e = r_ij / r;
-                    let v_j = MASS / rho_j;
+                    let v_j = m_j / rho_j;
                     let vs = v_j * dot(e, bhat_i * grad_w);
                     let w = 2.0 / (rho_i + rho_j);
                     mc_a += vs * w * (pr_i - press[j]) / r;
@@ -84,7 +85,7 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                     mc_div += v_j * dot(g_j - g_i, b_i * grad_w);
                 }
                 if DENSITY_DIFFUSION && is_fluid(id[j]) {
-                    drho_i += antuono2010_diffusion_term(rho_i, rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
+                    drho_i += antuono2010_diffusion_term(m_j, rho_i, rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
                 }
                 // Free-slip walls carry pressure but no shear.
                 let wall = is_wall(id[j]);
@@ -93,17 +94,17 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 if LAPLACIAN_CORRECTION && viscous {
                     let r = sqrt(r2);
                     let e = r_ij / r;
-                    let v_j = MASS / rho_j;
+                    let v_j = m_j / rho_j;
                     let vs = v_j * dot(e, bhat_i * grad_w);
                     lap_a += (vs / r) * u_visc;
                     lap_q += vs * e;
                     let vgw = v_j * grad_w;
                     lap_d -= mat3x3<f32>(u_visc * vgw.x, u_visc * vgw.y, u_visc * vgw.z);
                 } else if LAMINAR_VISCOSITY && viscous {
-                    acc += morris1997_viscous_term(rho_i, rho_j, r_ij, r2, u_visc, grad_w);
+                    acc += morris1997_viscous_term(m_j, rho_i, rho_j, r_ij, r2, u_visc, grad_w);
                 }
                 if ARTIFICIAL_VISCOSITY && viscous {
-                    acc += monaghan1992_artificial_viscous_term(rho_i, rho_j, r_ij, r2, u_visc, grad_w);
+                    acc += monaghan1992_artificial_viscous_term(m_j, rho_i, rho_j, r_ij, r2, u_visc, grad_w);
                 }
             }
         }

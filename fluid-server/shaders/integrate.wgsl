@@ -4,7 +4,9 @@
 //          r^{n+1} = rⁿ + Δt u^{n+1} (eq. 23): positions move once per step, so both
 //          derivative evaluations see rⁿ and one neighbour grid serves the step.
 // Fluid particles only: walls never move; markers are placed by marker_update.
-// Needs: prelude, SPH constants, StepParams, tait_eos (library).
+// Pressure from Robinson eq. (15): ρ is the superficial density ε ρ_f, so the EOS takes
+// ρ/ε (`porosity(i)`, 1 without grains).
+// Needs: prelude, SPH constants, StepParams, tait_eos (library), porosity (porosity.rs).
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read_write> pos: array<vec4<f32>>;
@@ -34,7 +36,7 @@ fn predict(@builtin(workgroup_id) wid: vec3<u32>,
     let r_star = r0 + dt * drho[i];
     rho[i] = r_star;
     vel[i] = vec4<f32>(u0.xyz + dt * dvel[i].xyz, 0.0);
-    press[i] = tait_pressure(r_star);
+    press[i] = tait_pressure(r_star / porosity(i));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -51,7 +53,7 @@ fn correct(@builtin(workgroup_id) wid: vec3<u32>,
     let u_new = 0.5 * (vel[i].xyz + vel_n[i].xyz + dt * dvel[i].xyz);
     rho[i] = r_new;
     vel[i] = vec4<f32>(u_new, 0.0);
-    press[i] = tait_pressure(r_new);
+    press[i] = tait_pressure(r_new / porosity(i));
     // Joubert eq. (23).
-    pos[i] = vec4<f32>(pos[i].xyz + dt * u_new, 0.0);
+    pos[i] = vec4<f32>(pos[i].xyz + dt * u_new, pos[i].w);
 }

@@ -67,7 +67,7 @@ fn marker_loads(@builtin(workgroup_id) wid: vec3<u32>,
                         continue;
                     }
                     let grad_w = kernel_grad_factor(sqrt(r2)) * r_ij;
-                    let v_j = MASS / rho[j];
+                    let v_j = pos[j].w / rho[j];
                     let du = v_j * (vel[j].xyz - u_i);
                     // Column b holds Σ V du ∇W_b (before B: ∂u/∂x_b).
                     grad_u += mat3x3<f32>(du * grad_w.x, du * grad_w.y, du * grad_w.z);

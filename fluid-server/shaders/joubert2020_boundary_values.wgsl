@@ -76,7 +76,7 @@ fn joubert2020_boundary_values(@builtin(workgroup_id) wid: vec3<u32>,
                 let r = sqrt(r2);
                 let rho_j = rho[j];
                 let u_j = vel[j].xyz;
-                let vgw = (MASS / rho_j) * kernel_grad_factor(r) * r_wf;
+                let vgw = (pos[j].w / rho_j) * kernel_grad_factor(r) * r_wf;
                 m -= mat3x3<f32>(vgw * r_wf.x, vgw * r_wf.y, vgw * r_wf.z);
                 s += vgw;
                 s_rho += vgw / rho_j;

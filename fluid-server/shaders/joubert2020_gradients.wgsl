@@ -205,7 +205,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 }
                 let r = sqrt(r2);
                 let rho_j = rho[j];
-                let vgw = (MASS / rho_j) * kernel_grad_factor(r) * r_ij;
+                let vgw = (pos[j].w / rho_j) * kernel_grad_factor(r) * r_ij;
                 // −V_j ∇W ⊗ r_ij: column c is −V_j ∇W r_ij[c].
                 m -= mat3x3<f32>(vgw * r_ij.x, vgw * r_ij.y, vgw * r_ij.z);
                 let du = vel[j].xyz - u_i;
@@ -219,7 +219,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 s += r_ij / (r2 * r);
                 if B_HAT_SOLVE {
                     let e = r_ij / r;
-                    let vf = (MASS / rho_j) * kernel_grad_factor(r);
+                    let vf = (pos[j].w / rho_j) * kernel_grad_factor(r);
                     let w1 = vf * r2;
                     q4a += w1 * quartic_a(e);
                     q4b += w1 * quartic_b(e);

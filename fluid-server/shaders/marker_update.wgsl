@@ -46,7 +46,7 @@ fn marker_update(@builtin(workgroup_id) wid: vec3<u32>,
         return;
     }
     let m = markers_in[marker_index(id[i])];
-    pos[i] = vec4<f32>(m.pos_area.xyz + clock.tau * m.vel_body.xyz, 0.0);
+    pos[i] = vec4<f32>(m.pos_area.xyz + clock.tau * m.vel_body.xyz, pos[i].w);
     vel[i] = vec4<f32>(m.vel_body.xyz, 0.0);
 }
 

@@ -31,7 +31,7 @@ fn shift(@builtin(workgroup_id) wid: vec3<u32>,
     // Joubert eq. (19).
     let r = rho[i];
     let r_new = r + pow(RHO0 / r, GAMMA - 1.0) * dp / (SOUND_SPEED * SOUND_SPEED);
-    pos[i] = vec4<f32>(pos[i].xyz + dr, 0.0);
+    pos[i] = vec4<f32>(pos[i].xyz + dr, pos[i].w);
     vel[i] = vec4<f32>(vel[i].xyz + du, 0.0);
     rho[i] = r_new;
     press[i] = tait_pressure(r_new);

@@ -16,8 +16,9 @@ fn tait_density(p: f32) -> f32 {
 @group(0) @binding(3) var<storage, read_write> press: array<f32>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
 
-// Pressure of every fluid particle from its density (start of a run; inside a step the
-// EOS is fused into the integrator's passes).
+// Pressure of every fluid particle from its density (start of a run and after the
+// grains' porosity changes; inside a step the EOS is fused into the integrator's passes).
+// Needs `porosity(i)` (porosity.rs).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn tait_eos(@builtin(workgroup_id) wid: vec3<u32>,
             @builtin(local_invocation_index) lid: u32,
@@ -26,5 +27,6 @@ fn tait_eos(@builtin(workgroup_id) wid: vec3<u32>,
     if i >= params.n_total || !is_fluid(id[i]) {
         return;
     }
-    press[i] = tait_pressure(rho[i]);
+    // Robinson eq. (15): the superficial density over ε is the intrinsic one.
+    press[i] = tait_pressure(rho[i] / porosity(i));
 }

@@ -50,11 +50,11 @@ fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
                     continue;
                 }
                 let w = kernel_w(sqrt(r2));
-                let vw = MASS / rho[j] * w;
+                let vw = pos[j].w / rho[j] * w;
                 shepard += vw;
                 u += vw * vel[j].xyz;
                 // Robinson eq. (24): Σ m_b θ_b W / Σ (m_b/ρ_b) W.
-                theta += MASS * w * (dvel[j].xyz - GRAVITY - grain_reaction(j));
+                theta += pos[j].w * w * (dvel[j].xyz - GRAVITY - grain_reaction(j));
             }
         }
     }

@@ -1,11 +1,12 @@
 //! End-of-window blow-up check (DESIGN.md, "Failure model"): the smallest fluid id whose
-//! position, velocity or density is non-finite, whose density deviates from ρ0 by more
-//! than [`BLOWUP_DENSITY_DEVIATION`], or whose speed exceeds c_s, and that particle's
+//! position, velocity or density is non-finite, whose intrinsic density (ρ/ε among
+//! grains) deviates from ρ0 by more than [`BLOWUP_DENSITY_DEVIATION`], or whose speed exceeds c_s, and that particle's
 //! values. Two small passes and a 48-byte readback per window.
 //! WGSL: `shaders/blowup_check.wgsl` (`find_bad`, `capture_bad`).
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
+use crate::porosity::porosity_wgsl;
 use crate::sph_kernel::{
     Access, PARAMS, PARTICLES, SphKernel, param_binding as qb, particle_binding as pb,
 };
@@ -30,13 +31,22 @@ const BINDINGS: &[(u32, Access)] = &[
 fn build(gpu: &Gpu, c: &SphConstants, label: &'static str, entry: &str) -> SphKernel {
     let consts = c.wgsl();
     let limit = format!("const BLOWUP_DENSITY_DEVIATION: f32 = {BLOWUP_DENSITY_DEVIATION:e};\n");
+    let (porosity, binding) = porosity_wgsl(c);
+    let mut bindings = BINDINGS.to_vec();
+    bindings.extend(binding);
     SphKernel::new(
         gpu,
         label,
-        &[&consts, &limit, STEP_PARAMS_WGSL, BLOWUP_CHECK_WGSL],
+        &[
+            &consts,
+            &limit,
+            STEP_PARAMS_WGSL,
+            porosity,
+            BLOWUP_CHECK_WGSL,
+        ],
         entry,
         &[
-            (PARTICLES, BINDINGS),
+            (PARTICLES, &bindings),
             (
                 PARAMS,
                 &[

@@ -21,7 +21,9 @@ pub struct SphConstants {
     pub gamma: f64,
     /// Kinematic viscosity ν, m²/s.
     pub nu: f64,
-    /// Particle mass m = ρ0 δ³, kg (every particle: fluid, wall, marker).
+    /// Lattice mass m = ρ0 δ³, kg: every wall and marker particle's, and a fluid
+    /// particle's where the porosity is 1 (particles carry their own, `ParticleSet::mass`,
+    /// `pos.w` on the GPU).
     pub mass: f64,
     /// Gravity acting on the fluid, m/s² (zero when `gravity.on_fluid = false`).
     pub gravity_fluid: [f64; 3],
@@ -173,7 +175,6 @@ impl SphConstants {
              const SIGMA: f32 = {sigma:e};\n\
              const SUPPORT_RADIUS2: f32 = {r2:e};\n\
              const SPACING: f32 = {dx:e};\n\
-             const MASS: f32 = {m:e};\n\
              const RHO0: f32 = {rho0:e};\n\
              const SOUND_SPEED: f32 = {c:e};\n\
              const GAMMA: f32 = {gamma:e};\n\
@@ -201,7 +202,6 @@ impl SphConstants {
             sigma = k.sigma,
             r2 = r * r,
             dx = self.spacing,
-            m = self.mass,
             rho0 = self.rho0,
             c = self.sound_speed,
             gamma = self.gamma,

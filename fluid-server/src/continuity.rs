@@ -68,14 +68,14 @@ pub fn continuity_cpu(
         let grad_w = c.kernel.grad(sub(set.pos[i], set.pos[j]));
         let u_ij = sub(set.vel[i], set.vel[j]);
         d += match &b {
-            Some(b) => set.rho[i] * (c.mass / set.rho[j]) * dot(u_ij, mat_vec(b, grad_w)),
-            None => c.mass * dot(u_ij, grad_w),
+            Some(b) => set.rho[i] * (set.mass[j] / set.rho[j]) * dot(u_ij, mat_vec(b, grad_w)),
+            None => set.mass[j] * dot(u_ij, grad_w),
         };
         if let Some((bm, bhat)) = &mc {
             let r_ij = sub(set.pos[i], set.pos[j]);
             let r = dot(r_ij, r_ij).sqrt();
             let e = r_ij.map(|x| x / r);
-            let v_j = c.mass / set.rho[j];
+            let v_j = set.mass[j] / set.rho[j];
             let vs = v_j * dot(e, mat_vec(bhat, grad_w));
             let w = 2.0 / (set.rho[i] + set.rho[j]);
             mc_a += vs * w * (set.press[i] - set.press[j]) / r;
@@ -94,7 +94,7 @@ pub fn continuity_cpu(
             d += c.density_diffusion
                 * c.kernel.h
                 * c.sound_speed
-                * (c.mass / rho_j)
+                * (set.mass[j] / rho_j)
                 * dot(psi, grad_w);
         }
     }

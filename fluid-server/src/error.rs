@@ -78,4 +78,10 @@ pub enum FluidError {
     },
     #[error("neighbour grid at step {step}: {message}")]
     Grid { step: u64, message: String },
+    #[error(
+        "porosity ε = {porosity} ≤ 0 at {at} (Robinson eq. 9): the grains within one kernel \
+         support there hold more solid volume than the kernel can smooth; lengthen the \
+         coupling length (fluid.smoothing_length or fluid.spacing) or space the grains out"
+    )]
+    Porosity { at: String, porosity: f64 },
 }

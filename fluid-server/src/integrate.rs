@@ -6,6 +6,7 @@
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
+use crate::porosity::porosity_wgsl;
 use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, library, particle_binding as pb};
 use crate::tait_eos::TAIT_EOS_WGSL;
 
@@ -35,6 +36,9 @@ pub fn correct_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
 
 fn build(gpu: &Gpu, c: &SphConstants, label: &'static str, entry: &str) -> SphKernel {
     let consts = c.wgsl();
+    let (porosity, binding) = porosity_wgsl(c);
+    let mut bindings = BINDINGS.to_vec();
+    bindings.extend(binding);
     SphKernel::new(
         gpu,
         label,
@@ -42,10 +46,11 @@ fn build(gpu: &Gpu, c: &SphConstants, label: &'static str, entry: &str) -> SphKe
             &consts,
             STEP_PARAMS_WGSL,
             library(TAIT_EOS_WGSL),
+            porosity,
             INTEGRATE_WGSL,
         ],
         entry,
-        &[(PARTICLES, BINDINGS), (PARAMS, &[(0, Access::Uniform)])],
+        &[(PARTICLES, &bindings), (PARAMS, &[(0, Access::Uniform)])],
         None,
     )
 }

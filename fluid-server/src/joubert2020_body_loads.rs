@@ -128,7 +128,7 @@ pub fn marker_load_cpu(
             }
             let r_ij = sub(set.pos[i], set.pos[j]);
             let g = c.kernel.grad(r_ij);
-            let v = c.mass / set.rho[j];
+            let v = set.mass[j] / set.rho[j];
             let du = sub(set.vel[j], set.vel[i]);
             for a in 0..3 {
                 for b in 0..3 {

@@ -206,7 +206,7 @@ fn one_boundary(
         }
         let r_wf = sub(set.pos[i], set.pos[j]);
         let r = dot(r_wf, r_wf).sqrt();
-        let v = c.mass / set.rho[j];
+        let v = set.mass[j] / set.rho[j];
         let vgw = r_wf.map(|x| v * c.kernel.grad_factor(r) * x);
         for a in 0..3 {
             for b in 0..3 {

@@ -148,7 +148,7 @@ pub fn b_matrix_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> (Mat3, boo
     for j in set.neighbours(i, c.support_radius()) {
         let r_ij = sub(set.pos[i], set.pos[j]);
         let g = c.kernel.grad(r_ij);
-        let v = c.mass / set.rho[j];
+        let v = set.mass[j] / set.rho[j];
         for (a, row) in m.iter_mut().enumerate() {
             for (b, x) in row.iter_mut().enumerate() {
                 *x -= v * g[a] * r_ij[b];
@@ -176,7 +176,7 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
                 let r_ij = sub(set.pos[i], set.pos[j]);
                 let r2 = dot(r_ij, r_ij);
                 let g = c.kernel.grad(r_ij);
-                let v = c.mass / set.rho[j];
+                let v = set.mass[j] / set.rho[j];
                 let df = [
                     set.vel[j][0] - set.vel[i][0],
                     set.vel[j][1] - set.vel[i][1],
@@ -246,7 +246,7 @@ pub fn laplacian_b_hat_cpu(
         // ∇W = F r_ij: F = (∇W)_k / r_k on any non-zero component.
         let g = c.kernel.grad(r_ij);
         let f = dot(g, r_ij) / (r * r);
-        let vf = c.mass / set.rho[j] * f;
+        let vf = set.mass[j] / set.rho[j] * f;
         let q = pairs(e);
         for a in 0..6 {
             for b2 in 0..6 {

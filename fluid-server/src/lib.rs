@@ -36,6 +36,7 @@ pub mod neighbour_count;
 pub mod particle_shifting;
 pub mod particles;
 pub mod plan;
+pub mod porosity;
 pub mod solver;
 pub mod sph_kernel;
 pub mod tait_eos;

@@ -41,8 +41,8 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
         let (rho_j, p_j) = (set.rho[j], set.press[j]);
         let u_ij = sub(set.vel[i], set.vel[j]);
         let mut add = match &b {
-            Some(b) => mat_vec(b, g).map(|x| -c.mass / (rho_i * rho_j) * (p_j - p_i) * x),
-            None => g.map(|x| -c.mass * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j)) * x),
+            Some(b) => mat_vec(b, g).map(|x| -set.mass[j] / (rho_i * rho_j) * (p_j - p_i) * x),
+            None => g.map(|x| -set.mass[j] * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j)) * x),
         };
         let wall = set.kinds.kind(set.id[j]) == Kind::Wall;
         let viscous = c.no_slip_walls || !wall;
@@ -54,7 +54,7 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
         if let (Some((_, bhat)), true) = (&lap, viscous) {
             let r = r2.sqrt();
             let e = r_ij.map(|x| x / r);
-            let v_j = c.mass / rho_j;
+            let v_j = set.mass[j] / rho_j;
             let vs = v_j * dot(e, mat_vec(bhat, g));
             for k in 0..3 {
                 lap_a[k] += vs / r * u_visc[k];
@@ -65,7 +65,8 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
             }
         } else if c.laminar && viscous {
             // Morris, Fox & Zhu (1997) eq. (8).
-            let f = c.mass * c.nu * (rho_i + rho_j) * dot(r_ij, g) / (rho_i * rho_j * (r2 + eta2));
+            let f =
+                set.mass[j] * c.nu * (rho_i + rho_j) * dot(r_ij, g) / (rho_i * rho_j * (r2 + eta2));
             for k in 0..3 {
                 add[k] += f * u_visc[k];
             }
@@ -77,7 +78,7 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
                 let mu_ij = c.kernel.h * vr / (r2 + eta2);
                 let pi_ij = -c.alpha * c.sound_speed * mu_ij / (0.5 * (rho_i + rho_j));
                 for k in 0..3 {
-                    add[k] += -c.mass * pi_ij * g[k];
+                    add[k] += -set.mass[j] * pi_ij * g[k];
                 }
             }
         }

@@ -7,6 +7,7 @@
 
 use crate::constants::SphConstants;
 use crate::error::FluidError;
+use crate::porosity::{PorosityField, Solid};
 use couplet_protocol::{InitialFlow, Scene, Shape, WallModel};
 
 /// A particle set in world coordinates (SI units), indexed by id: the initial state of
@@ -17,6 +18,9 @@ pub struct ParticleSet {
     pub vel: Vec<[f64; 3]>,
     pub rho: Vec<f64>,
     pub press: Vec<f64>,
+    /// Mass of each particle, kg: the lattice mass ρ0 δ³ ([`SphConstants::mass`]),
+    /// times the porosity of its starting point for fluid among unresolved grains.
+    pub mass: Vec<f64>,
     /// Original id of each entry (equal to the index for a fresh set; GPU readbacks are
     /// in sorted order).
     pub id: Vec<u32>,
@@ -363,8 +367,36 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
         .map(|r| c.pressure(*r))
         .chain(std::iter::repeat_n(0.0, n_wall))
         .collect();
+    // Among unresolved grains the fluid's density is superficial, ε ρ_f (Robinson §3.1):
+    // a particle of the lattice holds ε of the lattice mass, at its starting porosity
+    // (eq. 9), so that its volume m/ρ is still the lattice's δ³. The pressure above is
+    // the intrinsic one (eq. 15). Walls keep porosity 1.
+    let mut mass = vec![c.mass; n];
+    let solids: Vec<Solid> = (scene.grains().into_iter())
+        .filter_map(|i| match scene.bodies[i].shape {
+            Shape::Sphere { radius } => Some(Solid {
+                position: scene.bodies[i].position,
+                volume: 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3),
+            }),
+            _ => None,
+        })
+        .collect();
+    if !solids.is_empty() {
+        let eps = PorosityField::of_scene(c, scene).porosity(&pos[..n_fluid], &solids);
+        for (i, e) in eps.into_iter().enumerate() {
+            if !(e > 0.0) {
+                return Err(FluidError::Porosity {
+                    at: format!("fluid particle {i} at {:?} m (initial state)", pos[i]),
+                    porosity: e,
+                });
+            }
+            mass[i] *= e;
+            rho[i] *= e;
+        }
+    }
     Ok(ParticleSet {
         vel,
+        mass,
         id: (0..n as u32).collect(),
         pos,
         rho,

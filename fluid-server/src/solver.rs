@@ -188,7 +188,7 @@ struct Bound {
 pub struct SphData {
     pub kinds: ParticleKinds,
     pub n_total: u32,
-    /// vec4<f32>: xyz position relative to the solver origin, m.
+    /// vec4<f32>: xyz position relative to the solver origin, m; w the particle's mass, kg.
     pub pos: wgpu::Buffer,
     /// vec4<f32>: xyz velocity, m/s.
     pub vel: wgpu::Buffer,
@@ -219,6 +219,9 @@ pub struct SphData {
     /// [`joubert2020_boundary_values::wall_frames`], then the markers', rewritten by
     /// every [`FluidSolver::set_bodies`]), only with `domain.wall_model = "joubert"`.
     pub boundary_frame: Option<wgpu::Buffer>,
+    /// The grains' solid fraction per particle (u32 counts of 2^-31, permuted; Robinson
+    /// eq. 9), in scenes with grains.
+    pub solid: Option<wgpu::Buffer>,
     /// The grains' reaction per particle (permuted), with two-way grains.
     pub reaction: Option<crate::unresolved_coupling::ReactionBuffers>,
     bound: Bound,
@@ -285,6 +288,7 @@ impl SphData {
             ("vel", set.vel.len()),
             ("rho", set.rho.len()),
             ("press", set.press.len()),
+            ("mass", set.mass.len()),
             ("id", set.id.len()),
         ] {
             if got != n {
@@ -312,7 +316,11 @@ impl SphData {
             });
         }
         let f32s = |v: &[f64]| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
-        let pos = storage_init(gpu, "sph: pos", bytemuck::cast_slice(&vec4s(&set.pos)));
+        // pos.w carries the particle's mass.
+        let pos_mass: Vec<[f32; 4]> = (set.pos.iter().zip(&set.mass))
+            .map(|(p, m)| [p[0] as f32, p[1] as f32, p[2] as f32, *m as f32])
+            .collect();
+        let pos = storage_init(gpu, "sph: pos", bytemuck::cast_slice(&pos_mass));
         let vel = storage_init(gpu, "sph: vel", bytemuck::cast_slice(&vec4s(&set.vel)));
         let rho = storage_init(gpu, "sph: rho", bytemuck::cast_slice(&f32s(&set.rho)));
         let press = storage_init(gpu, "sph: press", bytemuck::cast_slice(&f32s(&set.press)));
@@ -350,9 +358,14 @@ impl SphData {
         grid.register(gpu, &rho, 4)?;
         grid.register(gpu, &press, 4)?;
         grid.register_ids(gpu, &id)?;
-        if c.grains {
-            // Grains are sampled after a sort, from the rates of the step before it.
+        let solid = c
+            .grains
+            .then(|| storage_init(gpu, "sph: grain solid fraction", &zeros4));
+        if let Some(s) = &solid {
+            // Grains are sampled after a sort, from the rates of the step before it; the
+            // porosity is set once per window.
             grid.register(gpu, &dvel, 16)?;
+            grid.register(gpu, s, 4)?;
         }
         let reaction = c
             .grain_reaction
@@ -421,6 +434,7 @@ impl SphData {
                     pb::WALL_VEL => wall_vel.as_ref()?,
                     pb::BOUNDARY_FRAME => boundary_frame.as_ref()?,
                     pb::BHAT => gradients.as_ref()?.bhat.as_ref()?,
+                    pb::SOLID => solid.as_ref()?,
                     pb::REACTION_LO => &reaction.as_ref()?.lo,
                     pb::REACTION_HI => &reaction.as_ref()?.hi,
                     _ => return None,
@@ -548,6 +562,7 @@ impl SphData {
             gradients,
             wall_vel,
             boundary_frame,
+            solid,
             reaction,
             bound,
         })
@@ -641,6 +656,7 @@ impl SphData {
             vel: vel.iter().map(v3).collect(),
             rho: rho.iter().map(|x| f64::from(*x)).collect(),
             press: press.iter().map(|x| f64::from(*x)).collect(),
+            mass: pos.iter().map(|p| f64::from(p[3])).collect(),
             id,
             kinds: self.kinds,
         })
@@ -1089,6 +1105,7 @@ impl FluidSolver {
                 .push(std::array::from_fn(|a| f64::from(m.vel_body[a])));
             set.rho.push(self.consts.rho0);
             set.press.push(0.0);
+            set.mass.push(self.consts.mass);
             set.id.push(marker_base + k as u32);
         }
         set.kinds.n_markers = points.len();
@@ -1487,6 +1504,7 @@ fn carve_out_bodies(
         vel: Vec::with_capacity(n),
         rho: Vec::with_capacity(n),
         press: Vec::with_capacity(n),
+        mass: Vec::with_capacity(n),
         id: Vec::with_capacity(n),
         kinds: set.kinds,
     };
@@ -1500,6 +1518,7 @@ fn carve_out_bodies(
         out.pos.push(set.pos[i]);
         out.vel.push(set.vel[i]);
         out.rho.push(set.rho[i]);
+        out.mass.push(set.mass[i]);
         out.press.push(set.press[i]);
     }
     out.kinds.n_fluid -= dropped;
@@ -1559,6 +1578,7 @@ mod carve_out_tests {
             vel: vec![[0.0; 3]; n],
             rho: vec![1000.0; n],
             press: vec![0.0; n],
+            mass: vec![1.0; n],
             id: (0..n as u32).rev().collect(), // buffer order differs from id order
             pos: {
                 let mut p = pos.clone();

@@ -57,6 +57,9 @@ pub mod particle_binding {
     /// (`grain_reaction.wgsl`); only with `coupling.two_way` grains.
     pub const REACTION_LO: u32 = 14;
     pub const REACTION_HI: u32 = 15;
+    /// The grains' solid fraction at each particle (Robinson eq. 9), u32 counts of
+    /// 2^-31, permuted by the sort (`grain_porosity.wgsl`); only in scenes with grains.
+    pub const SOLID: u32 = 16;
 }
 
 /// Bodies and markers, group 2.

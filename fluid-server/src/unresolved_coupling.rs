@@ -25,6 +25,7 @@ use crate::gpu::{Gpu, GpuError};
 use crate::kernel::KERNEL_WGSL;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet};
+use crate::porosity::{PorosityField, Solid, solid_fraction_kernel};
 use crate::solver::{Op, SphData};
 use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 use couplet_protocol::{BodyLoad, BodyState, Scene, Shape};
@@ -425,12 +426,12 @@ pub fn sample_grains_cpu(
                     continue;
                 }
                 let w = c.kernel.w(r2.sqrt());
-                let vw = c.mass / set.rho[b] * w;
+                let vw = set.mass[b] / set.rho[b] * w;
                 s += vw;
                 for k in 0..3 {
                     u[k] += vw * set.vel[b][k];
                     // Robinson eq. (24).
-                    t[k] += c.mass * w * (dvel[b][k] - g_fluid[k]);
+                    t[k] += set.mass[b] * w * (dvel[b][k] - g_fluid[k]);
                 }
             }
             if s == 0.0 {
@@ -461,6 +462,10 @@ pub fn sample_grains_cpu(
 /// indices and diameters, the compiled kernel and its buffers.
 pub struct GrainCoupling {
     kernel: SphKernel,
+    /// `grain_solid_fraction` (Robinson eq. 9 at the fluid particles).
+    solid: SphKernel,
+    /// Robinson eq. (9) at the grains, on the CPU.
+    field: PorosityField,
     /// `spread_grain_reaction`, with `coupling.two_way`.
     spread: Option<SphKernel>,
     buffers: GrainBuffers,
@@ -498,6 +503,8 @@ impl GrainCoupling {
             .collect();
         Some(GrainCoupling {
             kernel: kernel(gpu, c, scene.coupling.drag.into(), grid_layout),
+            solid: solid_fraction_kernel(gpu, c, grid_layout),
+            field: PorosityField::of_scene(c, scene),
             spread: c.grain_reaction.then(|| spread_kernel(gpu, c, grid_layout)),
             buffers: GrainBuffers::new(gpu, &grains),
             bodies: bodies.into_iter().map(|i| i as u32).collect(),
@@ -508,7 +515,9 @@ impl GrainCoupling {
     /// The fluid's force on every grain at the bodies' `states` (world frame; `origin`
     /// is the solver's), as one load per grain, zero moment (a sphere's drag has none at
     /// its centre), and the samples they came from. The particles are sorted first, so
-    /// that the grid is exact. Porosity 1 (see [`Scene::warnings`]).
+    /// that the grid is exact. The porosity of Robinson eq. (9) is set at the grains (on
+    /// the CPU, for their drag) and at the fluid particles (on the GPU, for the EOS of
+    /// the window, Robinson eq. 15, whose pressures are recomputed at once).
     pub fn sample(
         &self,
         gpu: &Gpu,
@@ -516,15 +525,29 @@ impl GrainCoupling {
         origin: [f64; 3],
         states: &[BodyState],
     ) -> Result<(Vec<BodyLoad>, Vec<GrainSample>), FluidError> {
-        let grains: Vec<Grain> = (self.bodies.iter().zip(&self.diameters))
-            .map(|(&b, &d)| {
+        let solids: Vec<Solid> = (self.bodies.iter())
+            .map(|&b| Solid {
+                position: states[b as usize].position,
+                volume: states[b as usize].volume,
+            })
+            .collect();
+        let centres: Vec<[f64; 3]> = solids.iter().map(|s| s.position).collect();
+        let porosity = self.field.porosity(&centres, &solids);
+        if let Some((i, &e)) = (porosity.iter().enumerate()).find(|(_, e)| !(**e > 0.0)) {
+            return Err(FluidError::Porosity {
+                at: format!("grain body {} at {:?} m", self.bodies[i], centres[i]),
+                porosity: e,
+            });
+        }
+        let grains: Vec<Grain> = (self.bodies.iter().zip(&self.diameters).zip(&porosity))
+            .map(|((&b, &d), &e)| {
                 let s = &states[b as usize];
                 Grain {
                     position: std::array::from_fn(|k| s.position[k] - origin[k]),
                     velocity: s.linear_velocity,
                     volume: s.volume,
                     diameter: d,
-                    porosity: 1.0,
+                    porosity: e,
                 }
             })
             .collect();
@@ -554,15 +577,44 @@ impl GrainCoupling {
                 step: 0,
                 message: "internal: a binding of sample_grains is missing".into(),
             })?;
+        let solid_buffer = data.solid.as_ref().ok_or_else(|| FluidError::Grid {
+            step: 0,
+            message: "internal: a scene with grains has no solid-fraction buffer".into(),
+        })?;
+        let solid = self
+            .solid
+            .bind(
+                gpu,
+                |g, b| match g {
+                    PARTICLES => match b {
+                        pb::POS => Some(&data.pos),
+                        pb::ID => Some(&data.id),
+                        pb::SOLID => Some(solid_buffer),
+                        _ => None,
+                    },
+                    BODIES => self.buffers.binding(b),
+                    PARAMS => Some(&data.params),
+                    _ => None,
+                },
+                Some(data.grid.bind_group()),
+            )
+            .ok_or_else(|| FluidError::Grid {
+                step: 0,
+                message: "internal: a binding of grain_solid_fraction is missing".into(),
+            })?;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         data.queue_op(gpu, &mut encoder, None, Op::Sort);
+        encoder.clear_buffer(solid_buffer, 0, None);
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("sph: sample_grains"),
                 timestamp_writes: None,
             });
             bound.dispatch(&mut pass, self.buffers.count);
+            solid.dispatch(&mut pass, self.buffers.count);
         }
+        // The window's pressures at the new porosity (Robinson eq. 15).
+        data.queue_op(gpu, &mut encoder, None, Op::TaitEos);
         gpu.queue.submit([encoder.finish()]);
         let samples = self.buffers.read(gpu)?;
         let loads = (self.bodies.iter().zip(&samples))

@@ -131,6 +131,7 @@ fn corrected_gradient_of_linear_fields_is_exact_at_walls_corners_and_free_surfac
             set.pos.push(x);
             set.vel.push(u);
             set.rho.push(rho);
+            set.mass.push(c.mass);
             set.press.push(c.pressure(rho));
             set.id.push(set.id.len() as u32);
         };
@@ -277,6 +278,7 @@ fn near_singular_count_is_reported_per_window() {
         set.pos.push(x);
         set.vel.push([0.0; 3]);
         set.rho.push(c.rho0);
+        set.mass.push(c.mass);
         set.press.push(0.0);
         set.id.push(k as u32);
     }
@@ -342,6 +344,7 @@ fn corrected_laplacian_of_a_quadratic_field_is_exact_at_free_surfaces_and_corner
                 d * r[0] * r[0] + e * r[1] * r[2],
             ]);
             set.rho.push(c.rho0);
+            set.mass.push(c.mass);
             set.press.push(0.0);
             set.id.push(k as u32);
         }
@@ -455,6 +458,7 @@ fn mass_correction_vanishes_for_linear_pressure_and_damps_checkerboard_noise() {
             let pk = p(l, x.map(|v| v - centre));
             set.press.push(pk);
             set.rho.push(if eos { c.density(pk) } else { c.rho0 });
+            set.mass.push(c.mass);
             set.pos.push(x);
             set.vel.push([0.0; 3]);
             set.id.push(k as u32);

@@ -263,6 +263,7 @@ fn pressure_gradient_of_linear_field_and_translation() {
             set.pos.push(p);
             set.vel.push(u);
             set.rho.push(rho);
+            set.mass.push(c.mass);
             set.press.push(c.pressure(rho));
             set.id.push(k as u32);
         }

@@ -582,9 +582,9 @@ pub enum CouplingMode {
     Resolved,
     /// Unresolved grain, smaller than the fluid spacing (Robinson §3.3): the fluid's
     /// force on it is sampled at its centre (interpolated velocity, pressure and viscous
-    /// force, and the drag law of `coupling.drag`); with `coupling.two_way` the fluid
-    /// receives the opposite force. Spheres only. The porosity is 1 so far (Robinson
-    /// eqs. 9–15 are not built): valid for dilute grains.
+    /// force, and the drag law of `coupling.drag`) at the porosity of Robinson eq. (9);
+    /// the fluid's density is superficial (ε ρ_f, eqs. 10–15), and with
+    /// `coupling.two_way` the fluid receives the opposite force. Spheres only.
     Unresolved,
     /// The fluid does not see the body.
     None,
@@ -880,8 +880,10 @@ impl Scene {
         let mut w = Vec::new();
         if self.bodies.iter().any(|b| self.is_grain(b)) {
             w.push(
-                "unresolved grains see porosity 1 and the fluid is not scaled by porosity \
-                 (Robinson eqs. 9–15 are not implemented): valid only for dilute grains"
+                "unresolved grains: the fluid's smoothing length is fixed (Robinson's variable h, \
+                 eq. 19, is not implemented), so where the porosity is ε a fluid particle has \
+                 about ε times its neighbours; and wall particles take porosity 1, so keep \
+                 grains a kernel support away from walls"
                     .into(),
             );
             if !self.coupling.two_way {
@@ -1453,7 +1455,7 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         assert_eq!(s.grains(), vec![0]);
         assert!(s.exchanges_loads() && !s.has_resolved_bodies());
         assert!(s.coupling.two_way, "two-way by default");
-        assert!(s.warnings().iter().any(|w| w.contains("porosity 1")));
+        assert!(s.warnings().iter().any(|w| w.contains("variable h")));
         assert!(!s.warnings().iter().any(|w| w.contains("two_way")));
         let one_way = Scene::parse(
             &format!("{MINIMAL}{}", grain("shape.sphere.radius = 0.01", ""))

@@ -78,6 +78,7 @@ pub fn random_set(
         set.vel.push(u);
         let rho = c.rho0 * (1.0 + 0.02 * (rng.random::<f64>() - 0.5));
         set.rho.push(rho);
+        set.mass.push(c.mass);
         set.press.push(c.pressure(rho));
         set.id.push(i as u32);
     }

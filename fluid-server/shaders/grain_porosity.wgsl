@@ -1,0 +1,48 @@
+// ---- grain_porosity.wgsl: the grains' solid fraction at each fluid particle, Robinson
+// eq. (9) (CPU twin: porosity.rs) ----
+// grain_solid_fraction: one thread per grain j, at a window's start after the sort. To
+// each fluid particle a within the support it adds V_j W_aj, in counts of SOLID_UNIT
+// (2^-31: a solid fraction up to 2 fits a u32; integer adds commute, so the sums are
+// exact and independent of thread order). porosity(a) = 1 − the sum
+// (grain_porosity_read.wgsl), held over the window.
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel.
+
+@group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> id: array<u32>;
+// Solid fraction per particle, counts of SOLID_UNIT, permuted with the particles.
+@group(0) @binding(16) var<storage, read_write> solid: array<atomic<u32>>;
+// Per grain: xyz position relative to the solver origin, w volume V (m³).
+@group(2) @binding(7) var<storage, read> grain_pos: array<vec4<f32>>;
+
+const SOLID_COUNTS: f32 = 2147483648.0;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn grain_solid_fraction(@builtin(workgroup_id) wid: vec3<u32>,
+                        @builtin(local_invocation_index) lid: u32,
+                        @builtin(num_workgroups) nwg: vec3<u32>) {
+    let g = linear_id(wid, lid, nwg);
+    if g >= arrayLength(&grain_pos) {
+        return;
+    }
+    let p = grain_pos[g].xyz;
+    let v = grain_pos[g].w;
+    let c = cell_coord(p);
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
+            let rs = row_ranges(c, dy, dz);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let a = row_slot(rs, k);
+                if !is_fluid(id[a]) {
+                    continue;
+                }
+                let r = pair_vec(p, pos[a].xyz);
+                let r2 = dot(r, r);
+                if r2 >= SUPPORT_RADIUS2 {
+                    continue;
+                }
+                // Robinson eq. (9).
+                atomicAdd(&solid[a], u32(round(v * kernel_w(sqrt(r2)) * SOLID_COUNTS)));
+            }
+        }
+    }
+}
