@@ -168,6 +168,11 @@ pub struct SoftSphereEngine {
     impact_speed: f64,
     /// Hertz: dimensionless undamped contact duration (≈ 3.218).
     hertz_tau: f64,
+    /// Members of each translation group (`bodies[i].translation_group`): they share one
+    /// acceleration and never rotate.
+    groups: Vec<Vec<usize>>,
+    /// Whether body i belongs to a translation group.
+    grouped: Vec<bool>,
     time: f64,
     steps: u64,
 }
@@ -334,6 +339,8 @@ impl SoftSphereEngine {
             impact_speed: 0.0,
             hertz_tau: 0.0,
             radius,
+            groups: Vec::new(),
+            grouped: vec![false; n],
             time: 0.0,
             steps: 0,
         };
@@ -367,6 +374,21 @@ impl SoftSphereEngine {
             } else {
                 1.0
             });
+        }
+        let mut names: Vec<&str> = Vec::new();
+        for (i, b) in scene.bodies.iter().enumerate() {
+            if let Some(g) = &b.translation_group {
+                let k = match names.iter().position(|n| n == g) {
+                    Some(k) => k,
+                    None => {
+                        names.push(g);
+                        e.groups.push(Vec::new());
+                        names.len() - 1
+                    }
+                };
+                e.groups[k].push(i);
+                e.grouped[i] = true;
+            }
         }
         e.predict(0.0);
         e.compute_forces(0.0);
@@ -598,9 +620,25 @@ impl SoftSphereEngine {
     }
 
     fn kick_into(&self, v: &mut [[f64; 3]], w: &mut [[f64; 3]], half_dt: f64) {
+        // A translation group: Σ F / Σ m for every member, no rotation.
+        for members in &self.groups {
+            let (mut f, mut m) = ([0.0; 3], 0.0);
+            for &i in members {
+                let force = add(self.contact_force[i], self.fluid_force[i]);
+                for k in 0..3 {
+                    f[k] += force[k] + self.mass[i] * self.gravity[k] * self.gravity_scale[i];
+                }
+                m += self.mass[i];
+            }
+            for &i in members {
+                for k in 0..3 {
+                    v[i][k] += f[k] / m * half_dt;
+                }
+            }
+        }
         for i in 0..self.x.len() {
             let (im, ii) = (self.inv_mass[i], self.inv_inertia[i]);
-            if im == 0.0 {
+            if im == 0.0 || self.grouped[i] {
                 continue;
             }
             let force = add(self.contact_force[i], self.fluid_force[i]);

@@ -382,3 +382,50 @@ fn lubrication_stops_an_approach_at_the_analytic_gap() {
         s[0].linear_velocity
     );
 }
+
+/// A translation group (`bodies[i].translation_group`, Robinson §4's rigid block) moves
+/// as one body that does not rotate: a fluid force on one member of two equal spheres
+/// (m = ρ 4/3 π r³) gives both the acceleration F/(2m) + g, and a moment on it spins
+/// neither. Reference: Newton's second law for the group's total mass; after 0.1 s,
+/// Δv = (F/(2m) − g) t on both to 1e-9 relative, the positions 0.3 m apart, ω = 0.
+#[test]
+fn translation_group_moves_as_one_body() {
+    let body = |name, x: f64| {
+        sphere(
+            name,
+            0.05,
+            1000.0,
+            [x, 0.5, 0.5],
+            "translation_group = \"block\"",
+        )
+    };
+    let mut e = engine(
+        "contact = \"linear\"\nstiffness = 1e4",
+        &format!("{}{}", body("a", 0.3), body("b", 0.6)),
+    );
+    let m = 1000.0 * 4.0 / 3.0 * std::f64::consts::PI * 0.05f64.powi(3);
+    let f = 3.0 * m * G; // up, on body a only
+    run(
+        &mut *e,
+        0.1,
+        &[BodyLoad {
+            force: [0.0, f, 0.0],
+            body: 0,
+            _pad: 0,
+            moment: [0.0, 0.0, 1.0],
+        }],
+    );
+    let s = states(&*e);
+    let want = (f / (2.0 * m) - G) * 0.1;
+    for b in &s {
+        assert!(
+            (b.linear_velocity[1] - want).abs() < 1e-9 * want.abs(),
+            "{}: v_y {} vs {want}",
+            b.body,
+            b.linear_velocity[1]
+        );
+        assert_eq!(b.angular_velocity, [0.0; 3], "a group member rotated");
+    }
+    assert!((s[1].position[0] - s[0].position[0] - 0.3).abs() < 1e-12);
+    assert!((s[1].position[1] - s[0].position[1]).abs() < 1e-12);
+}

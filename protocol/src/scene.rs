@@ -47,8 +47,75 @@ pub struct Scene {
     pub dem: DemSpec,
     #[serde(default)]
     pub bodies: Vec<BodySpec>,
+    /// `[[grain_lattices]]`: blocks of unresolved grains on a cubic lattice, appended to
+    /// `bodies` when the scene is read (see [`GrainLattice`]).
+    #[serde(default)]
+    pub grain_lattices: Vec<GrainLattice>,
     #[serde(default)]
     pub coupling: CouplingSpec,
+}
+
+/// `[[grain_lattices]]`: unresolved spherical grains on a simple cubic lattice filling a
+/// box, as Robinson §4 sets up the constant-porosity block and the Rayleigh–Taylor
+/// layer. The lattice spacing is `Δr = (V/(1 − ε))^(1/3)` for the grains' volume V and
+/// the block's `porosity` ε (Robinson §4); the grains sit at `min + (i + ½) Δr` for
+/// every i whose grain fits inside `max`. On reading, each grain becomes a body named
+/// `NAME[i]` (`coupling = "unresolved"`, dynamic), after the scene's own `[[bodies]]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GrainLattice {
+    pub name: String,
+    /// The block's lower and upper corners, m. To fill a periodic axis evenly, make the
+    /// span a whole number of Δr.
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+    /// Grain radius, m.
+    pub radius: f64,
+    /// Grain density, kg/m³.
+    pub density: f64,
+    /// The block's porosity ε, 0 < ε < 1; sets the spacing.
+    pub porosity: f64,
+    /// The grains translate as one body, without rotating (Robinson §4: "the DEM
+    /// particles are restricted from moving relative to each other and the layer of
+    /// particles falls as a block"): their `translation_group` is the lattice's name.
+    /// Default false (free grains, Robinson §7).
+    #[serde(default)]
+    pub rigid: bool,
+    /// Coulomb friction of the grains' contacts. Default 0.5, as for bodies.
+    #[serde(default = "default_friction")]
+    pub friction: f64,
+    /// Restitution of the grains' contacts. Default 0, as for bodies.
+    #[serde(default)]
+    pub restitution: f64,
+}
+
+impl GrainLattice {
+    /// Lattice spacing Δr = (V/(1 − ε))^(1/3), m (Robinson §4).
+    pub fn spacing(&self) -> f64 {
+        let v = 4.0 / 3.0 * std::f64::consts::PI * self.radius.powi(3);
+        (v / (1.0 - self.porosity)).cbrt()
+    }
+
+    /// Grain centres, x fastest.
+    pub fn centres(&self) -> Vec<[f64; 3]> {
+        let dr = self.spacing();
+        // A grain fits when its lattice cell does, up to round-off in the span.
+        let n: [usize; 3] = std::array::from_fn(|k| {
+            ((self.max[k] - self.min[k]) / dr * (1.0 + 1e-9)).floor() as usize
+        });
+        let mut out = Vec::with_capacity(n[0] * n[1] * n[2]);
+        for z in 0..n[2] {
+            for y in 0..n[1] {
+                for x in 0..n[0] {
+                    let i = [x, y, z];
+                    out.push(std::array::from_fn(|k| {
+                        self.min[k] + (i[k] as f64 + 0.5) * dr
+                    }));
+                }
+            }
+        }
+        out
+    }
 }
 
 /// `[meta]`: what the scene is and where it comes from.
@@ -621,6 +688,12 @@ pub struct BodySpec {
     /// Coefficient of restitution of contacts. Default 0 (rapier's default).
     #[serde(default)]
     pub restitution: f64,
+    /// Bodies that share a translation group move as one rigid body that does not rotate:
+    /// each takes the group's acceleration, the sum of its members' forces (contacts,
+    /// fluid, weight) over the sum of their masses. Dynamic spheres of the `soft-sphere`
+    /// engine only. Default none.
+    #[serde(default)]
+    pub translation_group: Option<String>,
 }
 
 fn default_motion() -> Motion {
@@ -820,8 +893,65 @@ impl Scene {
                 message: e.message().to_owned(),
             }
         })?;
+        let mut scene = scene;
+        scene.expand_grain_lattices(file)?;
         scene.check(file)?;
         Ok(scene)
+    }
+
+    /// Appends each `[[grain_lattices]]` block's grains to `bodies`.
+    fn expand_grain_lattices(&mut self, file: &Path) -> Result<(), SceneError> {
+        for (l, g) in self.grain_lattices.iter().enumerate() {
+            let bad = |field: &str, value: String, why: &str| SceneError::Invalid {
+                file: file.to_owned(),
+                field: format!("grain_lattices[{l}].{field}"),
+                value,
+                why: why.to_owned(),
+            };
+            if !(g.porosity > 0.0 && g.porosity < 1.0) {
+                return Err(bad(
+                    "porosity",
+                    g.porosity.to_string(),
+                    "must lie strictly between 0 and 1 (it sets the spacing (V/(1 − ε))^(1/3))",
+                ));
+            }
+            if !(g.radius.is_finite() && g.radius > 0.0) {
+                return Err(bad(
+                    "radius",
+                    g.radius.to_string(),
+                    "must be a positive finite number",
+                ));
+            }
+            let centres = g.centres();
+            if centres.is_empty() {
+                return Err(bad(
+                    "max",
+                    format!("{:?}", g.max),
+                    &format!(
+                        "the block from min {:?} holds no lattice cell of Δr = {:.6e} m",
+                        g.min,
+                        g.spacing()
+                    ),
+                ));
+            }
+            for (i, c) in centres.into_iter().enumerate() {
+                self.bodies.push(BodySpec {
+                    name: format!("{}[{i}]", g.name),
+                    shape: Shape::Sphere { radius: g.radius },
+                    density: g.density,
+                    position: c,
+                    rotation: [0.0; 3],
+                    velocity: [0.0; 3],
+                    angular_velocity: [0.0; 3],
+                    motion: Motion::Dynamic,
+                    coupling: CouplingMode::Unresolved,
+                    friction: g.friction,
+                    restitution: g.restitution,
+                    translation_group: g.rigid.then(|| g.name.clone()),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Bodies that move (dynamic or kinematic).
@@ -1292,6 +1422,17 @@ impl Scene {
             );
         }
         for (i, b) in self.bodies.iter().enumerate() {
+            if b.translation_group.is_some()
+                && (self.dem.engine != "soft-sphere"
+                    || b.motion != Motion::Dynamic
+                    || !matches!(b.shape, Shape::Sphere { .. }))
+            {
+                return bad(
+                    format!("bodies[{i}].translation_group"),
+                    format!("{:?}", b.translation_group),
+                    "takes dynamic spheres on dem.engine = \"soft-sphere\" only",
+                );
+            }
             pos(&format!("bodies[{i}].density"), b.density)?;
             let ok = match &b.shape {
                 Shape::Sphere { radius } => *radius > 0.0,
@@ -1428,6 +1569,63 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
             }
             other => panic!("{other}"),
         }
+    }
+
+    /// `[[grain_lattices]]` expands into bodies on the lattice of Robinson §4: spacing
+    /// Δr = (V/(1 − ε))^(1/3) (for r = 0.05 and ε = 0.8: 0.13783 m), the grains that fit
+    /// the block, named `NAME[i]`, unresolved, in a translation group when rigid; a
+    /// porosity outside (0, 1) and a translation group on rapier are refused.
+    #[test]
+    fn grain_lattices_expand_into_grains() {
+        let lattice = |extra: &str| {
+            format!(
+                "{MINIMAL}[dem]\nengine = \"soft-sphere\"\n[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1.0\n\
+                 [[grain_lattices]]\nname = \"block\"\nmin = [0.1, 0.5, 0.1]\nmax = [0.9, 0.9, 0.9]\n\
+                 radius = 0.05\ndensity = 2500.0\n{extra}\n"
+            )
+        };
+        let s = Scene::parse(
+            &lattice("porosity = 0.8\nrigid = true"),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        let dr = s.grain_lattices[0].spacing();
+        let v = 4.0 / 3.0 * std::f64::consts::PI * 0.05f64.powi(3);
+        assert!((dr - (v / 0.2f64).cbrt()).abs() < 1e-15 && (dr - 0.13783).abs() < 1e-5);
+        // 0.8 / Δr = 5.8 cells across, 0.4 / Δr = 2.9 up: 5 × 2 × 5.
+        assert_eq!(s.bodies.len(), 50);
+        let b = &s.bodies[7];
+        assert_eq!(b.name, "block[7]");
+        assert_eq!(b.coupling, CouplingMode::Unresolved);
+        assert_eq!(b.translation_group.as_deref(), Some("block"));
+        assert!(
+            (b.position[0] - (0.1 + 2.5 * dr)).abs() < 1e-12,
+            "{:?}",
+            b.position
+        );
+        assert!(
+            (b.position[2] - (0.1 + 0.5 * dr)).abs() < 1e-12,
+            "{:?}",
+            b.position
+        );
+        let e = Scene::parse(&lattice("porosity = 1.0"), Path::new("t.toml"))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("grain_lattices[0].porosity"), "{e}");
+        let e = Scene::parse(
+            &lattice("porosity = 0.8\nrigid = true")
+                .replace("\"soft-sphere\"", "\"rapier\"")
+                .replace(
+                    "[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1.0\n",
+                    "",
+                ),
+            Path::new("t.toml"),
+        )
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+        assert!(e.contains("translation_group"), "{e}");
     }
 
     /// Unresolved grains: spheres, dynamic, in a scene with a fluid; the drag law
