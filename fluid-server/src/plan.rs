@@ -274,7 +274,7 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(
             SAMPLE_GRAINS,
             format!(
-                "{grains} unresolved grain(s), once per window at its start: Shepard-interpolated u_f and V(−∇P + ∇·τ) (Robinson eqs. 8, 23–25), drag {law} at porosity 1"
+                "{grains} unresolved grain(s), once per window at its start: Shepard-interpolated u_f and V(−∇P + ∇·τ) (Robinson eqs. 8, 23–25), drag {law} at the grain's porosity (Robinson eq. 9, on the CPU); the fluid's porosity (eq. 9, grain_solid_fraction) scales its equation of state (eq. 15)"
             ),
         );
         if scene.coupling.two_way {

@@ -45,10 +45,17 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
             .filter(|b| !scene.is_fluid_obstacle(b))
             .map(|b| b.name.as_str())
             .collect();
+        // A grain lattice makes thousands of bodies: name the first few.
+        let listed = if movers.len() > 8 {
+            format!("{:?} … and {} more", &movers[..6], movers.len() - 6)
+        } else {
+            format!("{movers:?}")
+        };
         let _ = writeln!(
             w,
-            "  dem-server:   yes — engine `{}` for bodies {movers:?}",
-            scene.dem.engine
+            "  dem-server:   yes — engine `{}` for {} bodies {listed}",
+            scene.dem.engine,
+            movers.len()
         );
     } else {
         let _ = writeln!(w, "  dem-server:   no — no body moves or needs markers");

@@ -298,6 +298,8 @@ fn drive(
     let run_start = Instant::now();
     let (mut fluid_compute, mut dem_compute, mut exchange, mut window_wall) = (0.0, 0.0, 0.0, 0.0);
     let mut last_states: Vec<BodyState> = Vec::new();
+    // The first window's states are recorded: the start of every track.
+    let mut next_body_record = 0.0;
 
     for step in 0..windows {
         let time = step as f64 * plan.window;
@@ -367,7 +369,20 @@ fn drive(
             summary.near_singular += u64::from(r.near_singular);
         }
 
-        // Drain what crossed this window; record it.
+        // Drain what crossed this window; record it (bodies and loads every window, or
+        // at `time.body_output_interval`).
+        let record_bodies = match scene.time.body_output_interval {
+            Some(interval) if end + 1e-9 * interval < next_body_record && step + 1 < windows => {
+                false
+            }
+            Some(interval) => {
+                while next_body_record <= end + 1e-9 * interval {
+                    next_body_record += interval;
+                }
+                true
+            }
+            None => true,
+        };
         while let Some(s) = p.bodies_rx.try_latest()? {
             last_states.clear();
             last_states.extend_from_slice(s.payload());
@@ -375,12 +390,12 @@ fn drive(
             if let Some(b) = last_states.first() {
                 summary.body0_track.push((t, b.position, b.linear_velocity));
             }
-            if let Some(r) = recorder.as_ref() {
+            if let Some(r) = recorder.as_ref().filter(|_| record_bodies) {
                 r.bodies(t, &last_states);
             }
         }
         if let Some(s) = p.loads_rx.try_latest()? {
-            if let Some(r) = recorder.as_ref() {
+            if let Some(r) = recorder.as_ref().filter(|_| record_bodies) {
                 r.loads(time, s.payload());
             }
         }

@@ -138,8 +138,13 @@ pub struct TimeSpec {
     /// Simulated end time, s.
     pub end: f64,
     /// Interval between recorded fluid snapshots, s. Body states and loads are
-    /// recorded every coupling window.
+    /// recorded every coupling window unless `body_output_interval` says otherwise.
     pub output_interval: f64,
+    /// Interval between recorded body states and loads, s. Default: every coupling
+    /// window. Set it for scenes with many grains, whose states cost some 300 bytes per
+    /// body and window in the recording.
+    #[serde(default)]
+    pub body_output_interval: Option<f64>,
     /// Stability factor `s` of Joubert eq. (24). Default 0.2: the paper keeps it in
     /// 0.1–0.2; 0.2 is also the usual acoustic CFL of Wendland WCSPH with a
     /// predictor–corrector.
@@ -1172,6 +1177,9 @@ impl Scene {
         };
         pos("time.end", self.time.end)?;
         pos("time.output_interval", self.time.output_interval)?;
+        if let Some(i) = self.time.body_output_interval {
+            pos("time.body_output_interval", i)?;
+        }
         if !(self.time.cfl > 0.0 && self.time.cfl <= 1.0) {
             return bad(
                 "time.cfl".into(),
