@@ -264,7 +264,8 @@ fn vec4s(v: &[[f64; 3]]) -> Vec<[f32; 4]> {
         .collect()
 }
 
-fn missing(what: &str) -> FluidError {
+/// An internal error: a kernel's binding has no buffer.
+pub(crate) fn missing(what: &str) -> FluidError {
     FluidError::Grid {
         step: 0,
         message: format!("internal: kernel binding for {what} is missing"),

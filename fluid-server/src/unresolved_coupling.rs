@@ -26,7 +26,7 @@ use crate::kernel::KERNEL_WGSL;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet};
 use crate::porosity::{PorosityField, Solid, solid_fraction_kernel};
-use crate::solver::{Op, SphData};
+use crate::solver::{Op, SphData, missing};
 use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 use couplet_protocol::{BodyLoad, BodyState, Scene, Shape};
 use wgpu::util::DeviceExt;
@@ -275,6 +275,29 @@ pub struct ReactionBuffers {
     pub hi: wgpu::Buffer,
 }
 
+/// The grains as the buffers hold them: (position, V), (velocity, d) and ε.
+#[allow(clippy::type_complexity)]
+fn pack(grains: &[Grain]) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<f32>) {
+    let f = |x: f64| x as f32;
+    let pos = (grains.iter())
+        .map(|g| g.position.map(f))
+        .zip(grains)
+        .map(|(p, g)| [p[0], p[1], p[2], f(g.volume)])
+        .collect();
+    let vel = (grains.iter())
+        .map(|g| {
+            [
+                f(g.velocity[0]),
+                f(g.velocity[1]),
+                f(g.velocity[2]),
+                f(g.diameter),
+            ]
+        })
+        .collect();
+    let eps = grains.iter().map(|g| f(g.porosity)).collect();
+    (pos, vel, eps)
+}
+
 /// The grain buffers of group 2.
 pub struct GrainBuffers {
     pub pos: wgpu::Buffer,
@@ -297,28 +320,7 @@ impl GrainBuffers {
                     usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
                 })
         };
-        let f = |x: f64| x as f32;
-        let pos: Vec<[f32; 4]> = (grains.iter())
-            .map(|g| {
-                [
-                    f(g.position[0]),
-                    f(g.position[1]),
-                    f(g.position[2]),
-                    f(g.volume),
-                ]
-            })
-            .collect();
-        let vel: Vec<[f32; 4]> = (grains.iter())
-            .map(|g| {
-                [
-                    f(g.velocity[0]),
-                    f(g.velocity[1]),
-                    f(g.velocity[2]),
-                    f(g.diameter),
-                ]
-            })
-            .collect();
-        let eps: Vec<f32> = grains.iter().map(|g| f(g.porosity)).collect();
+        let (pos, vel, eps) = pack(grains);
         let zeros = vec![0u8; 48 * grains.len()];
         GrainBuffers {
             pos: init(
@@ -358,28 +360,7 @@ impl GrainBuffers {
     /// Replaces the grains' data (the same count as at creation).
     pub fn write(&self, gpu: &Gpu, grains: &[Grain]) {
         assert_eq!(grains.len(), self.count as usize, "grain count is fixed");
-        let f = |x: f64| x as f32;
-        let pos: Vec<[f32; 4]> = (grains.iter())
-            .map(|g| {
-                [
-                    f(g.position[0]),
-                    f(g.position[1]),
-                    f(g.position[2]),
-                    f(g.volume),
-                ]
-            })
-            .collect();
-        let vel: Vec<[f32; 4]> = (grains.iter())
-            .map(|g| {
-                [
-                    f(g.velocity[0]),
-                    f(g.velocity[1]),
-                    f(g.velocity[2]),
-                    f(g.diameter),
-                ]
-            })
-            .collect();
-        let eps: Vec<f32> = grains.iter().map(|g| f(g.porosity)).collect();
+        let (pos, vel, eps) = pack(grains);
         gpu.queue
             .write_buffer(&self.pos, 0, bytemuck::cast_slice(&pos));
         gpu.queue
@@ -573,14 +554,8 @@ impl GrainCoupling {
                 },
                 Some(data.grid.bind_group()),
             )
-            .ok_or_else(|| FluidError::Grid {
-                step: 0,
-                message: "internal: a binding of sample_grains is missing".into(),
-            })?;
-        let solid_buffer = data.solid.as_ref().ok_or_else(|| FluidError::Grid {
-            step: 0,
-            message: "internal: a scene with grains has no solid-fraction buffer".into(),
-        })?;
+            .ok_or_else(|| missing("sample_grains"))?;
+        let solid_buffer = (data.solid.as_ref()).ok_or_else(|| missing("the solid fraction"))?;
         let solid = self
             .solid
             .bind(
@@ -598,10 +573,7 @@ impl GrainCoupling {
                 },
                 Some(data.grid.bind_group()),
             )
-            .ok_or_else(|| FluidError::Grid {
-                step: 0,
-                message: "internal: a binding of grain_solid_fraction is missing".into(),
-            })?;
+            .ok_or_else(|| missing("grain_solid_fraction"))?;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         data.queue_op(gpu, &mut encoder, None, Op::Sort);
         encoder.clear_buffer(solid_buffer, 0, None);
@@ -653,10 +625,7 @@ impl GrainCoupling {
                 },
                 Some(data.grid.bind_group()),
             )
-            .ok_or_else(|| FluidError::Grid {
-                step: 0,
-                message: "internal: a binding of spread_grain_reaction is missing".into(),
-            })?;
+            .ok_or_else(|| missing("spread_grain_reaction"))?;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&reaction.lo, 0, None);
         encoder.clear_buffer(&reaction.hi, 0, None);
