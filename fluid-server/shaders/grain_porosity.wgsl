@@ -1,6 +1,6 @@
 // ---- grain_porosity.wgsl: the grains' solid fraction at each fluid particle, Robinson
 // eq. (9) (CPU twin: porosity.rs) ----
-// grain_solid_fraction: one thread per grain j, at a window's start after the sort. To
+// grain_solid_fraction: one thread per grain j, after every sort (each fluid step). To
 // each fluid particle a within the support it adds V_j W_aj, in counts of SOLID_UNIT
 // (2^-31: a solid fraction up to 2 fits a u32; integer adds commute, so the sums are
 // exact and independent of thread order). porosity(a) = 1 − the sum
@@ -11,8 +11,13 @@
 @group(0) @binding(4) var<storage, read> id: array<u32>;
 // Solid fraction per particle, counts of SOLID_UNIT, permuted with the particles.
 @group(0) @binding(16) var<storage, read_write> solid: array<atomic<u32>>;
-// Per grain: xyz position relative to the solver origin, w volume V (m³).
+// Per grain: xyz position relative to the solver origin at the window's start, w volume
+// V (m³); xyz velocity (w: diameter).
 @group(2) @binding(7) var<storage, read> grain_pos: array<vec4<f32>>;
+@group(2) @binding(8) var<storage, read> grain_vel: array<vec4<f32>>;
+// x: time since the window's start, s. The grains move by v τ within a window, so the
+// porosity follows them every fluid step instead of jumping once a window.
+@group(2) @binding(11) var<uniform> grain_tau: vec4<f32>;
 
 const SOLID_COUNTS: f32 = 2147483648.0;
 
@@ -24,7 +29,7 @@ fn grain_solid_fraction(@builtin(workgroup_id) wid: vec3<u32>,
     if g >= arrayLength(&grain_pos) {
         return;
     }
-    let p = grain_pos[g].xyz;
+    let p = grain_pos[g].xyz + grain_tau.x * grain_vel[g].xyz;
     let v = grain_pos[g].w;
     let c = cell_coord(p);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {

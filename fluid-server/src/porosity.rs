@@ -67,7 +67,14 @@ pub fn solid_fraction_kernel(
                     (pb::SOLID, Access::ReadWrite),
                 ],
             ),
-            (BODIES, &[(grain_binding::POS, Access::Read)]),
+            (
+                BODIES,
+                &[
+                    (grain_binding::POS, Access::Read),
+                    (grain_binding::VEL, Access::Read),
+                    (grain_binding::TAU, Access::Uniform),
+                ],
+            ),
             (PARAMS, &[(0, Access::Uniform)]),
         ],
         Some(grid_layout),

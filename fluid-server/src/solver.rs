@@ -1136,15 +1136,20 @@ impl FluidSolver {
     }
 
     /// Records one predictor–corrector step (Joubert eqs. 20–23) as labelled passes.
+    /// `tau`: the step's start since the window's (the grains' porosity moves them by v τ).
     pub fn queue_step(
         &self,
         gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
         mut timer: Option<&mut StageTimer>,
-    ) {
+        tau: f64,
+    ) -> Result<(), FluidError> {
         let d = &self.data;
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerUpdate);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Sort);
+        if let Some(g) = &self.grains {
+            g.queue_solid_fraction(gpu, encoder, d, tau)?;
+        }
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Gradients);
         for update in [Op::Predict, Op::Correct] {
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::BoundaryPressure);
@@ -1155,6 +1160,7 @@ impl FluidSolver {
         }
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Shift);
         d.queue_op(gpu, encoder, timer, Op::AdvanceClock);
+        Ok(())
     }
 
     /// Resets the window accumulators (clock, marker load sums) in `encoder`.
@@ -1226,7 +1232,7 @@ impl FluidSolver {
             if s == 0 {
                 self.queue_window_start(gpu, &mut encoder);
             }
-            self.queue_step(gpu, &mut encoder, timer.as_deref_mut());
+            self.queue_step(gpu, &mut encoder, timer.as_deref_mut(), f64::from(s) * dt)?;
             if s + 1 == substeps {
                 self.data
                     .queue_op(gpu, &mut encoder, timer.as_deref_mut(), Op::ReduceBodyLoads);

@@ -50,6 +50,9 @@ pub mod grain_binding {
     pub const VEL: u32 = 8;
     pub const POROSITY: u32 = 9;
     pub const SAMPLE: u32 = 10;
+    /// Uniform vec4: x the time since the window's start, s (the solid fraction moves
+    /// the grains by v τ).
+    pub const TAU: u32 = 11;
 }
 
 /// One grain as the fluid sees it.
@@ -304,6 +307,7 @@ pub struct GrainBuffers {
     pub vel: wgpu::Buffer,
     pub porosity: wgpu::Buffer,
     pub sample: wgpu::Buffer,
+    pub tau: wgpu::Buffer,
     pub count: u32,
 }
 
@@ -342,6 +346,13 @@ impl GrainBuffers {
                     usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 }),
             sample: init("grain sample", &zeros, wgpu::BufferUsages::COPY_SRC),
+            tau: gpu
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("grain tau"),
+                    contents: &[0u8; 16],
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                }),
             count: grains.len() as u32,
         }
     }
@@ -353,6 +364,7 @@ impl GrainBuffers {
             grain_binding::VEL => Some(&self.vel),
             grain_binding::POROSITY => Some(&self.porosity),
             grain_binding::SAMPLE => Some(&self.sample),
+            grain_binding::TAU => Some(&self.tau),
             _ => None,
         }
     }
@@ -555,6 +567,43 @@ impl GrainCoupling {
                 Some(data.grid.bind_group()),
             )
             .ok_or_else(|| missing("sample_grains"))?;
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        data.queue_op(gpu, &mut encoder, None, Op::Sort);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("sph: sample_grains"),
+                timestamp_writes: None,
+            });
+            bound.dispatch(&mut pass, self.buffers.count);
+        }
+        self.queue_solid_fraction(gpu, &mut encoder, data, 0.0)?;
+        // The window's pressures at the new porosity (Robinson eq. 15).
+        data.queue_op(gpu, &mut encoder, None, Op::TaitEos);
+        gpu.queue.submit([encoder.finish()]);
+        let samples = self.buffers.read(gpu)?;
+        let loads = (self.bodies.iter().zip(&samples))
+            .map(|(&body, s)| BodyLoad {
+                force: s.force(),
+                body,
+                _pad: 0,
+                moment: [0.0; 3],
+            })
+            .collect();
+        Ok((loads, samples))
+    }
+
+    /// Records the fluid's porosity (Robinson eq. 9) with the grains moved by v τ from
+    /// the window's start, after a sort: at sampling (τ = 0) and after every step's sort,
+    /// so that the porosity follows the grains instead of jumping once a window (each
+    /// jump is a pressure pulse through the EOS on ρ/ε). `tau` reaches the GPU with the
+    /// encoder's submission, so one encoder holds one step.
+    pub fn queue_solid_fraction(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        data: &SphData,
+        tau: f64,
+    ) -> Result<(), FluidError> {
         let solid_buffer = (data.solid.as_ref()).ok_or_else(|| missing("the solid fraction"))?;
         let solid = self
             .solid
@@ -574,30 +623,18 @@ impl GrainCoupling {
                 Some(data.grid.bind_group()),
             )
             .ok_or_else(|| missing("grain_solid_fraction"))?;
-        let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        data.queue_op(gpu, &mut encoder, None, Op::Sort);
+        gpu.queue.write_buffer(
+            &self.buffers.tau,
+            0,
+            bytemuck::cast_slice(&[tau as f32, 0.0, 0.0, 0.0]),
+        );
         encoder.clear_buffer(solid_buffer, 0, None);
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("sph: sample_grains"),
-                timestamp_writes: None,
-            });
-            bound.dispatch(&mut pass, self.buffers.count);
-            solid.dispatch(&mut pass, self.buffers.count);
-        }
-        // The window's pressures at the new porosity (Robinson eq. 15).
-        data.queue_op(gpu, &mut encoder, None, Op::TaitEos);
-        gpu.queue.submit([encoder.finish()]);
-        let samples = self.buffers.read(gpu)?;
-        let loads = (self.bodies.iter().zip(&samples))
-            .map(|(&body, s)| BodyLoad {
-                force: s.force(),
-                body,
-                _pad: 0,
-                moment: [0.0; 3],
-            })
-            .collect();
-        Ok((loads, samples))
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("sph: grain_solid_fraction"),
+            timestamp_writes: None,
+        });
+        solid.dispatch(&mut pass, self.buffers.count);
+        Ok(())
     }
 
     /// Replaces the fluid's reaction with that of the last [`GrainCoupling::sample`]
