@@ -7,10 +7,11 @@
 // S_j = Σ_b (m/ρ_b) W_jb the Shepard sum sample_grains left (eq. 27; the coupling length
 // h_c is the fluid's h). Summed over a, m times it is −f_j: the fluid receives exactly
 // what the grains lose. The sums are 64-bit fixed point, counts of params.reaction_unit
-// (unresolved_coupling.rs chooses the unit from the window's forces so that no sum
-// reaches 2^38 counts), each component a low word (u32) and a high word (i32) with the
-// carry propagated by hand: integer adds commute, so the sums are exact and do not
-// depend on the order in which threads meet a particle, and runs repeat bit for bit.
+// (unresolved_coupling.rs chooses the unit from the window's forces: its bound is 2^33
+// counts, with room below the 2^38 that stay exact for the superficial density), each
+// component a low word (u32) and a high word (i32) with the carry propagated by hand:
+// integer adds commute, so the sums are exact and do not depend on the order in which
+// threads meet a particle, and runs repeat bit for bit.
 // grain_reaction_read.wgsl reads the sums back; add_grain_reaction
 // (grain_reaction_add.wgsl) adds them to du/dt.
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel.

@@ -41,8 +41,11 @@ const NO_GRAIN_REACTION_WGSL: &str = "fn grain_reaction(i: u32) -> vec3<f32> {
 }
 ";
 
-/// The fixed-point sums stay below 2^37 counts (the WGSL is exact below 2^38).
-const REACTION_COUNTS: f64 = 137_438_953_472.0;
+/// The bound of [`reaction_unit`] in counts, 2^33: the WGSL is exact below 2^38, and
+/// the bound assumes the intrinsic density ρ/ε ≥ ρ_min, so among grains the superficial
+/// ρ may sit ε below it; 2^5 of headroom covers ε down to 1/32, far below a packed
+/// bed's. Resolution: 2^-33 of the bound.
+const REACTION_COUNTS: f64 = 8_589_934_592.0;
 
 /// Grain arrays in the bodies group (2), numbered after the marker bindings.
 pub mod grain_binding {
@@ -221,8 +224,8 @@ pub fn add_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
 
 /// The fixed-point unit of the window's reaction sums, m/s² per count: no fluid
 /// particle's sum can exceed `W(0) Σ_j |f_j|∞ / (S_j ρ_min)` per component, with ρ_min the
-/// lowest density the blow-up check lets through; that bound is 2^37 counts. A window
-/// without force gets unit 1 (every count is then 0).
+/// lowest intrinsic density the blow-up check lets through; that bound is
+/// [`REACTION_COUNTS`]. A window without force gets unit 1 (every count is then 0).
 pub fn reaction_unit(c: &SphConstants, samples: &[GrainSample]) -> f64 {
     let rho_min = c.rho0 * (1.0 - crate::blowup_check::BLOWUP_DENSITY_DEVIATION);
     let bound: f64 = (samples.iter())
