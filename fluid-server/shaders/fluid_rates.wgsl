@@ -65,12 +65,14 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 let u_ij = u_i - vel[j].xyz;
                 let rho_j = rho[j];
                 let m_j = pos[j].w;
-                if GRADIENT_CORRECTION {
-                    let grad_w_c = b_i * grad_w;
-                    drho_i += corrected_continuity_term(m_j, rho_i, rho_j, u_ij, grad_w_c);
-                    acc += corrected_pressure_term(m_j, pr_i, rho_i, press[j], rho_j, grad_w_c);
+                if CORRECTED_CONTINUITY {
+                    drho_i += corrected_continuity_term(m_j, rho_i, rho_j, u_ij, b_i * grad_w);
                 } else {
                     drho_i += continuity_term(m_j, u_ij, grad_w);
+                }
+                if GRADIENT_CORRECTION {
+                    acc += corrected_pressure_term(m_j, pr_i, rho_i, press[j], rho_j, b_i * grad_w);
+                } else {
                     acc += pressure_term(m_j, pr_i, rho_i, press[j], rho_j, grad_w);
                 }
                 if MASS_CORRECTION {

@@ -4,7 +4,8 @@
 //! with momentum in [`crate::fluid_rates`] (same neighbours, same ∇W).
 //! With `effects.gradient_correction`: Joubert eq. (12) itself,
 //! `dρ_i/dt = −ρ_i Σ_j V_j (u_j − u_i)·B_i ∇W_ij`, `V_j = m/ρ_j`, `B_i` from
-//! [`crate::joubert2020_gradients`].
+//! [`crate::joubert2020_gradients`] — except among unresolved grains, where the
+//! standard form stays (Robinson eq. 10; why: [`SphConstants::corrected_continuity`]).
 //!
 //! With `effects.density_diffusion` = δ > 0, δ-SPH (Antuono, Colagrossi, Marrone &
 //! Molteni 2010, eq. 5) adds over fluid neighbours `δ h c_s Σ_j V_j ψ_ij·∇W_ij`,
@@ -41,7 +42,7 @@ pub fn continuity_cpu(
     grads: &[Option<Gradients>],
     dt: f64,
 ) -> f64 {
-    let b = c.gradient_correction.then(|| b_matrix_cpu(c, set, i).0);
+    let b = c.corrected_continuity.then(|| b_matrix_cpu(c, set, i).0);
     let grad_rho = |k: usize| grads[k].map_or([0.0; 3], |g| g.grad_rho);
     // Mass correction (eqs. 14–16): g = ⟨∇p⟩ᶜ/ρ, B̂_i, and the sums of eqs. (15)–(16).
     let mc = (c.mass_correction > 0.0).then(|| {

@@ -167,7 +167,11 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     if correction {
         push(
             CONTINUITY,
-            "Joubert eq. (12): −ρ_i Σ V_j (u_j − u_i)·B_i∇W_ij".into(),
+            if scene.grains().is_empty() {
+                "Joubert eq. (12): −ρ_i Σ V_j (u_j − u_i)·B_i∇W_ij".into()
+            } else {
+                "superficial density, Robinson eq. (10) at fixed h: Σ m_j u_ij·∇W_ij (not Joubert's corrected eq. 12: among grains only this form is the time derivative of the summation density)".into()
+            },
         );
         push(
             MOMENTUM_PRESSURE,
