@@ -413,7 +413,10 @@ pub struct EffectsSpec {
     /// pressure gradient, the Taylor terms of particle shifting) is multiplied by the
     /// inverse B of the particle's truncation matrix, which makes the gradient of a
     /// linear field exact next to walls and free surfaces. With it the continuity and
-    /// pressure terms take Joubert's difference form (eqs. 12–13). A particle whose
+    /// pressure terms take Joubert's difference form (eqs. 12–13) — except that among
+    /// unresolved grains the continuity keeps the standard form, Robinson eq. (10): the
+    /// corrected one lets the grains' swept volume compress the fluid (ARCHITECTURE.md,
+    /// "Among grains the continuity keeps its standard form"). A particle whose
     /// matrix is near-singular (det < `couplet_fluid` `B_DET_MIN`: isolated or nearly so)
     /// keeps the uncorrected gradient and is counted in the run log. Default false: the
     /// standard scheme is the cheaper one and the foundation's tests are written for it.
