@@ -1019,10 +1019,18 @@ fn hydrostatic(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<()
     // A column at rest has no mean vertical velocity; a steady drift (the column settling
     // into its floor) shows here long before it shows in the pressure.
     let drift: Vec<(f64, f64)> = (rec.snapshots.iter())
-        .map(|(t, s)| (*t, s.iter().map(|p| f64::from(p[5])).sum::<f64>() / s.len() as f64))
+        .map(|(t, s)| {
+            (
+                *t,
+                s.iter().map(|p| f64::from(p[5])).sum::<f64>() / s.len() as f64,
+            )
+        })
         .collect();
     let t_end = drift.last().map_or(0.0, |d| d.0);
-    let late: Vec<f64> = (drift.iter()).filter(|d| d.0 >= 0.5 * t_end).map(|d| d.1).collect();
+    let late: Vec<f64> = (drift.iter())
+        .filter(|d| d.0 >= 0.5 * t_end)
+        .map(|d| d.1)
+        .collect();
     if !late.is_empty() {
         report.judge(
             "mean vertical fluid velocity over all particles, averaged over the second half",
@@ -1626,7 +1634,10 @@ fn constant_porosity_block(
             snapshots += 1;
         }
     }
-    for (name, points) in [("fluid-velocity-in-block", inside_series), ("fluid-velocity-below-block", below_series)] {
+    for (name, points) in [
+        ("fluid-velocity-in-block", inside_series),
+        ("fluid-velocity-below-block", below_series),
+    ] {
         report.series.push(Series {
             name: name.into(),
             x_label: "t (s)".into(),
@@ -1636,13 +1647,25 @@ fn constant_porosity_block(
         });
     }
     let rows = [
-        ("in the block's middle half", inside, (1.0 - eps) / eps * settled, "−(1 − ε)/ε × v_block"),
-        ("below the block (clear fluid, a support away)", below, 0.0, "closed floor"),
+        (
+            "in the block's middle half",
+            inside,
+            (1.0 - eps) / eps * settled,
+            "−(1 − ε)/ε × v_block",
+        ),
+        (
+            "below the block (clear fluid, a support away)",
+            below,
+            0.0,
+            "closed floor",
+        ),
     ];
     for (place, (sum, count), reference, why) in rows {
         if count > 0 {
             report.judge(
-                format!("fluid velocity {place}, mean over {snapshots} snapshots of the judged stretch"),
+                format!(
+                    "fluid velocity {place}, mean over {snapshots} snapshots of the judged stretch"
+                ),
                 format!("{:.4e} m/s ({count} particle samples)", sum / count as f64),
                 format!("{reference:.4e} m/s ({why})"),
                 "reported".into(),
