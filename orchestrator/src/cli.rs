@@ -105,6 +105,11 @@ enum Cmd {
         /// with each of its schemes; a table of error against wall time and particles.
         #[arg(long, conflicts_with = "quick")]
         sweep: bool,
+        /// Run only this variant of a case made of several (its label as the report
+        /// prints it, or its folder name: `--variant "water, ε = 0.8"` or
+        /// `--variant water-ε-0.8`); repeatable. Default: every variant.
+        #[arg(long = "variant", value_name = "LABEL")]
+        variants: Vec<String>,
         /// Output folder. Default: out/validate/<name>.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -114,7 +119,7 @@ enum Cmd {
         /// Analyse the run already in this folder (its scene.toml and run.mcap, as
         /// `couplet run --out` leaves them) instead of running: a run made on another
         /// machine, or one variant of a case run by hand. The report goes to the folder.
-        #[arg(long, conflicts_with_all = ["quick", "sweep"])]
+        #[arg(long, conflicts_with_all = ["quick", "sweep", "variants"])]
         recording: Option<PathBuf>,
         #[command(flatten)]
         overrides: Overrides,
@@ -193,19 +198,22 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
         Cmd::Validate {
             name,
             sweep: true,
+            variants,
             out,
             scenes,
             overrides,
             ..
         } => {
             let name = name.unwrap_or_default();
-            let md = validate::sweep(&name, out, &overrides.list()?, scenes.as_deref(), true)
+            let o = overrides.list()?;
+            let md = validate::sweep(&name, &variants, out, &o, scenes.as_deref(), true)
                 .with_context(|| format!("sweeping {name}"))?;
             println!("{md}");
         }
         Cmd::Validate {
             name,
             quick,
+            variants,
             out,
             scenes,
             overrides,
@@ -215,6 +223,7 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             let r = validate::validate(
                 &name,
                 quick,
+                &variants,
                 out,
                 &overrides.list()?,
                 scenes.as_deref(),
