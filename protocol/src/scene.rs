@@ -87,6 +87,32 @@ pub struct GrainLattice {
     /// Restitution of the grains' contacts. Default 0, as for bodies.
     #[serde(default)]
     pub restitution: f64,
+    /// A disturbance of the block's lower face (Robinson eq. 39, the Rayleigh–Taylor
+    /// case of §7). Absent: the plain lattice.
+    #[serde(default)]
+    pub perturbation: Option<LatticePerturbation>,
+}
+
+/// `[grain_lattices.perturbation]`: Robinson eq. (39) with his vertical z as our y.
+/// Every grain moves down (along −y) by `A (1 − cos(2π x/λ)) (1 − cos(2π z/λ))`, x and
+/// z its horizontal coordinates from the origin: 0 on the lines x or z = 0 (mod λ), 4A
+/// at the centre of each λ × λ cell. Robinson takes A = d/4 and λ the box width w.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LatticePerturbation {
+    /// A, m: a quarter of the deepest displacement.
+    pub amplitude: f64,
+    /// λ, m: make it the period of the box's x and z for a single mode.
+    pub wavelength: f64,
+}
+
+impl LatticePerturbation {
+    /// The downward displacement of a grain at horizontal position (x, z), m.
+    pub fn depth(&self, x: f64, z: f64) -> f64 {
+        let k = 2.0 * std::f64::consts::PI / self.wavelength;
+        // Robinson eq. (39)
+        self.amplitude * (1.0 - (k * x).cos()) * (1.0 - (k * z).cos())
+    }
 }
 
 impl GrainLattice {
@@ -96,7 +122,7 @@ impl GrainLattice {
         (v / (1.0 - self.porosity)).cbrt()
     }
 
-    /// Grain centres, x fastest.
+    /// Grain centres, x fastest, moved down by the perturbation where there is one.
     pub fn centres(&self) -> Vec<[f64; 3]> {
         let dr = self.spacing();
         // A grain fits when its lattice cell does, up to round-off in the span.
@@ -108,9 +134,12 @@ impl GrainLattice {
             for y in 0..n[1] {
                 for x in 0..n[0] {
                     let i = [x, y, z];
-                    out.push(std::array::from_fn(|k| {
-                        self.min[k] + (i[k] as f64 + 0.5) * dr
-                    }));
+                    let mut c: [f64; 3] =
+                        std::array::from_fn(|k| self.min[k] + (i[k] as f64 + 0.5) * dr);
+                    if let Some(p) = &self.perturbation {
+                        c[1] -= p.depth(c[0], c[2]);
+                    }
+                    out.push(c);
                 }
             }
         }
@@ -930,6 +959,17 @@ impl Scene {
                     "must be a positive finite number",
                 ));
             }
+            if let Some(p) = &g.perturbation {
+                for (field, v) in [("amplitude", p.amplitude), ("wavelength", p.wavelength)] {
+                    if !(v.is_finite() && v >= 0.0) || (field == "wavelength" && v == 0.0) {
+                        return Err(bad(
+                            &format!("perturbation.{field}"),
+                            v.to_string(),
+                            "must be a finite number, ≥ 0 (amplitude) or > 0 (wavelength)",
+                        ));
+                    }
+                }
+            }
             let centres = g.centres();
             if centres.is_empty() {
                 return Err(bad(
@@ -1579,6 +1619,59 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
                 assert!(message.contains("soundspeed"), "{message}");
             }
             other => panic!("{other}"),
+        }
+    }
+
+    /// `[grain_lattices.perturbation]` moves each grain down by Robinson eq. (39),
+    /// A (1 − cos kx)(1 − cos kz): by 4A where kx = kz = π, by A(1 − cos kx) where
+    /// kz = π/2; a negative amplitude or a zero wavelength is refused.
+    #[test]
+    fn grain_lattice_perturbation_is_robinson_eq_39() {
+        let text = |pert: &str| {
+            format!(
+                "{MINIMAL}[dem]\nengine = \"soft-sphere\"\n[dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1.0\n\
+                 [[grain_lattices]]\nname = \"block\"\nmin = [0.0, 0.5, 0.0]\nmax = [0.8, 0.7, 0.8]\n\
+                 radius = 0.05\ndensity = 2500.0\nporosity = 0.8\n{pert}\n"
+            )
+        };
+        let plain = Scene::parse(&text(""), Path::new("t.toml")).unwrap();
+        let (a, lambda) = (0.0125, 0.8);
+        let s = Scene::parse(
+            &text(&format!(
+                "perturbation = {{ amplitude = {a}, wavelength = {lambda} }}"
+            )),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        assert_eq!(s.bodies.len(), plain.bodies.len());
+        let k = 2.0 * std::f64::consts::PI / lambda;
+        for (b, p) in s.bodies.iter().zip(&plain.bodies) {
+            let [x, y, z] = p.position;
+            let expected = a * (1.0 - (k * x).cos()) * (1.0 - (k * z).cos());
+            assert_eq!((b.position[0], b.position[2]), (x, z));
+            assert!((y - b.position[1] - expected).abs() < 1e-15, "{x} {z}");
+            assert!(expected >= 0.0 && expected <= 4.0 * a + 1e-15);
+        }
+        let deepest = (s.bodies.iter().zip(&plain.bodies))
+            .map(|(b, p)| p.position[1] - b.position[1])
+            .fold(0.0, f64::max);
+        // The centres nearest the cell's middle, x = z = λ/2 = 0.4, are at 2.5 Δr = 0.3446
+        // (Δr = 0.13783), the deepest grains.
+        let c = 2.5 * s.grain_lattices[0].spacing();
+        let near = a * (1.0 - (k * c).cos()).powi(2);
+        assert!((deepest - near).abs() < 1e-4 * a, "{deepest} vs {near}");
+        for bad in [
+            "amplitude = -0.01, wavelength = 0.8",
+            "amplitude = 0.01, wavelength = 0.0",
+        ] {
+            let e = Scene::parse(
+                &text(&format!("perturbation = {{ {bad} }}")),
+                Path::new("t.toml"),
+            )
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+            assert!(e.contains("grain_lattices[0].perturbation"), "{bad}: {e}");
         }
     }
 
