@@ -3631,6 +3631,59 @@ mod tests {
         assert!((measured - u).abs() < 1e-9, "{row:?}");
     }
 
+    /// The RTI judge on synthetic tracks of the quick scene (water, λ = 1.1026 mm:
+    /// bounds 25.04 and 48.70 1/s from eq. 37; an independent Python bisection of the
+    /// same relation gives 25.01 and 48.66 at λ = 1.1 mm): a lowest grain whose depth below the settling
+    /// face grows as a(0) e^(n t) reads back n to 1e-9 and passes for n = 35, fails for
+    /// n = 15 and 60; the fit stops half way to the floor.
+    #[test]
+    fn rti_growth_rate_is_judged_between_the_bounds() {
+        use crate::robinson_reference::cpb_terminal_velocity_mixture_buoyancy;
+        let case = find("rayleigh-taylor").unwrap();
+        let mut o = pairs(case.quick);
+        o.extend(pairs(case.quick_variants[0].1));
+        let (scene, _) = resolve_scene(&scene_path(case, None).unwrap(), &o).unwrap();
+        let l = &scene.grain_lattices[0];
+        let face = l.min[1] + 0.5 * l.spacing();
+        let v35 = cpb_terminal_velocity_mixture_buoyancy(0.8, 1e-4, 1000.0, 2500.0, 8.9e-4, 9.81)
+            .unwrap();
+        for (n, pass) in [(35.0, true), (15.0, false), (60.0, false)] {
+            let rec = Recording {
+                has_summary: true,
+                bodies: (0..=100)
+                    .map(|k| {
+                        let t = 1e-3 * f64::from(k);
+                        BodySample {
+                            time: t,
+                            body: 0,
+                            position: [5e-4, face - v35 * t - 1e-4 * (n * t).exp(), 5e-4],
+                            orientation: [0.0, 0.0, 0.0, 1.0],
+                            velocity: [0.0; 3],
+                        }
+                    })
+                    .collect(),
+                ..Default::default()
+            };
+            let mut r = Report::default();
+            rayleigh_taylor(&scene, &rec, &mut r).unwrap();
+            let row = (r.rows.iter())
+                .find(|r| r.quantity.starts_with("growth rate of the lowest grain"))
+                .unwrap_or_else(|| panic!("n = {n}: {:?}", r.rows));
+            assert_eq!(row.pass, Some(pass), "n = {n}: {row:?}");
+            assert!((r.value("growth").unwrap() - n).abs() < 1e-9 * n, "{row:?}");
+            let (lo, hi) = (r.value("lower").unwrap(), r.value("upper").unwrap());
+            assert!(
+                (lo - 25.04).abs() < 0.01 && (hi - 48.70).abs() < 0.01,
+                "{lo} {hi}"
+            );
+            // Half way from 2.9 mm to the floor: a ≈ 1.45 mm, so the fit ends by
+            // ln(14.5)/n.
+            let last = row.quantity.split("–").nth(1).unwrap();
+            let t_last: f64 = last.split(' ').next().unwrap().parse().unwrap();
+            assert!(t_last <= (14.6f64).ln() / n + 1e-3, "n = {n}: {row:?}");
+        }
+    }
+
     /// `--variant` picks by label or folder name, from the quick list under `--quick`,
     /// and refuses a name no variant has, listing the ones there are.
     #[test]
