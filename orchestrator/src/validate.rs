@@ -42,6 +42,9 @@ pub enum ValidateError {
 /// A case's judgement of its variants' reports against each other.
 type Compare = fn(&[Report], &mut Report) -> Result<(), String>;
 
+/// A case's variant: (label, overrides).
+type Variant = (&'static str, &'static [&'static str]);
+
 /// One named case.
 pub struct Case {
     pub name: &'static str,
@@ -59,11 +62,11 @@ pub struct Case {
     /// Runs that make up one validation, each (label, overrides) on top of the quick
     /// and sweep overrides and under the command line's: Joubert's shapes or boxes,
     /// compared with each other by `compare`. Empty: one run.
-    pub variants: &'static [(&'static str, &'static [&'static str])],
+    pub variants: &'static [Variant],
     /// The `--quick` version's variants where their sizes differ from the full ones' (the
     /// CPB's column width is a whole number of lattice spacings of each ε); empty: the
     /// same `variants`.
-    pub quick_variants: &'static [(&'static str, &'static [&'static str])],
+    pub quick_variants: &'static [Variant],
     analyse: fn(&Scene, &Recording, &mut Report) -> Result<(), String>,
     /// Judges the variants' reports against each other (their `values`).
     compare: Option<Compare>,
@@ -608,9 +611,6 @@ pub fn validate(
         case, &variants, quick, &base, extra, out, scenes_dir, progress,
     )
 }
-
-/// A case's variant: (label, overrides).
-type Variant = (&'static str, &'static [&'static str]);
 
 /// The variants a run of `case` makes: its quick ones under `--quick` where it has
 /// them, narrowed to `only` (labels or their folder names, see [`slug`]) unless empty.

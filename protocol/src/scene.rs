@@ -1622,9 +1622,10 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         }
     }
 
-    /// `[grain_lattices.perturbation]` moves each grain down by Robinson eq. (39),
-    /// A (1 − cos kx)(1 − cos kz): by 4A where kx = kz = π, by A(1 − cos kx) where
-    /// kz = π/2; a negative amplitude or a zero wavelength is refused.
+    /// `[grain_lattices.perturbation]` moves each grain straight down by Robinson eq.
+    /// (39), A (1 − cos kx)(1 − cos kz) (to 1e-15 m), never more than 4A, deepest at the
+    /// cell centres nearest x = z = λ/2; a negative amplitude or a zero wavelength is
+    /// refused.
     #[test]
     fn grain_lattice_perturbation_is_robinson_eq_39() {
         let text = |pert: &str| {
