@@ -152,10 +152,15 @@ impl Report {
                 Some(false) => "FAIL",
                 None => "reported",
             };
+            // A '|' inside a cell would end it (|v|, a failure message): shown as '∣'.
+            let cell = |c: &str| c.replace('|', "∣");
             let _ = writeln!(
                 t,
                 "| {} | {} | {} | {} | {verdict} |",
-                r.quantity, r.measured, r.reference, r.tolerance
+                cell(&r.quantity),
+                cell(&r.measured),
+                cell(&r.reference),
+                cell(&r.tolerance)
             );
         }
         t
@@ -732,7 +737,7 @@ fn run_case(
                 };
                 r.judge(
                     "run",
-                    format!("failed: {}", e.to_string().replace('|', "/")),
+                    format!("failed: {e}"),
                     "runs to the end".into(),
                     "exact".into(),
                     Some(false),
@@ -2126,7 +2131,7 @@ fn rayleigh_taylor(scene: &Scene, rec: &Recording, report: &mut Report) -> Resul
     report.judge(
         "bounds of the growth rate, two-fluid model (Robinson eqs. 37–38)",
         format!("{lower:.3} 1/s (ε = 0.93) … {upper:.3} 1/s (ε = {eps})"),
-        format!("|k| = √2 · 2π/λ = {:.1} 1/m", 2f64.sqrt() * k),
+        format!("wave number √2 · 2π/λ = {:.1} 1/m", 2f64.sqrt() * k),
         "reported".into(),
         None,
     );
@@ -2179,7 +2184,7 @@ fn rayleigh_taylor(scene: &Scene, rec: &Recording, report: &mut Report) -> Resul
         );
     }
     report.judge(
-        "the single-axis modes of eq. (39), |k| = 2π/λ (not judged)",
+        "the single-axis modes of eq. (39), wave number 2π/λ (not judged)",
         format!("{:.3} … {:.3} 1/s", rate(0.93, k)?, rate(eps, k)?),
         "ε = 0.93 … ε".into(),
         "reported".into(),
@@ -3684,6 +3689,28 @@ mod tests {
             let t_last: f64 = last.split(' ').next().unwrap().parse().unwrap();
             assert!(t_last <= (14.6f64).ln() / n + 1e-3, "n = {n}: {row:?}");
         }
+    }
+
+    /// Regression (report_cell_with_a_pipe, 2026-11-24): a row reading "|k| = …" split
+    /// its markdown line into extra columns. Every row line has exactly the table's six
+    /// '|'; the cell shows '∣'.
+    #[test]
+    fn markdown_rows_keep_their_columns_with_a_pipe_in_a_cell() {
+        let mut r = Report::default();
+        r.judge(
+            "largest |v|",
+            "1 | 2".into(),
+            "|k| = 3".into(),
+            "0".into(),
+            None,
+        );
+        let md = r.markdown();
+        let line = md.lines().find(|l| l.contains("largest")).unwrap();
+        assert_eq!(line.matches('|').count(), 6, "{line}");
+        assert!(
+            line.contains("largest ∣v∣") && line.contains("∣k∣ = 3"),
+            "{line}"
+        );
     }
 
     /// `--variant` picks by label or folder name, from the quick list under `--quick`,
