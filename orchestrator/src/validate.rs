@@ -320,7 +320,11 @@ static CASES: [Case; 16] = [
         name: "constant-porosity-block",
         scene: "constant-porosity-block.toml",
         about: "Robinson §6 (CPB, Fig. 9): a rigid block of unresolved grains at porosity ε = 0.6, 0.7, 0.8, 0.9 settling through water and water–glycerol, two-way with the superficial-density fluid at h = 2d — settling speed against Robinson eq. (35), within 5 % (§6.2); ε = 1 is the single grain of single-particle-sedimentation",
-        quick: &["time.end=0.012", "time.output_interval=1e-3"],
+        quick: &[
+            "time.end=0.012",
+            "time.output_interval=1e-3",
+            "time.body_output_interval=2e-4",
+        ],
         quick_why: "each column cut to 8–10 lattice spacings (1.1–1.4 mm) across at the same resolution, to t = 12 ms (the plateau from about 5 ms): 2700–4300 fluid particles and 800–2100 grains, about 6 minutes per variant on lavapipe",
         sweep_spacings: &[],
         sweep_schemes: &[],
