@@ -330,6 +330,9 @@ pub struct Recording {
     pub windows: usize,
     /// The file ends with a summary and footer (it was closed properly).
     pub has_summary: bool,
+    /// Why reading stopped early in a file that was never closed (a run killed mid-write):
+    /// the messages before the cut are kept. `None` when the file was read to its end.
+    pub truncated: Option<String>,
 }
 
 fn arr<const N: usize>(v: &serde_json::Value) -> [f64; N] {
@@ -342,18 +345,41 @@ fn arr<const N: usize>(v: &serde_json::Value) -> [f64; N] {
     out
 }
 
-/// Reads and decodes a recording; errors if any record is unreadable.
+/// Reads and decodes a recording. A closed file must read whole: any bad record is an error.
+/// A file without its end magic (its run was killed before the recorder closed it) is read up
+/// to its last complete record, and `truncated` says where and why reading stopped, so that a
+/// run cut off by a time limit or a crash can still be analysed.
 pub fn read_recording(path: &Path) -> Result<Recording, String> {
     use foxglove::Decode;
     let buf = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let closed = match mcap::Summary::read(&buf) {
+        Ok(summary) => summary.is_some(),
+        Err(mcap::McapError::BadMagic) if buf.starts_with(mcap::MAGIC) => false,
+        Err(e) => return Err(format!("{}: {e}", path.display())),
+    };
     let mut rec = Recording {
-        has_summary: mcap::Summary::read(&buf)
-            .map_err(|e| e.to_string())?
-            .is_some(),
+        has_summary: closed,
         ..Default::default()
     };
-    for m in mcap::MessageStream::new(&buf).map_err(|e| e.to_string())? {
-        let m = m.map_err(|e| format!("{}: {e}", path.display()))?;
+    let options = if closed {
+        enumset::EnumSet::empty()
+    } else {
+        mcap::read::Options::IgnoreEndMagic.into()
+    };
+    for m in mcap::MessageStream::new_with_options(&buf, options)
+        .map_err(|e| format!("{}: {e}", path.display()))?
+    {
+        let m = match m {
+            Ok(m) => m,
+            Err(e) if !closed => {
+                rec.truncated = Some(format!(
+                    "{}: not closed; read up to its last complete record ({e})",
+                    path.display()
+                ));
+                break;
+            }
+            Err(e) => return Err(format!("{}: {e}", path.display())),
+        };
         let time = m.log_time as f64 * 1e-9;
         match m.channel.topic.as_str() {
             "/fluid/particles" => {
@@ -415,4 +441,61 @@ pub fn track(rec: &Recording, body: usize) -> Vec<BodySample> {
         .filter(|b| b.body == body)
         .copied()
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A recording of `n` snapshots of 1000 particles at t = k ms, closed.
+    fn write(path: &Path, n: usize) {
+        let mut rec = Recorder::create(path, "test", "name = \"test\"\n").unwrap();
+        for k in 0..n {
+            let p: Vec<ParticleRecord> = (0..1000)
+                .map(|i| ParticleRecord {
+                    position: [i as f32, k as f32, 0.0],
+                    pressure: 0.0,
+                    velocity: [0.0; 3],
+                    density: 1000.0,
+                })
+                .collect();
+            rec.particles(k as f64 * 1e-3, &p);
+        }
+        rec.close().unwrap();
+    }
+
+    /// Regression (session 12): a run killed before its recorder closed the file (the RTI
+    /// quick cut off at t = 42 ms by a machine restart) left an MCAP without its summary and
+    /// end magic, and `read_recording` refused all of it ("Bad magic number").
+    #[test]
+    fn a_recording_cut_off_mid_write_reads_up_to_its_last_complete_record() {
+        let dir = std::env::temp_dir().join(format!("couplet-cut-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("run.mcap");
+        write(&path, 200);
+
+        let whole = read_recording(&path).unwrap();
+        assert!(whole.has_summary && whole.truncated.is_none());
+        assert_eq!(whole.snapshots.len(), 200);
+
+        // Cut the file at 60 %: inside the data section, mid-chunk.
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() * 3 / 5]).unwrap();
+        let cut = read_recording(&path).unwrap();
+        assert!(!cut.has_summary);
+        assert!(cut.truncated.as_deref().unwrap().contains("not closed"));
+        // 200 snapshots of 32 kB in 6.4 MB: 60 % of the file holds about 120 of them, less
+        // the chunk the cut falls in.
+        let n = cut.snapshots.len();
+        assert!((60..=120).contains(&n), "{n} snapshots before the cut");
+        for (k, (t, p)) in cut.snapshots.iter().enumerate() {
+            assert!((t - k as f64 * 1e-3).abs() < 1e-9 && p.len() == 1000);
+            assert_eq!(p[999][1], k as f32);
+        }
+
+        // A file that is not an MCAP at all is still an error, not an empty recording.
+        std::fs::write(&path, b"not an mcap file").unwrap();
+        assert!(read_recording(&path).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
