@@ -3621,6 +3621,59 @@ mod tests {
         }
     }
 
+    /// A grain that follows Robinson eq. (34) offset by +1 % of v_t with a ±0.5 % zigzag
+    /// after one relaxation time: max deviation 1.5 %, Fig. 5's mean +1.00 % ± 0.50 %.
+    /// v_t and t_d are worked out here from the scene (Stokes drag, Robinson eq. 34).
+    #[test]
+    fn sps_reports_the_max_and_robinson_fig_5s_mean_deviation() {
+        let case = find("single-particle-sedimentation").unwrap();
+        let (scene, _) =
+            resolve_scene(&scene_path(case, None).unwrap(), &pairs(case.quick)).unwrap();
+        let i = scene.grains()[0];
+        let couplet_protocol::Shape::Sphere { radius } = scene.bodies[i].shape else {
+            panic!("the grain is a sphere");
+        };
+        let f = scene.fluid.as_ref().unwrap();
+        let (d, g) = (2.0 * radius, gravity_magnitude(&scene));
+        let vol = std::f64::consts::PI * d.powi(3) / 6.0;
+        let drag = 3.0 * std::f64::consts::PI * f.density * f.kinematic_viscosity * d;
+        let v_t = (scene.bodies[i].density - f.density) * vol * g / drag;
+        let t_d = scene.bodies[i].density * vol / drag;
+        let bodies = (0..400)
+            .map(|k| {
+                let t = 4.0 * t_d * f64::from(k) / 400.0;
+                let stokes = v_t * (1.0 - (-t / t_d).exp());
+                let off = if t >= t_d {
+                    v_t * (0.01 + if k % 2 == 0 { 0.005 } else { -0.005 })
+                } else {
+                    0.0
+                };
+                BodySample {
+                    time: t,
+                    body: i,
+                    position: scene.bodies[i].position,
+                    orientation: [0.0, 0.0, 0.0, 1.0],
+                    velocity: [0.0, -(stokes + off), 0.0],
+                }
+            })
+            .collect();
+        let rec = Recording {
+            bodies,
+            has_summary: true,
+            ..Default::default()
+        };
+        let mut report = Report::default();
+        single_particle_sedimentation(&scene, &rec, &mut report).unwrap();
+        let (_, worst) = report.headline.clone().unwrap();
+        assert!((worst - 0.015).abs() < 1e-9, "max deviation {worst}");
+        let row = report
+            .rows
+            .iter()
+            .find(|r| r.quantity.starts_with("mean deviation"))
+            .unwrap();
+        assert_eq!(row.measured, "+1.00 % ± 0.50 %");
+    }
+
     /// Regression (cpb_snapshot_times_off_the_body_times, 2026-11-24): a snapshot's time
     /// is read back in whole nanoseconds (its MCAP log time), the grains' in full f64,
     /// so at ε = 0.6, where the windows (4.96e-5 s) do not land on whole microseconds,
