@@ -3,14 +3,15 @@
 //   p_w = [Σ_f p_f W_wf + (g − a_w)·Σ_f ρ_f r_wf W_wf] / Σ_f W_wf
 // over fluid neighbours f, with g the gravity on the fluid and a_w = 0 (walls are
 // fixed; markers' accelerations reach only Joubert's boundary pass). ρ_w from the
-// inverted Tait equation. No fluid neighbour: p = 0, ρ = ρ0.
+// inverted Tait equation, times the porosity among unresolved grains (with the mass:
+// boundary_state_wgsl in porosity.rs). No fluid neighbour: p = 0, ρ = ρ0 (ε ρ0).
 // No-slip walls also get their velocity for the viscous sums, 2 v_w − ṽ_w with
 // ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (Adami et al. 2012, §2.3), through
 // `store_wall_velocity(i, v)` (adami2012_boundary_pressure.rs: a no-op when off).
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, tait_eos (library).
 
 // ---- kernels ----
-@group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+// `pos`, boundary_density and store_boundary_mass: porosity.rs, boundary_state_wgsl.
 @group(0) @binding(1) var<storage, read> vel: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rho: array<f32>;
 @group(0) @binding(3) var<storage, read_write> press: array<f32>;
@@ -54,11 +55,12 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
         // a_w = 0 (see the header).
         let p_w = (sum_pw + dot(GRAVITY, sum_rho_r_w)) / sum_w;
         press[i] = p_w;
-        rho[i] = tait_density(p_w);
+        rho[i] = boundary_density(i, p_w);
     } else {
         press[i] = 0.0;
-        rho[i] = RHO0;
+        rho[i] = boundary_density(i, 0.0);
     }
+    store_boundary_mass(i);
     if is_wall(id[i]) {
         let v_w = vel[i].xyz;
         store_wall_velocity(i, select(v_w, 2.0 * v_w - sum_vw / sum_w, sum_w > 0.0));

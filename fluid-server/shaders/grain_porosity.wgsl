@@ -1,7 +1,7 @@
 // ---- grain_porosity.wgsl: the grains' solid fraction at each fluid particle, Robinson
 // eq. (9) (CPU twin: porosity.rs) ----
 // grain_solid_fraction: one thread per grain j, after every sort (each fluid step). To
-// each fluid particle a within the support it adds V_j W_aj, in counts of SOLID_UNIT
+// each fluid or wall particle a within the support it adds V_j W_aj, in counts of SOLID_UNIT
 // (2^-31: a solid fraction up to 2 fits a u32; integer adds commute, so the sums are
 // exact and independent of thread order). porosity(a) = 1 − the sum
 // (grain_porosity_read.wgsl), held over the window.
@@ -37,7 +37,9 @@ fn grain_solid_fraction(@builtin(workgroup_id) wid: vec3<u32>,
             let rs = row_ranges(c, dy, dz);
             for (var k = 0u; k < row_length(rs); k++) {
                 let a = row_slot(rs, k);
-                if !is_fluid(id[a]) {
+                // Fluid and wall particles (a wall stands for fluid at the porosity
+                // there: boundary_state_wgsl in porosity.rs); markers keep porosity 1.
+                if !(is_fluid(id[a]) || is_wall(id[a])) {
                     continue;
                 }
                 let r = pair_vec(p, pos[a].xyz);

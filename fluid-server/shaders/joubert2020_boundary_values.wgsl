@@ -10,7 +10,8 @@
 // with a_w the surface's acceleration (0 for domain walls, the rigid-body acceleration
 // of the point for markers; from the particle's BoundaryFrame) and the viscous term
 // left out (see joubert2020_boundary_values.rs); ρ_w from the inverted
-// Tait equation. No-slip particles and markers keep their velocity (a Dirichlet condition);
+// Tait equation, times the porosity among unresolved grains (with the mass:
+// boundary_state_wgsl in porosity.rs). No-slip particles and markers keep their velocity (a Dirichlet condition);
 // particles on symmetry planes (wall_normal.w = 1) take the tangential velocity of
 // eq. (27) with ∂u/∂n = 0, u_w = n̂·(B_w Σ_f V_f u_f ∇W_wf) / n̂·S, and zero velocity
 // along every axis their normal has a component on (the planes are axis-aligned).
@@ -21,7 +22,7 @@
 // Needs: prelude, SPH constants, B_DET_MIN, StepParams, grid_common, kernel, tait_eos.
 
 // ---- kernels ----
-@group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
+// `pos`, boundary_density and store_boundary_mass: porosity.rs, boundary_state_wgsl.
 @group(0) @binding(1) var<storage, read_write> vel: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rho: array<f32>;
 @group(0) @binding(3) var<storage, read_write> press: array<f32>;
@@ -94,7 +95,8 @@ fn joubert2020_boundary_values(@builtin(workgroup_id) wid: vec3<u32>,
     }
     if sum_w <= 0.0 {
         press[i] = 0.0;
-        rho[i] = RHO0;
+        rho[i] = boundary_density(i, 0.0);
+        store_boundary_mass(i);
         if symmetry {
             vel[i] = vec4<f32>(0.0);
         }
@@ -123,7 +125,8 @@ fn joubert2020_boundary_values(@builtin(workgroup_id) wid: vec3<u32>,
         u_w = sum_vw / sum_w;
     }
     press[i] = p_w;
-    rho[i] = tait_density(p_w);
+    rho[i] = boundary_density(i, p_w);
+    store_boundary_mass(i);
     if symmetry {
         vel[i] = vec4<f32>(select(u_w, vec3<f32>(0.0), n != vec3<f32>(0.0)), 0.0);
     }

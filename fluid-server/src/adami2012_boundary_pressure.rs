@@ -6,8 +6,9 @@
 //! over fluid neighbours f, g the gravity on the fluid (zero when
 //! `gravity.on_fluid = false`). a_w = 0: walls are fixed, and in this version markers
 //! are treated as moving walls without acceleration (the DEM does not send body
-//! accelerations yet). ρ_w from the inverted Tait equation; no fluid neighbour: p = 0,
-//! ρ = ρ0. WGSL: `shaders/adami2012_boundary_pressure.wgsl`.
+//! accelerations yet). ρ_w from the inverted Tait equation (among unresolved grains times
+//! the wall's porosity, with its mass: [`crate::porosity::boundary_state_wgsl`]); no fluid
+//! neighbour: p = 0, ρ = ρ0. WGSL: `shaders/adami2012_boundary_pressure.wgsl`.
 //!
 //! With [`SphConstants::wall_velocity_extrapolation`] the same loop gives each wall
 //! particle its velocity in the viscous sums, `2 v_w − Σ_f v_f W_wf / Σ_f W_wf`
@@ -19,6 +20,7 @@ use crate::gpu::Gpu;
 use crate::kernel::kernel_library;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::porosity::boundary_state_wgsl;
 use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, library, particle_binding as pb};
 use crate::tait_eos::TAIT_EOS_WGSL;
 
@@ -38,13 +40,13 @@ const NO_WALL_VELOCITY_WGSL: &str = "fn store_wall_velocity(i: u32, v: vec3<f32>
 
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
-    let mut particles = vec![
-        (pb::POS, Access::Read),
+    let (state, mut particles) = boundary_state_wgsl(c);
+    particles.extend([
         (pb::VEL, Access::Read),
         (pb::RHO, Access::ReadWrite),
         (pb::PRESS, Access::ReadWrite),
         (pb::ID, Access::Read),
-    ];
+    ]);
     let store = if c.wall_velocity_extrapolation {
         particles.push((pb::WALL_VEL, Access::ReadWrite));
         STORE_WALL_VELOCITY_WGSL
@@ -60,6 +62,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             GRID_COMMON_WGSL,
             kernel_library(),
             library(TAIT_EOS_WGSL),
+            &state,
             store,
             BOUNDARY_PRESSURE_WGSL,
         ],

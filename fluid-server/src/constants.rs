@@ -189,6 +189,7 @@ impl SphConstants {
              const SUPPORT_RADIUS2: f32 = {r2:e};\n\
              const SPACING: f32 = {dx:e};\n\
              const RHO0: f32 = {rho0:e};\n\
+             const LATTICE_MASS: f32 = {lattice_mass:e};\n\
              const SOUND_SPEED: f32 = {c:e};\n\
              const GAMMA: f32 = {gamma:e};\n\
              const TAIT_B: f32 = {b:e};\n\
@@ -217,6 +218,7 @@ impl SphConstants {
             r2 = r * r,
             dx = self.spacing,
             rho0 = self.rho0,
+            lattice_mass = self.mass,
             c = self.sound_speed,
             gamma = self.gamma,
             b = self.tait_b(),

@@ -42,6 +42,7 @@ use crate::joubert2020_gradients::{B_DET_MIN, Mat3, determinant, inverse, mat_ve
 use crate::kernel::kernel_library;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::porosity::boundary_state_wgsl;
 use crate::sph_kernel::{
     Access, PARAMS, PARTICLES, SphKernel, library, param_binding as qb, particle_binding as pb,
 };
@@ -84,6 +85,14 @@ impl BoundaryFrame {
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
     let guard = format!("const B_DET_MIN: f32 = {B_DET_MIN:e};\n");
+    let (state, mut particles) = boundary_state_wgsl(c);
+    particles.extend([
+        (pb::VEL, Access::ReadWrite),
+        (pb::RHO, Access::ReadWrite),
+        (pb::PRESS, Access::ReadWrite),
+        (pb::ID, Access::Read),
+        (pb::BOUNDARY_FRAME, Access::Read),
+    ]);
     SphKernel::new(
         gpu,
         "sph: joubert2020_boundary_values",
@@ -94,21 +103,12 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             GRID_COMMON_WGSL,
             kernel_library(),
             library(TAIT_EOS_WGSL),
+            &state,
             BOUNDARY_VALUES_WGSL,
         ],
         "joubert2020_boundary_values",
         &[
-            (
-                PARTICLES,
-                &[
-                    (pb::POS, Access::Read),
-                    (pb::VEL, Access::ReadWrite),
-                    (pb::RHO, Access::ReadWrite),
-                    (pb::PRESS, Access::ReadWrite),
-                    (pb::ID, Access::Read),
-                    (pb::BOUNDARY_FRAME, Access::Read),
-                ],
-            ),
+            (PARTICLES, &particles),
             (
                 PARAMS,
                 &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::ReadWrite)],

@@ -370,7 +370,8 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
     // Among unresolved grains the fluid's density is superficial, ε ρ_f (Robinson §3.1):
     // a particle of the lattice holds ε of the lattice mass, at its starting porosity
     // (eq. 9), so that its volume m/ρ is still the lattice's δ³. The pressure above is
-    // the intrinsic one (eq. 15). Walls keep porosity 1.
+    // the intrinsic one (eq. 15). Walls start at porosity 1; the boundary pass gives
+    // them the porosity where they stand (porosity.rs, boundary_state_wgsl).
     let mut mass = vec![c.mass; n];
     let solids: Vec<Solid> = (scene.grains().into_iter())
         .filter_map(|i| match scene.bodies[i].shape {

@@ -1060,8 +1060,7 @@ impl Scene {
             w.push(
                 "unresolved grains: the fluid's smoothing length is fixed (Robinson's variable h, \
                  eq. 19, is not implemented), so where the porosity is ε a fluid particle has \
-                 about ε times its neighbours; and wall particles take porosity 1, so keep \
-                 grains a kernel support away from walls"
+                 about ε times its neighbours"
                     .into(),
             );
             if !self.coupling.two_way {
