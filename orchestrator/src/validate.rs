@@ -195,6 +195,30 @@ const SHAPE_QUICK: &[&str] = &[
 ];
 const SHAPE_QUICK_WHY: &str = "δ = 1 mm, box cut to 30 mm with the release at 20 mm: about nine minutes per body on lavapipe. At this δ the ring's hole and the cross's arms are about one spacing across: a run of the pipeline for every shape, its numbers reported, not a resolution of the shapes";
 
+/// Joubert §4.4's two runs: the scene's five spheres, then five rings (Table 3's ring,
+/// axis along y) at the same places.
+const FIVE_BODY_VARIANTS: &[(&str, &[&str])] = &[
+    ("spheres", &[]),
+    (
+        "rings",
+        &[
+            "bodies.0.name=\"ring-0\"",
+            "bodies.0.shape={ ring = { sides = 12, inner_radius = 7.25e-4, outer_radius = 1.45e-3, half_height = 8.75e-4 } }",
+            "bodies.1.name=\"ring-1\"",
+            "bodies.1.shape={ ring = { sides = 12, inner_radius = 7.25e-4, outer_radius = 1.45e-3, half_height = 8.75e-4 } }",
+            "bodies.2.name=\"ring-2\"",
+            "bodies.2.shape={ ring = { sides = 12, inner_radius = 7.25e-4, outer_radius = 1.45e-3, half_height = 8.75e-4 } }",
+            "bodies.3.name=\"ring-3\"",
+            "bodies.3.shape={ ring = { sides = 12, inner_radius = 7.25e-4, outer_radius = 1.45e-3, half_height = 8.75e-4 } }",
+            "bodies.4.name=\"ring-4\"",
+            "bodies.4.shape={ ring = { sides = 12, inner_radius = 7.25e-4, outer_radius = 1.45e-3, half_height = 8.75e-4 } }",
+        ],
+    ),
+];
+
+/// The five-bodies quick version: δ = 0.5 mm to 0.1 s (see its `quick_why`).
+const FIVE_BODY_QUICK: &[&str] = &["fluid.spacing=5e-4", "time.end=0.1"];
+
 /// Joubert Table 3's four shapes, the sphere first (the reference of Table 5's ratios).
 const SHAPE_VARIANTS: &[(&str, &[&str])] = &[
     ("sphere", &[]),
@@ -248,7 +272,7 @@ const RING_BOXES: &[(&str, &[&str])] = &[
     ),
 ];
 
-static CASES: [Case; 16] = [
+static CASES: [Case; 17] = [
     Case {
         name: "hydrostatic-tank",
         scene: "hydrostatic-tank.toml",
@@ -449,6 +473,19 @@ static CASES: [Case; 16] = [
         quick_variants: &[],
         analyse: dkt,
         compare: None,
+    },
+    Case {
+        name: "five-bodies",
+        scene: "five-bodies.toml",
+        about: "Joubert §4.4: five spheres, then five rings, settling together from a staggered start in the 10 × 50 × 8 mm box with symmetry planes in x — the spheres descend faster (mean descent speed over the rings' > 1) and the rings rotate more; each body's height plotted (Figs. 25–26)",
+        quick: FIVE_BODY_QUICK,
+        quick_why: "δ = 0.5 mm to t = 0.1 s: 32 000 fluid particles, about 20 minutes per variant on lavapipe. At δ = 1 mm (as shape-drag's quick) both variants blew up within 0.025 s: the bodies start 1.75 δ from the x planes and fluid left through them. By 0.1 s the bodies are near their terminal speed but the rings have had little time to tip (Joubert's snapshots run to 0.7 s), so the quick judges both statements early",
+        sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
+        sweep_schemes: &[("corrected + shifting", &[])],
+        analyse: five_bodies,
+        variants: FIVE_BODY_VARIANTS,
+        quick_variants: &[],
+        compare: Some(five_bodies_compare),
     },
     Case {
         name: "dam-break",
@@ -2764,6 +2801,164 @@ fn cd_ratios(parts: &[Report], report: &mut Report) -> Result<(), String> {
     Ok(())
 }
 
+/// Joubert §4.4: the five bodies of one variant (all spheres, or all rings). Judged up to
+/// t*, the last state before any body's centre comes within two of its half-extents of
+/// the floor (there the fall ends, not the settling). Reported per body: its descent
+/// y(0) − y(t*); the mean descent speed of the five over [0, t*] and the largest rotation
+/// of any body from its start, 2 acos|w| (for a ring also its axis's tilt from vertical),
+/// kept in the report's values for the comparison of spheres with rings
+/// ([`five_bodies_compare`]).
+fn five_bodies(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), String> {
+    if scene.bodies.len() != 5 {
+        return Err(format!("{} bodies; the case has five", scene.bodies.len()));
+    }
+    let mut half_extent = Vec::new();
+    let mut ring = Vec::new();
+    for b in &scene.bodies {
+        let (e, r) = match b.shape {
+            couplet_protocol::Shape::Sphere { radius } => (radius, false),
+            couplet_protocol::Shape::Ring {
+                outer_radius,
+                half_height,
+                ..
+            } => (outer_radius.hypot(half_height), true),
+            _ => return Err(format!("body {:?} is neither a sphere nor a ring", b.name)),
+        };
+        half_extent.push(e);
+        ring.push(r);
+    }
+    if ring.iter().any(|&r| r != ring[0]) {
+        return Err("the five bodies must be all spheres or all rings".into());
+    }
+    let tracks: Vec<Vec<BodySample>> = (0..5).map(|b| track(rec, b)).collect();
+    let n = tracks[0].len();
+    if n < 20 || tracks.iter().any(|t| t.len() != n) {
+        return Err(format!(
+            "body state counts {:?}: need the same, at least 20, for all five",
+            tracks.iter().map(Vec::len).collect::<Vec<_>>()
+        ));
+    }
+    let finite = (tracks.iter().flatten())
+        .all(|b| b.position.iter().chain(&b.velocity).all(|v| v.is_finite()));
+    report.judge(
+        "body states finite",
+        finite.to_string(),
+        "true".into(),
+        "exact".into(),
+        Some(finite),
+    );
+    let floor = scene.domain.min[1];
+    let clear = |k: usize| (0..5).all(|b| tracks[b][k].position[1] - floor > 2.0 * half_extent[b]);
+    let last = (0..n)
+        .take_while(|&k| clear(k))
+        .last()
+        .ok_or("a body starts at the floor")?;
+    let t_star = tracks[0][last].time;
+    if t_star <= 0.0 {
+        return Err("no body state after the start".into());
+    }
+    let mut descents = Vec::new();
+    for (b, t) in tracks.iter().enumerate() {
+        let d = t[0].position[1] - t[last].position[1];
+        descents.push(d);
+        report.judge(
+            format!("{}: descent by t* = {t_star:.3} s", scene.bodies[b].name),
+            format!("{:.3} mm", 1e3 * d),
+            "Joubert Figs. 25–26 (qualitative)".into(),
+            "reported".into(),
+            None,
+        );
+    }
+    let speed = descents.iter().sum::<f64>() / 5.0 / t_star;
+    // The rotation of a body from its start (all start unrotated): 2 acos|w|.
+    let rotation = (tracks.iter().flat_map(|t| &t[..=last]))
+        .map(|b| 2.0 * b.orientation[3].abs().clamp(0.0, 1.0).acos().to_degrees())
+        .fold(0.0, f64::max);
+    report.judge(
+        format!("mean descent speed of the five over 0–{t_star:.3} s"),
+        format!("{:.3} mm/s", 1e3 * speed),
+        "spheres faster than rings (Joubert §4.4)".into(),
+        "compared across the variants".into(),
+        None,
+    );
+    report.judge(
+        format!("largest rotation of a body from its start by {t_star:.3} s"),
+        format!("{rotation:.2}°"),
+        "rings rotate strongly, spheres little (Joubert §4.4)".into(),
+        "compared across the variants".into(),
+        None,
+    );
+    if ring[0] {
+        let tilt = (tracks.iter().flat_map(|t| &t[..=last]))
+            .map(|b| {
+                // The y component of R·ŷ for the unit quaternion (x, y, z, w).
+                let [x, _, z, _] = b.orientation;
+                (1.0 - 2.0 * (x * x + z * z))
+                    .clamp(-1.0, 1.0)
+                    .acos()
+                    .to_degrees()
+            })
+            .fold(0.0, f64::max);
+        report.judge(
+            format!("largest tilt of a ring's axis from vertical by {t_star:.3} s"),
+            format!("{tilt:.2}°"),
+            "0 for one ring alone (shape-drag); Joubert Fig. 26: the rings tip over".into(),
+            "reported".into(),
+            None,
+        );
+    }
+    report.values.extend([
+        ("descent_speed", speed),
+        ("rotation_deg", rotation),
+        ("t_star", t_star),
+    ]);
+    report.headline = Some(("mean descent speed (m/s)".into(), speed));
+    for (b, t) in tracks.iter().enumerate() {
+        report.series.push(Series {
+            name: format!("{}-height", scene.bodies[b].name),
+            x_label: "t (s)".into(),
+            y_label: "height of the centre (m)".into(),
+            points: t.iter().map(|s| (s.time, s.position[1])).collect(),
+            reference: Vec::new(),
+        });
+    }
+    Ok(())
+}
+
+/// Joubert §4.4's two statements, on the spheres' run (first) and the rings' (second):
+/// the spheres descend faster together (their mean descent speed over the rings' above
+/// 1), and the rings rotate more (their largest rotation above the spheres'). Both are
+/// judged at every spacing: they are the paper's findings, not its numbers.
+fn five_bodies_compare(parts: &[Report], report: &mut Report) -> Result<(), String> {
+    let [spheres, rings] = parts else {
+        return Err(format!(
+            "{} variants ran; the comparison needs spheres and rings",
+            parts.len()
+        ));
+    };
+    let get = |r: &Report, k: &str| {
+        r.value(k)
+            .ok_or_else(|| format!("{}: no `{k}` in the analysis", r.case))
+    };
+    let ratio = get(spheres, "descent_speed")? / get(rings, "descent_speed")?;
+    report.judge(
+        "mean descent speed, spheres over rings",
+        format!("{ratio:.3}"),
+        "> 1: the spheres travel faster (Joubert §4.4)".into(),
+        "> 1".into(),
+        Some(ratio > 1.0),
+    );
+    let (rs, rr) = (get(spheres, "rotation_deg")?, get(rings, "rotation_deg")?);
+    report.judge(
+        "largest rotation, rings against spheres",
+        format!("{rr:.2}° against {rs:.2}°"),
+        "rings rotate strongly, spheres little (Joubert §4.4)".into(),
+        "rings' > spheres'".into(),
+        Some(rr > rs),
+    );
+    Ok(())
+}
+
 /// Body `body`'s shape placed at a recorded state, as a convex polyhedron in the scene
 /// frame (for the overlap test of two prisms).
 fn placed_hull(
@@ -4157,6 +4352,69 @@ mod tests {
     /// 2r cos 15° − 1.8 r = 0.13 r face to face and 0.2 r vertex to vertex, far past
     /// rapier's slop); a swing of 60° fails the tumbling only. References: the tracks'
     /// own construction and the 12-gon's apothem and circumradius.
+    /// Five bodies falling at `v` m/s for 0.5 s, then resting 0.2 s; each turns about z at
+    /// `spin` degrees per second while it falls. The bodies start 33–45 mm up.
+    fn five_recording(scene: &Scene, v: f64, spin: f64) -> Recording {
+        let mut bodies = Vec::new();
+        for k in 0..=140 {
+            let t = 0.005 * f64::from(k);
+            let fall = t.min(0.5);
+            let half = (spin * fall).to_radians() / 2.0;
+            for (i, b) in scene.bodies.iter().enumerate() {
+                bodies.push(BodySample {
+                    time: t,
+                    body: i,
+                    position: [b.position[0], b.position[1] - v * fall, b.position[2]],
+                    orientation: [0.0, 0.0, half.sin(), half.cos()],
+                    velocity: [0.0, if t < 0.5 { -v } else { 0.0 }, 0.0],
+                });
+            }
+        }
+        Recording {
+            bodies,
+            has_summary: true,
+            ..Default::default()
+        }
+    }
+
+    /// Spheres at 50 mm/s spinning 10°/s and rings at 40 mm/s tipping 60°/s: ratio 1.25,
+    /// rotations read back from the quaternions (spin × 0.5 s), both statements pass;
+    /// swapped, both fail. No body comes near the floor, so t* is the last state, 0.7 s.
+    #[test]
+    fn five_bodies_judges_spheres_faster_and_rings_rotating() {
+        let case = find("five-bodies").unwrap();
+        let path = scene_path(case, None).unwrap();
+        let (spheres, _) = resolve_scene(&path, &[]).unwrap();
+        let (rings, _) = resolve_scene(&path, &pairs(case.variants[1].1)).unwrap();
+        assert!(matches!(
+            rings.bodies[4].shape,
+            couplet_protocol::Shape::Ring { .. }
+        ));
+        let analyse = |scene: &Scene, v: f64, spin: f64| {
+            let mut r = Report::default();
+            five_bodies(scene, &five_recording(scene, v, spin), &mut r).unwrap();
+            r
+        };
+        let (a, b) = (analyse(&spheres, 0.05, 10.0), analyse(&rings, 0.04, 60.0));
+        // The spheres fall 25 mm in 0.5 s and rest 8 mm up: never within 2.5 mm.
+        assert!((a.value("t_star").unwrap() - 0.7).abs() < 1e-9);
+        assert!((a.value("descent_speed").unwrap() - 0.025 / 0.7).abs() < 1e-9);
+        assert!((a.value("rotation_deg").unwrap() - 5.0).abs() < 1e-6);
+        assert!((b.value("rotation_deg").unwrap() - 30.0).abs() < 1e-6);
+        let mut c = Report::default();
+        five_bodies_compare(&[a.clone(), b.clone()], &mut c).unwrap();
+        assert_eq!(
+            c.rows.iter().map(|r| r.pass).collect::<Vec<_>>(),
+            [Some(true); 2]
+        );
+        let mut c = Report::default();
+        five_bodies_compare(&[b, a], &mut c).unwrap();
+        assert_eq!(
+            c.rows.iter().map(|r| r.pass).collect::<Vec<_>>(),
+            [Some(false); 2]
+        );
+    }
+
     #[test]
     fn dkt_phases_and_overlap_are_judged_on_synthetic_tracks() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/dkt.toml");
