@@ -47,7 +47,7 @@ pub fn porosity_wgsl(c: &SphConstants) -> (&'static str, Option<(u32, Access)>) 
 /// volume m/ρ is the lattice's and its terms in the fluid's sums (m_w P_w/ρ_w² beside
 /// m_f P_f/ρ_f², m_w u·∇W in continuity) are those of the fluid it stands for. At
 /// porosity 1 a fluid particle's pair term with it, m_w (P_a/ρ_a² + P_w/ρ_w²), was
-/// (1/ε² + 1)/(2/ε) of the fluid's own (+2.5 % at ε = 0.8, +6.7 % at 0.6) and its
+/// (1/ε² + 1)/(2/ε) of the fluid's own (+2.5 % at ε = 0.8, +13 % at 0.6) and its
 /// continuity term 1/ε of it.
 /// Markers keep porosity 1 (`grain_solid_fraction` adds nothing to them). Without grains
 /// `pos` is read-only and the state is the plain one.

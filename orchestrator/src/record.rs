@@ -431,6 +431,12 @@ pub fn read_recording(path: &Path) -> Result<Recording, String> {
             _ => {}
         }
     }
+    if !closed && rec.truncated.is_none() {
+        rec.truncated = Some(format!(
+            "{}: not closed; its records end whole",
+            path.display()
+        ));
+    }
     Ok(rec)
 }
 

@@ -2611,6 +2611,16 @@ const JOUBERT_SHAPES: [(&str, f64, f64, f64); 6] = [
     ("ring", 7.5e-3, 8.12, 53.97),
 ];
 
+/// The angle of a body's y axis from the vertical, degrees: for the unit quaternion
+/// (x, y, z, w) the y component of R·ŷ is 1 − 2(x² + z²).
+fn axis_tilt_deg(b: &BodySample) -> f64 {
+    let [x, _, z, _] = b.orientation;
+    (1.0 - 2.0 * (x * x + z * z))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
+}
+
 /// Joubert §4.2–4.3: one shape settling in a closed box. Re = U l_c/ν at the plateau of
 /// the fall against Table 5 or 6 for this shape and box, judged within 10 % (issue 4) at
 /// Joubert's δ = 0.25 mm and reported at other spacings. C_D of eq. (36) from the
@@ -2702,14 +2712,7 @@ fn settling_shape(scene: &Scene, rec: &Recording, report: &mut Report) -> Result
     let tilt = s
         .iter()
         .filter(|b| b.time >= t_start && b.time <= t_end)
-        .map(|b| {
-            // The y component of R·ŷ for the unit quaternion (x, y, z, w).
-            let [x, _, z, _] = b.orientation;
-            (1.0 - 2.0 * (x * x + z * z))
-                .clamp(-1.0, 1.0)
-                .acos()
-                .to_degrees()
-        })
+        .map(axis_tilt_deg)
         .fold(0.0, f64::max);
     report.judge(
         "largest tilt of the body's axis from vertical over the plateau",
@@ -2890,14 +2893,7 @@ fn five_bodies(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<()
     );
     if ring[0] {
         let tilt = (tracks.iter().flat_map(|t| &t[..=last]))
-            .map(|b| {
-                // The y component of R·ŷ for the unit quaternion (x, y, z, w).
-                let [x, _, z, _] = b.orientation;
-                (1.0 - 2.0 * (x * x + z * z))
-                    .clamp(-1.0, 1.0)
-                    .acos()
-                    .to_degrees()
-            })
+            .map(axis_tilt_deg)
             .fold(0.0, f64::max);
         report.judge(
             format!("largest tilt of a ring's axis from vertical by {t_star:.3} s"),
