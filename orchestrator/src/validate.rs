@@ -479,7 +479,7 @@ static CASES: [Case; 17] = [
         scene: "five-bodies.toml",
         about: "Joubert §4.4: five spheres, then five rings, settling together from a staggered start in the 10 × 50 × 8 mm box with symmetry planes in x — the spheres descend faster (mean descent speed over the rings' > 1) and the rings rotate more; each body's height plotted (Figs. 25–26)",
         quick: FIVE_BODY_QUICK,
-        quick_why: "δ = 0.5 mm to t = 0.1 s: 32 000 fluid particles, about 20 minutes per variant on lavapipe. At δ = 1 mm (as shape-drag's quick) both variants blew up within 0.025 s: the bodies start 1.75 δ from the x planes and fluid left through them. By 0.1 s the bodies are near their terminal speed but the rings have had little time to tip (Joubert's snapshots run to 0.7 s), so the quick judges both statements early",
+        quick_why: "δ = 0.5 mm to t = 0.1 s: 32 000 fluid particles, about 20 minutes per variant on lavapipe; by 0.1 s the bodies are near their terminal speed but the rings have had little time to tip (Joubert's snapshots run to 0.7 s). Known to fail (2026-11-25): the spheres blew up at t = 0.031 s, a fluid particle leaving through the x = 0 symmetry plane near the lid; at δ = 1 mm both variants blew up within 0.025 s the same way, and with Adami's walls instead (no symmetry planes) at 0.088 s beside a body 1.25 δ in radius",
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[("corrected + shifting", &[])],
         analyse: five_bodies,
