@@ -11,7 +11,8 @@
 // of the point for markers; from the particle's BoundaryFrame) and the viscous term
 // left out (see joubert2020_boundary_values.rs); ρ_w from the inverted
 // Tait equation, times the porosity among unresolved grains (with the mass:
-// boundary_state_wgsl in porosity.rs). No-slip particles and markers keep their velocity (a Dirichlet condition);
+// boundary_state_wgsl in porosity.rs). No-slip particles and markers keep their
+// velocity (a Dirichlet condition);
 // particles on symmetry planes (wall_normal.w = 1) take the tangential velocity of
 // eq. (27) with ∂u/∂n = 0, u_w = n̂·(B_w Σ_f V_f u_f ∇W_wf) / n̂·S, and zero velocity
 // along every axis their normal has a component on (the planes are axis-aligned).
