@@ -124,6 +124,38 @@ enum Cmd {
         #[command(flatten)]
         overrides: Overrides,
     },
+    /// Serve the gRPC control API (protocol/proto/couplet/v1/couplet.proto), with
+    /// reflection and the standard health service; Ctrl-C or SIGTERM stops every live
+    /// run cleanly and exits.
+    Serve {
+        /// Address to listen on. Anything but loopback needs --token-file.
+        #[arg(long, default_value = "127.0.0.1:50051")]
+        listen: std::net::SocketAddr,
+        /// Runs write their output (scene.toml, run.mcap) under DIR/<run id>/.
+        #[arg(long, default_value = "out/runs")]
+        data_dir: PathBuf,
+        /// Live runs at most (each holds a fluid and a DEM server process); more
+        /// CreateRun calls answer RESOURCE_EXHAUSTED.
+        #[arg(long, default_value_t = crate::serve::DEFAULT_MAX_RUNS)]
+        max_runs: usize,
+        /// File whose content (trimmed) every client must send as
+        /// `authorization: Bearer <token>`.
+        #[arg(long)]
+        token_file: Option<PathBuf>,
+        /// TLS certificate chain (PEM); needs --tls-key.
+        #[arg(long, requires = "tls_key")]
+        tls_cert: Option<PathBuf>,
+        /// TLS private key (PEM); needs --tls-cert.
+        #[arg(long, requires = "tls_cert")]
+        tls_key: Option<PathBuf>,
+    },
+    /// Drive a `couplet serve` over gRPC: create, start, pause, step, watch, stop runs.
+    Ctl {
+        #[command(flatten)]
+        conn: crate::ctl::Connection,
+        #[command(subcommand)]
+        cmd: crate::ctl::CtlCmd,
+    },
     /// (internal) Serve the fluid side of a run.
     #[command(name = "fluid-server", hide = true)]
     FluidServer { run_id: String, scene: PathBuf },
@@ -138,7 +170,11 @@ pub fn main() -> ExitCode {
     match real_main(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("couplet: {e:#}");
+            // A gRPC status (from `couplet ctl`) reads as its code and message.
+            match e.downcast_ref::<tonic::Status>() {
+                Some(s) => eprintln!("couplet: {:?}: {}", s.code(), s.message()),
+                None => eprintln!("couplet: {e:#}"),
+            }
             ExitCode::FAILURE
         }
     }
@@ -240,6 +276,44 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                 );
             }
         }
+        Cmd::Serve {
+            listen,
+            data_dir,
+            max_runs,
+            token_file,
+            tls_cert,
+            tls_key,
+        } => {
+            if max_runs == 0 {
+                anyhow::bail!("--max-runs 0 would refuse every run");
+            }
+            let token = match token_file {
+                Some(f) => {
+                    let t = std::fs::read_to_string(&f)
+                        .with_context(|| format!("reading {}", f.display()))?;
+                    let t = t.trim().to_owned();
+                    if t.is_empty() {
+                        anyhow::bail!("{}: the token file is empty", f.display());
+                    }
+                    Some(t)
+                }
+                None => None,
+            };
+            let tls = tls_cert
+                .zip(tls_key)
+                .map(|(cert, key)| crate::serve::TlsFiles { cert, key });
+            crate::serve::serve(
+                listen,
+                crate::serve::ServeConfig {
+                    data_dir,
+                    max_runs,
+                    server_exe: None,
+                    token,
+                },
+                tls,
+            )?;
+        }
+        Cmd::Ctl { conn, cmd } => crate::ctl::ctl(&conn, cmd)?,
         Cmd::FluidServer { run_id, scene } => {
             let s = couplet_protocol::Scene::load(&scene)?;
             couplet_fluid::server::serve(&run_id, &s).context("fluid-server")?;

@@ -32,12 +32,20 @@ pub enum LaunchError {
 }
 
 impl Server {
-    /// Starts this executable in `role` (`couplet fluid-server RUN_ID SCENE`).
-    pub fn spawn(role: Role, run_id: &str, scene: &Path) -> Result<Self, LaunchError> {
-        let exe = std::env::current_exe().map_err(|source| LaunchError::Spawn {
-            role: role.name(),
-            source,
-        })?;
+    /// Starts `exe` (None: this executable) in `role` (`couplet fluid-server RUN_ID SCENE`).
+    pub fn spawn(
+        role: Role,
+        run_id: &str,
+        scene: &Path,
+        exe: Option<&Path>,
+    ) -> Result<Self, LaunchError> {
+        let exe = match exe {
+            Some(e) => e.to_owned(),
+            None => std::env::current_exe().map_err(|source| LaunchError::Spawn {
+                role: role.name(),
+                source,
+            })?,
+        };
         let child = Command::new(exe)
             .arg(role.name())
             .arg(run_id)

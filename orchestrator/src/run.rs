@@ -10,7 +10,9 @@
 use crate::launch::{LaunchError, Server};
 use crate::record::{RecordError, Recorder};
 use crate::window::{WindowPlan, choose_window};
-use couplet_protocol::transport::{Endpoint, TransportError, ValueReceiver};
+use couplet_protocol::transport::{
+    Endpoint, SliceReceiver, TransportError, ValueReceiver, ValueSender, WakeListener, Waker,
+};
 use couplet_protocol::{
     BodyLoad, BodyState, Command, CommandKind, HandshakeError, Hello, PROTOCOL_VERSION,
     ParticleRecord, Role, Scene, SceneError, ServiceLeaf, SideReport, check_hello,
@@ -129,209 +131,311 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
     for w in scene.warnings() {
         eprintln!("warning: {w}");
     }
-    let has_fluid = scene.fluid.is_some();
-    let has_dem = scene.needs_dem();
-    if !has_fluid && !has_dem {
-        return Err(RunError::Empty);
-    }
     let out = opts
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scene.meta.name));
-    std::fs::create_dir_all(&out).map_err(|source| RunError::Io {
-        what: format!("creating {}", out.display()),
-        source,
-    })?;
-    let scene_path = out.join("scene.toml");
-    std::fs::write(&scene_path, &text).map_err(|source| RunError::Io {
-        what: format!("writing {}", scene_path.display()),
-        source,
-    })?;
-
-    let run_id = format!(
-        "{}-{}",
-        std::process::id(),
-        couplet_protocol::monotonic_ns() % 1_000_000_000
-    );
-    let ep = Endpoint::new(&run_id)?;
-    let commands = ep.value_sender::<Command>(ServiceLeaf::Command)?;
-    let hellos = ep.value_receiver::<Hello>(ServiceLeaf::Hello)?;
-    let reports = ep.value_receiver::<SideReport>(ServiceLeaf::Report)?;
-    let bodies_rx = ep.slice_receiver::<BodyState>(ServiceLeaf::Bodies)?;
-    let loads_rx = ep.slice_receiver::<BodyLoad>(ServiceLeaf::Loads)?;
-    let particles_rx = ep.slice_receiver::<ParticleRecord>(ServiceLeaf::Particles)?;
-    let wake = ep.wake_listener(ServiceLeaf::OrchestratorWake)?;
-    let wake_fluid = ep.waker(ServiceLeaf::FluidWake)?;
-    let wake_dem = ep.waker(ServiceLeaf::DemWake)?;
-
-    let mut recorder = if opts.record {
-        Some(Recorder::create(
-            &out.join("run.mcap"),
-            &scene.meta.name,
-            &text,
-        )?)
-    } else {
-        None
-    };
-
-    let mut peers = Peers {
-        fluid: if has_fluid {
-            Some(Server::spawn(Role::Fluid, &run_id, &scene_path)?)
-        } else {
-            None
+    let mut run = CoupledRun::launch(
+        scene,
+        &text,
+        &out,
+        &LaunchOptions {
+            record: opts.record,
+            max_windows: opts.max_windows,
+            server_exe: None,
         },
-        dem: if has_dem {
-            Some(Server::spawn(Role::Dem, &run_id, &scene_path)?)
-        } else {
-            None
-        },
-    };
-    let result = drive(
-        &scene,
-        opts,
-        &mut peers,
-        &mut recorder,
-        Ports {
-            commands: &commands,
-            hellos: &hellos,
-            reports: &reports,
-            bodies_rx: &bodies_rx,
-            loads_rx: &loads_rx,
-            particles_rx: &particles_rx,
-            wake: &wake,
-            wake_fluid: &wake_fluid,
-            wake_dem: &wake_dem,
-        },
-    );
-
-    // On success the servers are told to shut down and given time to exit cleanly; on
-    // failure the run is lost and the survivors are killed at once (one may be blocked
-    // waiting for data from the dead one), so the error surfaces within a second.
-    let grace = if result.is_ok() {
-        Duration::from_secs(5)
-    } else {
-        Duration::ZERO
-    };
-    let _ = commands.send(Command {
-        protocol_version: PROTOCOL_VERSION,
-        kind: CommandKind::Shutdown as u32,
-        ..Default::default()
-    });
-    let _ = wake_fluid.wake();
-    let _ = wake_dem.wake();
-    for s in [peers.fluid.as_mut(), peers.dem.as_mut()]
-        .into_iter()
-        .flatten()
-    {
-        s.finish(grace);
+    )?;
+    let bar = progress_bar(opts.progress, run.end_time());
+    let mut result = Ok(());
+    while !run.done() {
+        match run.advance() {
+            Ok(w) => {
+                bar.set_position((w.end * 1e6) as u64);
+                bar.set_message(format!("{:.4}", w.end));
+            }
+            Err(e) => {
+                result = Err(e);
+                break;
+            }
+        }
     }
-    let recording = recorder.as_ref().map(|r| r.path().to_owned());
-    if let Some(r) = recorder.as_mut() {
-        r.close()?;
-    }
-    let mut summary = result?;
-    summary.recording = recording;
-    Ok(summary)
+    bar.finish_and_clear();
+    let summary = run.close(result.is_ok());
+    result?;
+    summary
 }
 
-struct Ports<'a> {
-    commands: &'a couplet_protocol::transport::ValueSender<Command>,
-    hellos: &'a ValueReceiver<Hello>,
-    reports: &'a ValueReceiver<SideReport>,
-    bodies_rx: &'a couplet_protocol::transport::SliceReceiver<BodyState>,
-    loads_rx: &'a couplet_protocol::transport::SliceReceiver<BodyLoad>,
-    particles_rx: &'a couplet_protocol::transport::SliceReceiver<ParticleRecord>,
-    wake: &'a couplet_protocol::transport::WakeListener,
-    wake_fluid: &'a couplet_protocol::transport::Waker,
-    wake_dem: &'a couplet_protocol::transport::Waker,
+/// How [`CoupledRun::launch`] starts a run.
+#[derive(Debug, Clone, Default)]
+pub struct LaunchOptions {
+    /// Write an MCAP recording to `OUT/run.mcap`.
+    pub record: bool,
+    /// Stop after this many windows (benchmarks); None: run to `time.end`.
+    pub max_windows: Option<u64>,
+    /// The executable to start in the server roles (`EXE fluid-server RUN_ID SCENE`);
+    /// None: this executable, which is the `couplet` CLI.
+    pub server_exe: Option<PathBuf>,
 }
 
-fn drive(
-    scene: &Scene,
-    opts: &RunOptions,
-    peers: &mut Peers,
-    recorder: &mut Option<Recorder>,
-    p: Ports<'_>,
-) -> Result<RunSummary, RunError> {
-    // Handshake: every server says hello once its ports exist; a wrong version is refused.
-    let (mut fluid_hello, mut dem_hello) = (None::<Hello>, None::<Hello>);
-    let expect_fluid = peers.fluid.is_some();
-    let expect_dem = peers.dem.is_some();
-    let start = Instant::now();
-    while (expect_fluid && fluid_hello.is_none()) || (expect_dem && dem_hello.is_none()) {
-        let h = p.wake.wait_for(
-            || p.hellos.try_next(),
-            || {
-                peers.check()?;
-                if start.elapsed() > HELLO_TIMEOUT {
-                    return Err(TransportError::PeerGone(format!(
-                        "no hello within {HELLO_TIMEOUT:?}"
-                    )));
-                }
-                Ok(())
+/// What one window did, as the orchestrator saw it.
+#[derive(Debug, Clone)]
+pub struct WindowDone {
+    pub step: u64,
+    /// Time at the end of the window, s.
+    pub end: f64,
+    pub window: f64,
+    pub fluid: Option<SideReport>,
+    pub dem: Option<SideReport>,
+    /// Wall time of the whole window, s.
+    pub wall_s: f64,
+}
+
+/// A launched run whose servers have said hello, advanced one window at a time: by
+/// [`run`] to its end, by the gRPC service as its clients ask. Dropping it kills the
+/// servers; [`CoupledRun::close`] shuts them down cleanly and closes the recording.
+pub struct CoupledRun {
+    scene: Scene,
+    plan: WindowPlan,
+    /// Windows this run will advance (the plan's, or fewer with `max_windows`).
+    windows: u64,
+    /// Index of the next window.
+    step: u64,
+    output_interval: f64,
+    next_output: f64,
+    next_body_record: f64,
+    last_states: Vec<BodyState>,
+    last_loads: Vec<BodyLoad>,
+    summary: RunSummary,
+    /// Sums from window 1 (window 0 carries set-up), µs.
+    fluid_compute: f64,
+    dem_compute: f64,
+    exchange: f64,
+    window_wall: f64,
+    recorder: Option<Recorder>,
+    peers: Peers,
+    // The ports before the endpoint: fields drop in order, and the ports belong to it.
+    commands: ValueSender<Command>,
+    hellos: ValueReceiver<Hello>,
+    reports: ValueReceiver<SideReport>,
+    bodies_rx: SliceReceiver<BodyState>,
+    loads_rx: SliceReceiver<BodyLoad>,
+    particles_rx: SliceReceiver<ParticleRecord>,
+    wake: WakeListener,
+    wake_fluid: Waker,
+    wake_dem: Waker,
+    _endpoint: Endpoint,
+}
+
+impl CoupledRun {
+    /// Writes `OUT/scene.toml`, opens the recording, starts the servers this scene needs
+    /// under a fresh iceoryx2 namespace and waits for their hello; then plans the window.
+    pub fn launch(
+        scene: Scene,
+        text: &str,
+        out: &Path,
+        opts: &LaunchOptions,
+    ) -> Result<Self, RunError> {
+        let has_fluid = scene.fluid.is_some();
+        let has_dem = scene.needs_dem();
+        if !has_fluid && !has_dem {
+            return Err(RunError::Empty);
+        }
+        std::fs::create_dir_all(out).map_err(|source| RunError::Io {
+            what: format!("creating {}", out.display()),
+            source,
+        })?;
+        let scene_path = out.join("scene.toml");
+        std::fs::write(&scene_path, text).map_err(|source| RunError::Io {
+            what: format!("writing {}", scene_path.display()),
+            source,
+        })?;
+
+        let run_id = format!(
+            "{}-{}",
+            std::process::id(),
+            couplet_protocol::monotonic_ns() % 1_000_000_000
+        );
+        let ep = Endpoint::new(&run_id)?;
+        let recorder = if opts.record {
+            Some(Recorder::create(
+                &out.join("run.mcap"),
+                &scene.meta.name,
+                text,
+            )?)
+        } else {
+            None
+        };
+        let output_interval = scene.time.output_interval;
+        // The ports exist before the servers start: a hello sent to no subscriber is lost.
+        let mut run = Self {
+            plan: WindowPlan::default(),
+            windows: 0,
+            step: 0,
+            output_interval,
+            next_output: output_interval,
+            // The first window's states are recorded: the start of every track.
+            next_body_record: 0.0,
+            last_states: Vec::new(),
+            last_loads: Vec::new(),
+            summary: RunSummary::default(),
+            fluid_compute: 0.0,
+            dem_compute: 0.0,
+            exchange: 0.0,
+            window_wall: 0.0,
+            recorder,
+            peers: Peers {
+                fluid: None,
+                dem: None,
             },
-        )?;
-        match check_hello(&h)? {
-            Role::Dem => dem_hello = Some(h),
-            _ => fluid_hello = Some(h),
+            commands: ep.value_sender::<Command>(ServiceLeaf::Command)?,
+            hellos: ep.value_receiver::<Hello>(ServiceLeaf::Hello)?,
+            reports: ep.value_receiver::<SideReport>(ServiceLeaf::Report)?,
+            bodies_rx: ep.slice_receiver::<BodyState>(ServiceLeaf::Bodies)?,
+            loads_rx: ep.slice_receiver::<BodyLoad>(ServiceLeaf::Loads)?,
+            particles_rx: ep.slice_receiver::<ParticleRecord>(ServiceLeaf::Particles)?,
+            wake: ep.wake_listener(ServiceLeaf::OrchestratorWake)?,
+            wake_fluid: ep.waker(ServiceLeaf::FluidWake)?,
+            wake_dem: ep.waker(ServiceLeaf::DemWake)?,
+            _endpoint: ep,
+            scene,
+        };
+        let exe = opts.server_exe.as_deref();
+        let spawn = |role| Server::spawn(role, &run_id, &scene_path, exe);
+        let started = (|| {
+            run.peers.fluid = has_fluid.then(|| spawn(Role::Fluid)).transpose()?;
+            run.peers.dem = has_dem.then(|| spawn(Role::Dem)).transpose()?;
+            run.handshake(opts.max_windows)
+        })();
+        match started {
+            Ok(()) => Ok(run),
+            Err(e) => {
+                let _ = run.close(false);
+                Err(e)
+            }
         }
     }
 
-    let plan = choose_window(
-        scene,
-        fluid_hello.map(|h| h.dt_limit),
-        dem_hello.map(|h| h.dt_limit),
-    );
-    let windows = opts
-        .max_windows
-        .map_or(plan.windows, |m| m.min(plan.windows));
-    let bar = progress_bar(
-        opts.progress,
-        scene.time.end.min(windows as f64 * plan.window),
-    );
+    /// Every server says hello once its ports exist; a wrong version is refused.
+    fn handshake(&mut self, max_windows: Option<u64>) -> Result<(), RunError> {
+        let (mut fluid_hello, mut dem_hello) = (None::<Hello>, None::<Hello>);
+        let expect_fluid = self.peers.fluid.is_some();
+        let expect_dem = self.peers.dem.is_some();
+        let start = Instant::now();
+        while (expect_fluid && fluid_hello.is_none()) || (expect_dem && dem_hello.is_none()) {
+            let peers = &mut self.peers;
+            let h = self.wake.wait_for(
+                || self.hellos.try_next(),
+                || {
+                    peers.check()?;
+                    if start.elapsed() > HELLO_TIMEOUT {
+                        return Err(TransportError::PeerGone(format!(
+                            "no hello within {HELLO_TIMEOUT:?}"
+                        )));
+                    }
+                    Ok(())
+                },
+            )?;
+            match check_hello(&h)? {
+                Role::Dem => dem_hello = Some(h),
+                _ => fluid_hello = Some(h),
+            }
+        }
+        self.plan = choose_window(
+            &self.scene,
+            fluid_hello.map(|h| h.dt_limit),
+            dem_hello.map(|h| h.dt_limit),
+        );
+        self.windows = max_windows.map_or(self.plan.windows, |m| m.min(self.plan.windows));
+        self.summary.plan = Some(self.plan.clone());
+        Ok(())
+    }
 
-    let mut summary = RunSummary {
-        plan: Some(plan.clone()),
-        ..Default::default()
-    };
-    let mut next_output = scene.time.output_interval;
-    let run_start = Instant::now();
-    let (mut fluid_compute, mut dem_compute, mut exchange, mut window_wall) = (0.0, 0.0, 0.0, 0.0);
-    let mut last_states: Vec<BodyState> = Vec::new();
-    // The first window's states are recorded: the start of every track.
-    let mut next_body_record = 0.0;
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+    pub fn plan(&self) -> &WindowPlan {
+        &self.plan
+    }
+    /// Windows this run advances in all.
+    pub fn windows(&self) -> u64 {
+        self.windows
+    }
+    /// Windows advanced so far.
+    pub fn windows_done(&self) -> u64 {
+        self.step
+    }
+    /// Simulated time the run ends at, s.
+    pub fn end_time(&self) -> f64 {
+        self.scene
+            .time
+            .end
+            .min(self.windows as f64 * self.plan.window)
+    }
+    pub fn done(&self) -> bool {
+        self.step >= self.windows
+    }
+    /// Body states at the end of the last window.
+    pub fn states(&self) -> &[BodyState] {
+        &self.last_states
+    }
+    /// Fluid loads of the last window.
+    pub fn loads(&self) -> &[BodyLoad] {
+        &self.last_loads
+    }
+    pub fn output_interval(&self) -> f64 {
+        self.output_interval
+    }
 
-    for step in 0..windows {
-        let time = step as f64 * plan.window;
-        let end = time + plan.window;
+    /// Takes a new particle-snapshot interval from the next window on; the next snapshot
+    /// falls on the first window end at or after the last one plus `interval` (every
+    /// window when `interval` is shorter than the window).
+    pub fn set_output_interval(&mut self, interval: f64) {
+        let now = self.step as f64 * self.plan.window;
+        let last = self.next_output - self.output_interval;
+        self.output_interval = interval;
+        self.next_output = (last + interval).max(now);
+    }
+
+    /// Advances one coupling window.
+    pub fn advance(&mut self) -> Result<WindowDone, RunError> {
+        let step = self.step;
+        let windows = self.windows;
+        let window = self.plan.window;
+        let time = step as f64 * window;
+        let end = time + window;
+        let expect_fluid = self.peers.fluid.is_some();
+        let expect_dem = self.peers.dem.is_some();
         // Snapshot at every output time the window reaches (and at the very end).
-        let snapshot = expect_fluid && (end >= next_output * (1.0 - 1e-9) || step + 1 == windows);
+        let snapshot =
+            expect_fluid && (end >= self.next_output * (1.0 - 1e-9) || step + 1 == windows);
         if snapshot {
-            while next_output <= end * (1.0 + 1e-9) {
-                next_output += scene.time.output_interval;
+            while self.next_output <= end * (1.0 + 1e-9) {
+                self.next_output += self.output_interval;
             }
         }
         let w_start = Instant::now();
-        p.commands.send(Command {
+        self.commands.send(Command {
             protocol_version: PROTOCOL_VERSION,
             kind: CommandKind::Advance as u32,
             step,
             time,
-            window: plan.window,
+            window,
             snapshot: snapshot as u32,
             _pad: 0,
         })?;
         if expect_fluid {
-            p.wake_fluid.wake()?;
+            self.wake_fluid.wake()?;
         }
         if expect_dem {
-            p.wake_dem.wake()?;
+            self.wake_dem.wake()?;
         }
 
         let (mut fluid_report, mut dem_report) = (None::<SideReport>, None::<SideReport>);
-        p.wake.wait_for(
+        let peers = &mut self.peers;
+        let reports = &self.reports;
+        self.wake.wait_for(
             || {
-                while let Some(r) = p.reports.try_next()? {
+                while let Some(r) = reports.try_next()? {
                     if r.step != step {
                         return Err(TransportError::OutOfSequence {
                             service: "report".into(),
@@ -351,17 +455,17 @@ fn drive(
             },
             || peers.check(),
         )?;
+        let summary = &mut self.summary;
         // Window 0 also carries one-off set-up (the fluid's first markers rebuild its
         // buffers), so the per-window means start at window 1 when there is one.
         if step > 0 || windows == 1 {
-            window_wall += w_start.elapsed().as_secs_f64() * 1e6;
-            if let Some(r) = &fluid_report {
-                fluid_compute += r.compute_us;
-                exchange += r.exchange_us;
-            }
-            if let Some(r) = &dem_report {
-                dem_compute += r.compute_us;
-                exchange += r.exchange_us;
+            self.window_wall += w_start.elapsed().as_secs_f64() * 1e6;
+            for r in [&fluid_report, &dem_report].into_iter().flatten() {
+                match Role::from_u32(r.role) {
+                    Some(Role::Fluid) => self.fluid_compute += r.compute_us,
+                    _ => self.dem_compute += r.compute_us,
+                }
+                self.exchange += r.exchange_us;
             }
         }
         if let Some(r) = &fluid_report {
@@ -371,69 +475,109 @@ fn drive(
 
         // Drain what crossed this window; record it (bodies and loads every window, or
         // at `time.body_output_interval`).
-        let record_bodies = match scene.time.body_output_interval {
-            Some(interval) if end + 1e-9 * interval < next_body_record && step + 1 < windows => {
+        let record_bodies = match self.scene.time.body_output_interval {
+            Some(interval)
+                if end + 1e-9 * interval < self.next_body_record && step + 1 < windows =>
+            {
                 false
             }
             Some(interval) => {
-                while next_body_record <= end + 1e-9 * interval {
-                    next_body_record += interval;
+                while self.next_body_record <= end + 1e-9 * interval {
+                    self.next_body_record += interval;
                 }
                 true
             }
             None => true,
         };
-        while let Some(s) = p.bodies_rx.try_latest()? {
-            last_states.clear();
-            last_states.extend_from_slice(s.payload());
+        let recorder = self.recorder.as_ref();
+        while let Some(s) = self.bodies_rx.try_latest()? {
+            self.last_states.clear();
+            self.last_states.extend_from_slice(s.payload());
             let t = s.user_header().time;
-            if let Some(b) = last_states.first() {
+            if let Some(b) = self.last_states.first() {
                 summary.body0_track.push((t, b.position, b.linear_velocity));
             }
-            if let Some(r) = recorder.as_ref().filter(|_| record_bodies) {
-                r.bodies(t, &last_states);
+            if let Some(r) = recorder.filter(|_| record_bodies) {
+                r.bodies(t, &self.last_states);
             }
         }
-        if let Some(s) = p.loads_rx.try_latest()? {
-            if let Some(r) = recorder.as_ref().filter(|_| record_bodies) {
+        if let Some(s) = self.loads_rx.try_latest()? {
+            self.last_loads.clear();
+            self.last_loads.extend_from_slice(s.payload());
+            if let Some(r) = recorder.filter(|_| record_bodies) {
                 r.loads(time, s.payload());
             }
         }
         if snapshot {
-            let s = p
+            let peers = &mut self.peers;
+            let particles = &self.particles_rx;
+            let s = self
                 .wake
-                .wait_for(|| p.particles_rx.try_step(step), || peers.check())?;
-            if let Some(r) = recorder.as_ref() {
+                .wait_for(|| particles.try_step(step), || peers.check())?;
+            if let Some(r) = recorder {
                 r.particles(s.user_header().time, s.payload());
             }
         }
-        if let Some(r) = recorder.as_ref() {
+        if let Some(r) = recorder {
             r.window(
                 step,
                 time,
-                plan.window,
+                window,
                 fluid_report.as_ref(),
                 dem_report.as_ref(),
             );
         }
-        bar.set_position((end * 1e6) as u64);
-        bar.set_message(format!("{end:.4}"));
+        let wall_s = w_start.elapsed().as_secs_f64();
+        summary.wall_s += wall_s;
         summary.windows = step + 1;
         summary.sim_time = end;
+        self.step = step + 1;
+        Ok(WindowDone {
+            step,
+            end,
+            window,
+            fluid: fluid_report,
+            dem: dem_report,
+            wall_s,
+        })
     }
-    bar.finish_and_clear();
-    let n = if summary.windows > 1 {
-        summary.windows - 1
-    } else {
-        1
-    } as f64;
-    summary.wall_s = run_start.elapsed().as_secs_f64();
-    summary.fluid_compute_us = fluid_compute / n;
-    summary.dem_compute_us = dem_compute / n;
-    summary.exchange_us = exchange / n;
-    summary.window_wall_us = window_wall / n;
-    summary.final_states = last_states;
-    Ok(summary)
+
+    /// Shuts the servers down and closes the recording. After a failure (`ok` false)
+    /// the run is lost and the survivors are killed at once (one may be blocked waiting
+    /// for data from the dead one), so the error surfaces within a second; otherwise
+    /// they are told to shut down and given time to exit cleanly.
+    pub fn close(mut self, ok: bool) -> Result<RunSummary, RunError> {
+        let grace = if ok {
+            Duration::from_secs(5)
+        } else {
+            Duration::ZERO
+        };
+        let _ = self.commands.send(Command {
+            protocol_version: PROTOCOL_VERSION,
+            kind: CommandKind::Shutdown as u32,
+            ..Default::default()
+        });
+        let _ = self.wake_fluid.wake();
+        let _ = self.wake_dem.wake();
+        for s in [self.peers.fluid.as_mut(), self.peers.dem.as_mut()]
+            .into_iter()
+            .flatten()
+        {
+            s.finish(grace);
+        }
+        if let Some(r) = self.recorder.as_mut() {
+            r.close()?;
+            self.summary.recording = Some(r.path().to_owned());
+        }
+        let mut s = std::mem::take(&mut self.summary);
+        let n = s.windows.saturating_sub(1).max(1) as f64;
+        s.fluid_compute_us = self.fluid_compute / n;
+        s.dem_compute_us = self.dem_compute / n;
+        s.exchange_us = self.exchange / n;
+        s.window_wall_us = self.window_wall / n;
+        s.final_states = std::mem::take(&mut self.last_states);
+        Ok(s)
+    }
 }
 
 /// Simulated time (µs resolution) as position: the bar shows simulated time, speed

@@ -1,5 +1,6 @@
 //! The contract between couplet's processes: scene schema, zero-copy payloads,
-//! iceoryx2 service names, protocol version and handshake, validation of received data.
+//! iceoryx2 service names, protocol version and handshake, validation of received data,
+//! and the gRPC control API.
 
 pub use handshake::{HandshakeError, check_hello};
 pub use payload::{
@@ -20,3 +21,13 @@ pub mod scene;
 pub mod service;
 pub mod transport;
 pub mod validate;
+
+/// The gRPC control API (`proto/couplet/v1/couplet.proto`): prost messages, the tonic
+/// client and server, and the encoded descriptor set for server reflection.
+pub mod grpc {
+    tonic::include_proto!("couplet.v1");
+
+    /// `FileDescriptorSet` of the API, for `tonic-reflection`.
+    pub const FILE_DESCRIPTOR_SET: &[u8] =
+        include_bytes!(concat!(env!("OUT_DIR"), "/couplet_descriptor.bin"));
+}

@@ -1,0 +1,330 @@
+//! The gRPC control service over real gRPC on 127.0.0.1:0, in process (issue 6): runs are
+//! created, stepped, watched, paused, resumed and stopped; every error status the API
+//! promises is provoked; two runs at once each see only their own data.
+
+use couplet_orchestrator::serve::{CoupletService, ServeConfig, serve_on};
+use couplet_protocol::grpc::{
+    CreateRunRequest, DeleteRunRequest, ListEnginesRequest, ListRunsRequest, Override, Run,
+    RunRequest, RunState, SetParameterRequest, StepRunRequest, WindowFrame,
+    couplet_client::CoupletClient, watch_event,
+};
+use couplet_tests::{read_recording, scene};
+use tokio::task::JoinHandle;
+use tonic::Code;
+use tonic::transport::Channel;
+
+const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+
+/// A 0.1 × 0.08 × 0.04 m tank of water at rest with a 3 cm box (ρ = 1500) submerged at
+/// mid-depth: one fluid + one body, a few hundred particles, fast on lavapipe.
+const TANK: &str = r#"
+[meta]
+name = "tank"
+[time]
+end = 0.004
+output_interval = 0.002
+[fluid]
+density = 1000.0
+kinematic_viscosity = 1e-6
+sound_speed = 20.0
+spacing = 0.005
+kernel = "wendland-c2"
+support = 3.0
+[[fluid.blocks]]
+min = [0.0, 0.0, 0.0]
+max = [0.1, 0.06, 0.04]
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.1, 0.08, 0.04]
+walls = "no-slip"
+[gravity]
+vector = [0.0, -9.81, 0.0]
+[effects]
+viscosity = "laminar"
+artificial_viscosity = 0.02
+[[bodies]]
+name = "box"
+shape.box.half_extents = [0.015, 0.015, 0.015]
+density = 1500.0
+position = [0.05, 0.03, 0.02]
+"#;
+
+struct Server {
+    client: CoupletClient<Channel>,
+    shutdown: Option<tokio::sync::oneshot::Sender<()>>,
+    task: JoinHandle<anyhow::Result<()>>,
+    _data: tempfile::TempDir,
+}
+
+async fn start_server(max_runs: usize) -> Server {
+    let data = tempfile::tempdir().unwrap();
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let service = CoupletService::new(ServeConfig {
+        data_dir: data.path().to_owned(),
+        max_runs,
+        server_exe: Some(CLI.into()),
+        token: None,
+    });
+    let task = tokio::spawn(serve_on(listener, service, None, async {
+        let _ = rx.await;
+    }));
+    let client = CoupletClient::connect(format!("http://{addr}"))
+        .await
+        .unwrap();
+    Server {
+        client,
+        shutdown: Some(tx),
+        task,
+        _data: data,
+    }
+}
+
+fn create(toml: &str, overrides: &[(&str, &str)]) -> CreateRunRequest {
+    CreateRunRequest {
+        scene_toml: toml.to_owned(),
+        overrides: overrides
+            .iter()
+            .map(|(p, v)| Override {
+                path: (*p).into(),
+                value: (*v).into(),
+            })
+            .collect(),
+        skip_recording: false,
+    }
+}
+
+fn id(r: &Run) -> RunRequest {
+    RunRequest {
+        run_id: r.run_id.clone(),
+    }
+}
+
+/// Collects a run's frames until its `ended` event.
+fn watch(mut c: CoupletClient<Channel>, run: &Run) -> JoinHandle<(Vec<WindowFrame>, Run)> {
+    let req = id(run);
+    tokio::spawn(async move {
+        let mut s = c.watch_run(req).await.unwrap().into_inner();
+        let mut frames = Vec::new();
+        while let Some(e) = s.message().await.unwrap() {
+            match e.event.unwrap() {
+                watch_event::Event::Frame(f) => frames.push(f),
+                watch_event::Event::Ended(r) => return (frames, r),
+            }
+        }
+        panic!("the watch stream closed without an `ended` event");
+    })
+}
+
+fn code<T: std::fmt::Debug>(r: Result<T, tonic::Status>) -> (Code, String) {
+    let s = r.expect_err("the call should have failed");
+    (s.code(), s.message().to_owned())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_run_driven_over_grpc_steps_pauses_resumes_and_reports_every_error() {
+    let mut srv = start_server(1).await;
+    let c = &mut srv.client;
+
+    let engines = c
+        .list_engines(ListEnginesRequest {})
+        .await
+        .unwrap()
+        .into_inner();
+    let names: Vec<_> = engines.engines.iter().map(|e| e.name.as_str()).collect();
+    assert_eq!(names, ["rapier", "soft-sphere"]);
+    assert!(engines.engines[0].is_default);
+
+    // A bad scene is INVALID_ARGUMENT naming the line, or the field.
+    let (k, m) = code(c.create_run(create("[meta]\nname = \n", &[])).await);
+    assert_eq!(k, Code::InvalidArgument, "{m}");
+    assert!(m.contains(":2:"), "the message names line 2: {m}");
+    let (k, m) = code(c.create_run(create(TANK, &[("time.end", "-1.0")])).await);
+    assert_eq!(k, Code::InvalidArgument, "{m}");
+    assert!(m.contains("time.end"), "the message names the field: {m}");
+
+    let run = c.create_run(create(TANK, &[])).await.unwrap().into_inner();
+    assert_eq!(run.state(), RunState::Starting);
+    // The server takes one live run: a second is refused.
+    let (k, m) = code(c.create_run(create(TANK, &[])).await);
+    assert_eq!(k, Code::ResourceExhausted, "{m}");
+    let (k, _) = code(
+        c.get_run(RunRequest {
+            run_id: "nope".into(),
+        })
+        .await,
+    );
+    assert_eq!(k, Code::NotFound);
+
+    let watcher = watch(c.clone(), &run);
+    let r = c
+        .step_run(StepRunRequest {
+            run_id: run.run_id.clone(),
+            windows: 3,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!((r.state(), r.windows_done), (RunState::Paused, 3));
+    assert!(r.windows_total > 10, "{r:?}");
+    let (k, m) = code(c.start_run(id(&run)).await);
+    assert_eq!(k, Code::FailedPrecondition, "{m}");
+    let (k, m) = code(
+        c.set_parameter(SetParameterRequest {
+            run_id: run.run_id.clone(),
+            path: "gravity.vector".into(),
+            value: "[0, -1, 0]".into(),
+        })
+        .await,
+    );
+    assert_eq!(k, Code::FailedPrecondition, "{m}");
+    let r = c
+        .set_parameter(SetParameterRequest {
+            run_id: run.run_id.clone(),
+            path: "time.output_interval".into(),
+            value: "0.001".into(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(r.output_interval, 0.001);
+    let (k, m) = code(
+        c.delete_run(DeleteRunRequest {
+            run_id: run.run_id.clone(),
+            delete_files: false,
+        })
+        .await,
+    );
+    assert_eq!(k, Code::FailedPrecondition, "{m}");
+
+    assert_eq!(
+        c.resume_run(id(&run)).await.unwrap().into_inner().state(),
+        RunState::Running
+    );
+    let paused = c.pause_run(id(&run)).await.unwrap().into_inner();
+    assert!(
+        matches!(paused.state(), RunState::Paused | RunState::Finished),
+        "{paused:?}"
+    );
+    if paused.state() == RunState::Paused {
+        c.resume_run(id(&run)).await.unwrap();
+    }
+
+    let (frames, end) = watcher.await.unwrap();
+    assert_eq!(end.state(), RunState::Finished, "{end:?}");
+    assert_eq!(end.windows_done, end.windows_total);
+    // Every window came, in order, none missed (the watcher kept up).
+    let steps: Vec<u64> = frames.iter().map(|f| f.step).collect();
+    assert_eq!(steps, (0..end.windows_total).collect::<Vec<_>>());
+    assert!(
+        frames
+            .iter()
+            .all(|f| f.missed == 0 && f.fluid_substeps >= 1)
+    );
+    assert!((frames.last().unwrap().time - 0.004).abs() < 1e-12);
+
+    // The frames carry the fluid's load: the same numbers as the recording's, and the
+    // submerged box is pushed up (Archimedes: ρ g V = 0.265 N; the uncorrected pressure
+    // on one marker layer is 13–58 % off, tests/tests/buoyancy.rs, so only the sign and
+    // the order of magnitude are asserted here).
+    let rec = read_recording(&std::path::Path::new(&end.output_dir).join("run.mcap")).unwrap();
+    assert!(rec.has_summary);
+    assert_eq!(rec.windows as u64, end.windows_total);
+    let last = frames.last().unwrap();
+    let f = last.bodies[0].force.unwrap();
+    let recorded = rec.loads.last().unwrap();
+    // (to the last bit but one: the recording stores JSON, whose decimal round trip
+    // may move an f64 by one ulp)
+    for (a, b) in [f.x, f.y, f.z].into_iter().zip(recorded.force) {
+        assert!(
+            (a - b).abs() <= 4.0 * f64::EPSILON * b.abs(),
+            "{a} vs recorded {b}"
+        );
+    }
+    assert!(f.y > 0.05 && f.y < 1.0, "buoyancy {} N", f.y);
+    // Snapshots every 0.001 s after the change at window 3 (and at the end).
+    assert!(
+        rec.snapshots.len() >= 4,
+        "{} snapshots",
+        rec.snapshots.len()
+    );
+
+    let (k, m) = code(
+        c.step_run(StepRunRequest {
+            run_id: run.run_id.clone(),
+            windows: 1,
+        })
+        .await,
+    );
+    assert_eq!(k, Code::FailedPrecondition, "{m}");
+    let d = c
+        .delete_run(DeleteRunRequest {
+            run_id: run.run_id.clone(),
+            delete_files: true,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert!(d.files_deleted);
+    assert!(!std::path::Path::new(&end.output_dir).exists());
+    assert!(
+        c.list_runs(ListRunsRequest {})
+            .await
+            .unwrap()
+            .into_inner()
+            .runs
+            .is_empty()
+    );
+
+    srv.shutdown.take().unwrap().send(()).unwrap();
+    srv.task.await.unwrap().unwrap();
+}
+
+/// Two Newton's cradles at once, the striker thrown at 1 and at 2 m/s: each run's
+/// frames carry its own striker's speed (its servers exchange under their own iceoryx2
+/// namespace), and a stopped run says STOPPED.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_runs_at_once_do_not_see_each_others_data() {
+    let mut srv = start_server(2).await;
+    let c = &mut srv.client;
+    let text = std::fs::read_to_string(scene("newton-cradle")).unwrap();
+    let fast = text.replace("velocity = [1.0, 0, 0]", "velocity = [2.0, 0, 0]");
+    assert_ne!(
+        text, fast,
+        "the scene's striker line changed: update this test"
+    );
+    let a = c.create_run(create(&text, &[])).await.unwrap().into_inner();
+    let b = c.create_run(create(&fast, &[])).await.unwrap().into_inner();
+    let (wa, wb) = (watch(c.clone(), &a), watch(c.clone(), &b));
+    let step = |run: &Run| StepRunRequest {
+        run_id: run.run_id.clone(),
+        windows: 20,
+    };
+    let (mut ca, mut cb) = (c.clone(), c.clone());
+    let (ra, rb) = tokio::join!(ca.step_run(step(&a)), cb.step_run(step(&b)));
+    assert_eq!(ra.unwrap().into_inner().windows_done, 20);
+    assert_eq!(rb.unwrap().into_inner().windows_done, 20);
+    let sa = c.stop_run(id(&a)).await.unwrap().into_inner();
+    let sb = c.stop_run(id(&b)).await.unwrap().into_inner();
+    assert_eq!(
+        (sa.state(), sb.state()),
+        (RunState::Stopped, RunState::Stopped)
+    );
+    for (w, speed) in [(wa, 1.0), (wb, 2.0)] {
+        let (frames, end) = w.await.unwrap();
+        assert_eq!(end.state(), RunState::Stopped);
+        assert_eq!(frames.len(), 20);
+        for f in &frames {
+            assert_eq!(f.bodies.len(), 5);
+            // Before the striker reaches ball 1 (0.04 m of travel), its speed is the
+            // thrown one exactly: no gravity, no fluid.
+            let v = f.bodies[0].linear_velocity.unwrap();
+            if f.time * speed < 0.03 {
+                assert!((v.x - speed).abs() < 1e-12, "t = {}: v = {}", f.time, v.x);
+            }
+        }
+    }
+    srv.shutdown.take().unwrap().send(()).unwrap();
+    srv.task.await.unwrap().unwrap();
+}
