@@ -685,10 +685,18 @@ pub async fn serve_on(
     use anyhow::Context;
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_serving::<CoupletServer<CoupletService>>().await;
-    let reflection = tonic_reflection::server::Builder::configure()
-        .register_encoded_file_descriptor_set(grpc::FILE_DESCRIPTOR_SET)
-        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+    // Reflection in both versions: grpcurl and most tools ask v1, older clients (and
+    // Python's grpcio-reflection) v1alpha.
+    let reflection = || {
+        tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(grpc::FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+    };
+    let reflection_v1 = reflection()
         .build_v1()
+        .context("building the reflection service")?;
+    let reflection_v1alpha = reflection()
+        .build_v1alpha()
         .context("building the reflection service")?;
     let auth = BearerToken(service.cfg.token.as_deref().map(Arc::from));
     let mut builder = tonic::transport::Server::builder();
@@ -702,7 +710,8 @@ pub async fn serve_on(
     let svc = service.clone();
     builder
         .add_service(health_service)
-        .add_service(reflection)
+        .add_service(reflection_v1)
+        .add_service(reflection_v1alpha)
         .add_service(CoupletServer::with_interceptor(svc, auth))
         .serve_with_incoming_shutdown(TcpListenerStream::new(listener), shutdown)
         .await
