@@ -141,6 +141,22 @@ pub enum DemError {
     /// A scene this engine cannot simulate (a shape or boundary it does not have).
     #[error("dem.engine = \"{engine}\": {what}")]
     Unsupported { engine: &'static str, what: String },
+    /// A live change names a body that is not kinematic (or does not exist).
+    #[error(
+        "body {body} ({name}) is {motion}: only a kinematic body's velocity can be prescribed during a run"
+    )]
+    NotKinematic {
+        body: usize,
+        name: String,
+        motion: String,
+    },
+    /// A saved state that does not fit this engine and scene.
+    #[error("dem.engine = \"{engine}\": cannot {what} its state: {detail}")]
+    State {
+        engine: &'static str,
+        what: &'static str,
+        detail: String,
+    },
 }
 
 impl DemError {
@@ -181,6 +197,69 @@ pub trait DemEngine: Send {
     fn step(&mut self, dt: f64) -> Result<(), DemError>;
     /// Largest stable substep of this engine, s.
     fn stable_dt(&self) -> f64;
+    /// Gravity becomes `g`, m/s², from the next step on (each body keeps its buoyancy
+    /// scale of Joubert eq. 28).
+    fn set_gravity(&mut self, g: [f64; 3]);
+    /// Kinematic body `body` moves from now on with `linear` (m/s) and `angular` (rad/s,
+    /// world frame) velocity, starting from where it is. Refused for a body that is not
+    /// kinematic.
+    fn set_kinematic_velocity(
+        &mut self,
+        body: usize,
+        linear: [f64; 3],
+        angular: [f64; 3],
+    ) -> Result<(), DemError>;
+    /// Everything that evolves (poses, velocities, contacts and their history, prescribed
+    /// motions, gravity, time), encoded: [`restore_state`](Self::restore_state) on an
+    /// engine built from the same scene continues exactly as this one would.
+    fn save_state(&self) -> Result<Vec<u8>, DemError>;
+    /// Continues from a state saved by an engine of the same kind on the same scene.
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), DemError>;
+}
+
+/// bincode of an engine's state (`save_state`).
+pub(crate) fn encode_state<T: serde::Serialize>(
+    engine: &'static str,
+    state: &T,
+) -> Result<Vec<u8>, DemError> {
+    bincode::serde::encode_to_vec(state, bincode::config::standard()).map_err(|e| DemError::State {
+        engine,
+        what: "save",
+        detail: e.to_string(),
+    })
+}
+
+/// The inverse of [`encode_state`] (`restore_state`).
+pub(crate) fn decode_state<T: serde::de::DeserializeOwned>(
+    engine: &'static str,
+    bytes: &[u8],
+) -> Result<T, DemError> {
+    let bad = |detail: String| DemError::State {
+        engine,
+        what: "restore",
+        detail,
+    };
+    let (state, used) = bincode::serde::decode_from_slice(bytes, bincode::config::standard())
+        .map_err(|e| bad(e.to_string()))?;
+    if used != bytes.len() {
+        return Err(bad(format!("{} bytes left over", bytes.len() - used)));
+    }
+    Ok(state)
+}
+
+/// The error of [`DemEngine::set_kinematic_velocity`] for a body that is not kinematic.
+pub(crate) fn not_kinematic(
+    body: usize,
+    name: &str,
+    motion: Option<couplet_protocol::Motion>,
+) -> DemError {
+    DemError::NotKinematic {
+        body,
+        name: name.to_owned(),
+        motion: motion.map_or("not in the scene".into(), |m| {
+            format!("{m:?}").to_lowercase()
+        }),
+    }
 }
 
 /// The first body whose centre lies outside the domain on a non-periodic axis, as a
@@ -213,27 +292,53 @@ pub(crate) fn check_in_domain(
     }
 }
 
-/// A kinematic body's prescribed motion, kept in `f64`: x(t) = x₀ + v t and
-/// q(t) = exp(ω t) q₀ (world-frame ω). an engine in `f32` (rapier) would accumulate `x += v dt` in `f32`
-/// every substep, which drifts by 1e-3 of the travel over a few thousand steps; the
-/// engine instead puts the body where this says after each step.
-#[derive(Debug, Clone, Copy)]
+/// A kinematic body's prescribed motion, kept in `f64`: x(t) = x₀ + v (t − t₀) and
+/// q(t) = exp(ω (t − t₀)) q₀ (world-frame ω). An engine in `f32` (rapier) would accumulate
+/// `x += v dt` in `f32` every substep, which drifts by 1e-3 of the travel over a few
+/// thousand steps; the engine instead puts the body where this says after each step.
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub(crate) struct Kinematic {
-    /// Scene coordinates at t = 0, m.
+    /// Time the velocities took effect (0, or a live change's), s.
+    pub t0: f64,
+    /// Scene coordinates at t₀, m.
     pub x0: [f64; 3],
-    /// Unit quaternion [x, y, z, w] at t = 0.
+    /// Unit quaternion [x, y, z, w] at t₀.
     pub q0: [f64; 4],
     pub v: [f64; 3],
     pub w: [f64; 3],
 }
 
 impl Kinematic {
+    /// The scene's motion, from t = 0.
+    pub fn from_spec(b: &couplet_protocol::BodySpec) -> Self {
+        Self {
+            t0: 0.0,
+            x0: b.position,
+            q0: quat_from_scaled_axis(b.rotation),
+            v: b.velocity,
+            w: b.angular_velocity,
+        }
+    }
+
     pub fn pose(&self, t: f64) -> ([f64; 3], [f64; 4]) {
-        let x = [0, 1, 2].map(|k| self.x0[k] + self.v[k] * t);
+        let tau = t - self.t0;
+        let x = [0, 1, 2].map(|k| self.x0[k] + self.v[k] * tau);
         (
             x,
-            quat_mul(quat_from_scaled_axis(self.w.map(|c| c * t)), self.q0),
+            quat_mul(quat_from_scaled_axis(self.w.map(|c| c * tau)), self.q0),
         )
+    }
+
+    /// The same body moving on from its pose at `t` with new velocities.
+    pub fn rebased(&self, t: f64, v: [f64; 3], w: [f64; 3]) -> Self {
+        let (x0, q0) = self.pose(t);
+        Self {
+            t0: t,
+            x0,
+            q0,
+            v,
+            w,
+        }
     }
 }
 

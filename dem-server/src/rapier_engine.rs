@@ -2,10 +2,10 @@
 //! (rapier's soft TGS solver), bodies and domain walls as rapier colliders.
 
 use crate::engine::{
-    ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, gravity_scale,
+    ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, decode_state,
+    encode_state, gravity_scale, not_kinematic,
 };
 use crate::geometry::BodyGeometry;
-use crate::markers::quat_from_scaled_axis;
 use couplet_protocol::{BodyLoad, BodyState, Motion, Scene};
 use rapier3d::prelude::{
     CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Pose, Real, RigidBodyBuilder,
@@ -174,12 +174,7 @@ impl RapierEngine {
                 Some(handle),
             );
             index_of.insert(handle, i);
-            let kinematic = (spec.motion == Motion::Kinematic).then(|| Kinematic {
-                x0: spec.position,
-                q0: quat_from_scaled_axis(spec.rotation),
-                v: spec.velocity,
-                w: spec.angular_velocity,
-            });
+            let kinematic = (spec.motion == Motion::Kinematic).then(|| Kinematic::from_spec(spec));
             bodies.push(Body {
                 handle,
                 name: spec.name.clone(),
@@ -423,6 +418,83 @@ impl DemEngine for RapierEngine {
     fn stable_dt(&self) -> f64 {
         self.max_dt
     }
+
+    fn set_gravity(&mut self, g: [f64; 3]) {
+        self.world.gravity = vec3(g);
+    }
+
+    fn set_kinematic_velocity(
+        &mut self,
+        body: usize,
+        linear: [f64; 3],
+        angular: [f64; 3],
+    ) -> Result<(), DemError> {
+        let Some(b) = self.bodies.get_mut(body) else {
+            return Err(not_kinematic(body, "", None));
+        };
+        let Some(k) = &b.kinematic else {
+            return Err(not_kinematic(body, &b.name, Some(b.motion)));
+        };
+        b.kinematic = Some(k.rebased(self.time, linear, angular));
+        if let Some(rb) = self.world.bodies.get_mut(b.handle) {
+            // rapier moves a velocity-based kinematic body by these (and contacts see
+            // them); the pose is then reset to the closed form after each step.
+            rb.set_linvel(vec3(linear), true);
+            rb.set_angvel(vec3(angular), true);
+        }
+        Ok(())
+    }
+
+    fn save_state(&self) -> Result<Vec<u8>, DemError> {
+        encode_state(
+            Self::NAME,
+            &RapierState {
+                world: &self.world,
+                kinematic: self.bodies.iter().map(|b| b.kinematic).collect(),
+                time: self.time,
+                steps: self.steps,
+            },
+        )
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), DemError> {
+        let s: RapierState<PhysicsWorld> = decode_state(Self::NAME, bytes)?;
+        let missing = self
+            .bodies
+            .iter()
+            .position(|b| s.world.bodies.get(b.handle).is_none());
+        if s.kinematic.len() != self.bodies.len() || missing.is_some() {
+            return Err(DemError::State {
+                engine: Self::NAME,
+                what: "restore",
+                detail: format!(
+                    "it holds {} bodies ({} prescribed motions) for a scene of {}",
+                    s.world.bodies.len(),
+                    s.kinematic.len(),
+                    self.bodies.len()
+                ),
+            });
+        }
+        self.world = s.world;
+        // The integration parameters carry the last substep; the next step sets its own.
+        for (b, k) in self.bodies.iter_mut().zip(s.kinematic) {
+            b.kinematic = k;
+        }
+        (self.time, self.steps) = (s.time, s.steps);
+        Ok(())
+    }
+}
+
+/// What evolves in a [`RapierEngine`]: rapier's whole world (bodies, colliders, contact
+/// manifolds with their warm-start impulses, islands, broad phase, gravity) and the
+/// prescribed motions; names, masses and the domain follow from the scene. `W` is a
+/// reference when saving, the world itself when restoring.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct RapierState<W> {
+    world: W,
+    kinematic: Vec<Option<Kinematic>>,
+    time: f64,
+    steps: u64,
 }
 
 /// rapier's mass properties of a body from the `f64` geometry: mass ρV, centre of mass

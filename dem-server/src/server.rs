@@ -8,9 +8,12 @@
 use crate::engine::{DemEngine, DemError};
 use crate::markers::MarkerSet;
 use crate::registry::create_engine;
-use couplet_protocol::transport::{Control, Endpoint, TransportError, parent_alive};
+use couplet_protocol::state::{
+    StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
+};
+use couplet_protocol::transport::{Control, Endpoint, TransportError, ValueSender, parent_alive};
 use couplet_protocol::{
-    BodyLoad, BodyState, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, Role, Scene,
+    BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, Role, Scene,
     ServiceLeaf, SideReport, WindowHeader, monotonic_ns, validate_loads,
 };
 use std::time::Instant;
@@ -27,6 +30,16 @@ pub enum ServerError {
     Version { step: u64, got: u32 },
     #[error("unknown command kind {0}")]
     UnknownCommand(u32),
+    #[error(transparent)]
+    State(#[from] StateError),
+    #[error("asked for a checkpoint, but this dem-server was started without --checkpoints DIR")]
+    NoCheckpointDir,
+    #[error("the checkpoint in {dir} is of dem.engine \"{saved}\"; this scene runs \"{engine}\"")]
+    EngineMismatch {
+        dir: String,
+        saved: String,
+        engine: String,
+    },
     #[error("window {step}: fluid sent {got} loads for {expected} coupled bodies")]
     LoadCount {
         step: u64,
@@ -35,10 +48,29 @@ pub enum ServerError {
     },
 }
 
-/// Runs the DEM side of run `run_id` until the orchestrator says shutdown or goes away.
-pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
+/// What a checkpoint holds of the DEM side: the engine's own state, named.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct DemCheckpoint {
+    engine: String,
+    state: Vec<u8>,
+}
+
+/// Runs the DEM side of run `run_id` until the orchestrator says shutdown or goes away;
+/// from the checkpoint `dirs.restore` when given.
+pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), ServerError> {
     let parent = std::os::unix::process::parent_id();
     let mut engine = create_engine(scene)?;
+    if let Some(dir) = &dirs.restore {
+        let (_, saved): (_, DemCheckpoint) = read_state(&state_file(dir, Role::Dem), Role::Dem)?;
+        if saved.engine != engine.name() {
+            return Err(ServerError::EngineMismatch {
+                dir: dir.display().to_string(),
+                saved: saved.engine,
+                engine: engine.name().into(),
+            });
+        }
+        engine.restore_state(&saved.state)?;
+    }
     let markers = MarkerSet::from_scene(scene)?;
     let coupled = scene.exchanges_loads();
     // One load per body with markers and one per unresolved grain.
@@ -85,6 +117,17 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
         match cmd.kind() {
             Some(CommandKind::Shutdown) => return Ok(()),
             Some(CommandKind::Advance) => {}
+            Some(kind) => {
+                if kind == CommandKind::SetKinematicVelocity {
+                    // The states already published for this window carry the old
+                    // velocity: publish them again when the window starts.
+                    published = None;
+                }
+                apply(&mut *engine, &cmd, kind, dirs)?;
+                acknowledge(&report, &cmd)?;
+                wake_orchestrator.wake()?;
+                continue;
+            }
             None => return Err(ServerError::UnknownCommand(cmd.kind)),
         }
         let (step, window) = (cmd.step, cmd.window);
@@ -165,10 +208,54 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
             wait_us,
             exchange_us,
             dt_limit,
+            kind: CommandKind::Advance as u32,
             ..Default::default()
         })?;
         wake_orchestrator.wake()?;
     }
+}
+
+/// A change between windows: gravity, a kinematic body's velocity, or a checkpoint.
+fn apply(
+    engine: &mut dyn DemEngine,
+    cmd: &Command,
+    kind: CommandKind,
+    dirs: &StateDirs,
+) -> Result<(), ServerError> {
+    let v = cmd.values;
+    match kind {
+        CommandKind::SetGravity => engine.set_gravity([v[0], v[1], v[2]]),
+        CommandKind::SetKinematicVelocity => engine.set_kinematic_velocity(
+            cmd.body as usize,
+            [v[0], v[1], v[2]],
+            [v[3], v[4], v[5]],
+        )?,
+        CommandKind::Checkpoint => {
+            let root = dirs
+                .checkpoints
+                .as_ref()
+                .ok_or(ServerError::NoCheckpointDir)?;
+            let state = DemCheckpoint {
+                engine: engine.name().into(),
+                state: engine.save_state()?,
+            };
+            let path = state_file(&checkpoint_dir(root, cmd.step), Role::Dem);
+            write_state(&path, Role::Dem, cmd.step, cmd.time, &state)?;
+        }
+        CommandKind::Advance | CommandKind::Shutdown => {}
+    }
+    Ok(())
+}
+
+/// Tells the orchestrator that `cmd` took effect.
+fn acknowledge(report: &ValueSender<SideReport>, cmd: &Command) -> Result<(), TransportError> {
+    report.send(SideReport {
+        protocol_version: PROTOCOL_VERSION,
+        role: Role::Dem as u32,
+        step: cmd.step,
+        kind: cmd.kind,
+        ..Default::default()
+    })
 }
 
 /// Publishes states and world-frame coupling points for window `step`; returns the µs spent.

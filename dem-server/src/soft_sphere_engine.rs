@@ -35,7 +35,8 @@
 //! the dashpots acting on the end-of-step velocity predicted from the step's start.
 
 use crate::engine::{
-    ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, gravity_scale,
+    ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, decode_state,
+    encode_state, gravity_scale, not_kinematic,
 };
 use crate::geometry::BodyGeometry;
 use crate::markers::quat_from_scaled_axis;
@@ -166,6 +167,9 @@ pub struct SoftSphereEngine {
     steps_per_contact: f64,
     /// Hertz: the impact speed the step resolves at least, m/s.
     impact_speed: f64,
+    /// `impact_speed` follows gravity (the scene gave none): a live change of gravity
+    /// changes it.
+    impact_speed_from_gravity: bool,
     /// Hertz: dimensionless undamped contact duration (≈ 3.218).
     hertz_tau: f64,
     /// Members of each translation group (`bodies[i].translation_group`): they share one
@@ -277,14 +281,7 @@ impl SoftSphereEngine {
             names: scene.bodies.iter().map(|b| b.name.clone()).collect(),
             motion: scene.bodies.iter().map(|b| b.motion).collect(),
             kinematic: (scene.bodies.iter())
-                .map(|b| {
-                    (b.motion == Motion::Kinematic).then(|| Kinematic {
-                        x0: b.position,
-                        q0: quat_from_scaled_axis(b.rotation),
-                        v: b.velocity,
-                        w: b.angular_velocity,
-                    })
-                })
+                .map(|b| (b.motion == Motion::Kinematic).then(|| Kinematic::from_spec(b)))
                 .collect(),
             mass: Vec::with_capacity(n),
             volume: Vec::with_capacity(n),
@@ -337,6 +334,7 @@ impl SoftSphereEngine {
             max_dt: scene.dem.max_dt,
             steps_per_contact: spec.steps_per_contact,
             impact_speed: 0.0,
+            impact_speed_from_gravity: false,
             hertz_tau: 0.0,
             radius,
             groups: Vec::new(),
@@ -361,19 +359,10 @@ impl SoftSphereEngine {
         if let Law::Hertz { .. } = law {
             e.hertz_tau = hertz_impact(0.0).1;
             let height = scene.domain.max[1] - scene.domain.min[1];
-            let g = scene
-                .gravity
-                .vector
-                .iter()
-                .map(|g| g * g)
-                .sum::<f64>()
-                .sqrt();
-            // The fall through the domain height: the fastest impact gravity alone makes.
-            e.impact_speed = spec.impact_speed.unwrap_or(if g > 0.0 {
-                (2.0 * g * height).sqrt()
-            } else {
-                1.0
-            });
+            e.impact_speed_from_gravity = spec.impact_speed.is_none();
+            e.impact_speed = spec
+                .impact_speed
+                .unwrap_or_else(|| fall_speed(scene.gravity.vector, height));
         }
         let mut names: Vec<&str> = Vec::new();
         for (i, b) in scene.bodies.iter().enumerate() {
@@ -985,6 +974,125 @@ impl DemEngine for SoftSphereEngine {
         self.max_dt
             .min(self.contact_duration() / self.steps_per_contact)
             .min(self.lubrication_dt())
+    }
+
+    fn set_gravity(&mut self, g: [f64; 3]) {
+        self.gravity = g;
+        if self.impact_speed_from_gravity {
+            self.impact_speed = fall_speed(g, self.domain.max[1] - self.domain.min[1]);
+        }
+    }
+
+    fn set_kinematic_velocity(
+        &mut self,
+        body: usize,
+        linear: [f64; 3],
+        angular: [f64; 3],
+    ) -> Result<(), DemError> {
+        let Some(Some(k)) = self.kinematic.get(body) else {
+            let name = self.names.get(body).map_or("", String::as_str);
+            return Err(not_kinematic(body, name, self.motion.get(body).copied()));
+        };
+        self.kinematic[body] = Some(k.rebased(self.time, linear, angular));
+        (self.v[body], self.w[body]) = (linear, angular);
+        Ok(())
+    }
+
+    fn save_state(&self) -> Result<Vec<u8>, DemError> {
+        let mut history: Vec<(u64, [f64; 3])> =
+            self.history.iter().map(|(k, v)| (*k, *v)).collect();
+        // A map's order is its own business; the file's is the keys'.
+        history.sort_unstable_by_key(|(k, _)| *k);
+        encode_state(
+            Self::NAME,
+            &SoftSphereState {
+                x: self.x.clone(),
+                v: self.v.clone(),
+                w: self.w.clone(),
+                q: self.q.clone(),
+                v_pred: self.v_pred.clone(),
+                w_pred: self.w_pred.clone(),
+                contact_force: self.contact_force.clone(),
+                contact_torque: self.contact_torque.clone(),
+                fluid_force: self.fluid_force.clone(),
+                fluid_torque: self.fluid_torque.clone(),
+                history,
+                kinematic: self.kinematic.clone(),
+                gravity: self.gravity,
+                impact_speed: self.impact_speed,
+                time: self.time,
+                steps: self.steps,
+            },
+        )
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), DemError> {
+        let s: SoftSphereState = decode_state(Self::NAME, bytes)?;
+        let n = self.x.len();
+        let lengths = [
+            s.x.len(),
+            s.v.len(),
+            s.w.len(),
+            s.q.len(),
+            s.v_pred.len(),
+            s.w_pred.len(),
+            s.contact_force.len(),
+            s.contact_torque.len(),
+            s.fluid_force.len(),
+            s.fluid_torque.len(),
+            s.kinematic.len(),
+        ];
+        if lengths.iter().any(|l| *l != n) {
+            return Err(DemError::State {
+                engine: Self::NAME,
+                what: "restore",
+                detail: format!("it holds {lengths:?} entries for a scene of {n} spheres"),
+            });
+        }
+        (self.x, self.v, self.w, self.q) = (s.x, s.v, s.w, s.q);
+        (self.v_pred, self.w_pred) = (s.v_pred, s.w_pred);
+        (self.contact_force, self.contact_torque) = (s.contact_force, s.contact_torque);
+        (self.fluid_force, self.fluid_torque) = (s.fluid_force, s.fluid_torque);
+        self.history = s.history.into_iter().collect();
+        self.next_history.clear();
+        self.kinematic = s.kinematic;
+        (self.gravity, self.impact_speed) = (s.gravity, s.impact_speed);
+        (self.time, self.steps) = (s.time, s.steps);
+        Ok(())
+    }
+}
+
+/// What evolves in a [`SoftSphereEngine`]: the rest follows from the scene.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SoftSphereState {
+    x: Vec<[f64; 3]>,
+    v: Vec<[f64; 3]>,
+    w: Vec<[f64; 3]>,
+    q: Vec<[f64; 4]>,
+    v_pred: Vec<[f64; 3]>,
+    w_pred: Vec<[f64; 3]>,
+    contact_force: Vec<[f64; 3]>,
+    contact_torque: Vec<[f64; 3]>,
+    fluid_force: Vec<[f64; 3]>,
+    fluid_torque: Vec<[f64; 3]>,
+    /// Tangential springs ξ by pair key, sorted by key.
+    history: Vec<(u64, [f64; 3])>,
+    kinematic: Vec<Option<Kinematic>>,
+    gravity: [f64; 3],
+    impact_speed: f64,
+    time: f64,
+    steps: u64,
+}
+
+/// The speed of a fall through `height` under `g`: the fastest impact gravity alone
+/// makes. Without gravity nothing falls and 1 m/s stands in; a scene whose impacts are
+/// faster sets `dem.soft_sphere.impact_speed`.
+fn fall_speed(g: [f64; 3], height: f64) -> f64 {
+    let g = g.iter().map(|c| c * c).sum::<f64>().sqrt();
+    if g > 0.0 {
+        (2.0 * g * height).sqrt()
+    } else {
+        1.0
     }
 }
 

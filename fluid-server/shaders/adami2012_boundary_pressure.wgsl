@@ -53,7 +53,7 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     }
     if sum_w > 0.0 {
         // a_w = 0 (see the header).
-        let p_w = (sum_pw + dot(GRAVITY, sum_rho_r_w)) / sum_w;
+        let p_w = (sum_pw + dot(params.gravity.xyz, sum_rho_r_w)) / sum_w;
         press[i] = p_w;
         rho[i] = boundary_density(i, p_w);
     } else {

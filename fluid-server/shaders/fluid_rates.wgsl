@@ -119,5 +119,5 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
         drho_i += rho_i * MASS_CORRECTION_GAMMA * params.dt * (l15 - mc_div);
     }
     drho[i] = drho_i;
-    dvel[i] = vec4<f32>(acc + GRAVITY, 0.0);
+    dvel[i] = vec4<f32>(acc + params.gravity.xyz, 0.0);
 }

@@ -115,14 +115,14 @@ fn joubert2020_boundary_values(@builtin(workgroup_id) wid: vec3<u32>,
         ok = abs(n_s) * SPACING >= B_DET_MIN;
         if ok {
             // Joubert eq. (25), viscous term left out (header).
-            p_w = (dot(n, b * sp) - dot(n, GRAVITY) + dot(n, a_w)) / dot(n, b * s_rho);
+            p_w = (dot(n, b * sp) - dot(n, params.gravity.xyz) + dot(n, a_w)) / dot(n, b * s_rho);
             // Joubert eq. (27) with ∂u/∂n = 0.
             u_w = vec3<f32>(dot(n, b * sux), dot(n, b * suy), dot(n, b * suz)) / n_s;
         }
     }
     if !ok {
         atomicAdd(&diag[2], 1u);
-        p_w = (sum_pw + dot(GRAVITY - a_w, sum_rho_r_w)) / sum_w;
+        p_w = (sum_pw + dot(params.gravity.xyz - a_w, sum_rho_r_w)) / sum_w;
         u_w = sum_vw / sum_w;
     }
     press[i] = p_w;

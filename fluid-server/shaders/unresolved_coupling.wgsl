@@ -3,7 +3,7 @@
 // At each grain, Shepard-corrected sums over the fluid particles within the support
 // (Robinson eq. 8): the fluid velocity u_f, and the resolved force V ρθ̄ of eqs.
 // (23)–(25), θ_b being particle b's SPH acceleration without gravity and without the
-// grains' reaction (dvel − GRAVITY − grain_reaction, eq. 25);
+// grains' reaction (dvel − g − grain_reaction, eq. 25);
 // then the drag of the scene's law (drag.wgsl) on the slip u_f − v at the grain's
 // porosity. Needs: prelude, SPH constants, StepParams, grid_common, kernel, drag,
 // DRAG_LAW and FLUID_MU (unresolved_coupling.rs), `grain_reaction(j)`
@@ -54,7 +54,7 @@ fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
                 shepard += vw;
                 u += vw * vel[j].xyz;
                 // Robinson eq. (24): Σ m_b θ_b W / Σ (m_b/ρ_b) W.
-                theta += pos[j].w * w * (dvel[j].xyz - GRAVITY - grain_reaction(j));
+                theta += pos[j].w * w * (dvel[j].xyz - params.gravity.xyz - grain_reaction(j));
             }
         }
     }

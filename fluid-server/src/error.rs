@@ -11,6 +11,8 @@ pub enum FluidError {
     GridSetup(#[from] crate::neighbour_grid::GridError),
     #[error("the scene has no [fluid] section: there is nothing for the fluid solver to do")]
     NoFluid,
+    #[error("cannot continue from the checkpoint: {0}")]
+    Restore(String),
     #[error("fluid.blocks fill no particle: spacing {spacing} m is larger than every block")]
     NoParticles { spacing: f64 },
     #[error("{what} needs {needed} bytes in one GPU buffer, the adapter allows {limit}")]

@@ -162,13 +162,13 @@ pub fn point_acceleration(acc: &BodyAcceleration, omega: [f64; 3], r: [f64; 3]) 
 /// `t_n`, `(v_n − v_m)/(t_n − t_m)` and `(ω_n − ω_m)/(t_n − t_m)` with `t_m` the
 /// previous window start (zero for a body seen for the first time). Indexed like the
 /// body states it was given.
-#[derive(Debug, Default, Clone)]
+#[derive(Debug, Default, Clone, serde::Serialize, serde::Deserialize)]
 pub struct AccelerationEstimate {
     /// Per body index: the velocities at the last update.
     last: Vec<Option<VelocitySample>>,
 }
 
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 struct VelocitySample {
     t: f64,
     linear: [f64; 3],

@@ -5,10 +5,14 @@
 //! limit needs, publish the per-body loads (reduced on the GPU), and at output times a
 //! particle snapshot for the recording.
 
+use crate::checkpoint::FluidState;
 use crate::error::FluidError;
 use crate::gpu::{Gpu, GpuError};
 use crate::marker_update::AccelerationEstimate;
 use crate::solver::FluidSolver;
+use couplet_protocol::state::{
+    StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
+};
 use couplet_protocol::transport::{Control, Endpoint, TransportError, parent_alive};
 use couplet_protocol::{
     BodyLoad, BodyState, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, ParticleRecord, Role,
@@ -32,16 +36,31 @@ pub enum ServerError {
     Version { step: u64, got: u32 },
     #[error("unknown command kind {0}")]
     UnknownCommand(u32),
+    #[error(transparent)]
+    State(#[from] StateError),
+    #[error("asked for a checkpoint, but this fluid-server was started without --checkpoints DIR")]
+    NoCheckpointDir,
 }
 
-/// Runs the fluid side of run `run_id` until the orchestrator says shutdown or goes away.
-pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
+/// Runs the fluid side of run `run_id` until the orchestrator says shutdown or goes away;
+/// from the checkpoint `dirs.restore` when given.
+pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), ServerError> {
     let parent = std::os::unix::process::parent_id();
     if scene.fluid.is_none() {
         return Err(ServerError::NoFluid);
     }
     let gpu = Gpu::new()?;
-    let mut solver = FluidSolver::new(&gpu, scene)?;
+    // Joubert eq. (25) needs the markers' acceleration; the DEM sends velocities.
+    let mut acceleration_estimate = AccelerationEstimate::default();
+    let mut solver = match &dirs.restore {
+        None => FluidSolver::new(&gpu, scene)?,
+        Some(dir) => {
+            let (_, state): (_, FluidState) =
+                read_state(&state_file(dir, Role::Fluid), Role::Fluid)?;
+            acceleration_estimate = state.acceleration.clone();
+            FluidSolver::restore(&gpu, scene, &state)?
+        }
+    };
     let coupled = scene.exchanges_loads();
     let resolved = scene.has_resolved_bodies();
     let n_bodies = scene.bodies.len();
@@ -77,8 +96,6 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
     let alive = || parent_alive(parent);
     let mut points: Vec<CouplingPoint> = Vec::new();
     let mut states: Vec<BodyState> = Vec::new();
-    // Joubert eq. (25) needs the markers' acceleration; the DEM sends velocities.
-    let mut acceleration_estimate = AccelerationEstimate::default();
     loop {
         let cmd = wake.wait_for(|| commands.try_next(), alive)?;
         if cmd.protocol_version != PROTOCOL_VERSION {
@@ -90,6 +107,32 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
         match cmd.kind() {
             Some(CommandKind::Shutdown) => return Ok(()),
             Some(CommandKind::Advance) => {}
+            Some(kind) => {
+                let v = cmd.values;
+                match kind {
+                    CommandKind::SetGravity => solver.set_gravity(&gpu, [v[0], v[1], v[2]]),
+                    CommandKind::Checkpoint => {
+                        let root = dirs
+                            .checkpoints
+                            .as_ref()
+                            .ok_or(ServerError::NoCheckpointDir)?;
+                        let state = solver.save_state(&gpu, &acceleration_estimate)?;
+                        let path = state_file(&checkpoint_dir(root, cmd.step), Role::Fluid);
+                        write_state(&path, Role::Fluid, cmd.step, cmd.time, &state)?;
+                    }
+                    // A kinematic body's new velocity reaches the fluid with its state.
+                    _ => {}
+                }
+                report.send(SideReport {
+                    protocol_version: PROTOCOL_VERSION,
+                    role: Role::Fluid as u32,
+                    step: cmd.step,
+                    kind: cmd.kind,
+                    ..Default::default()
+                })?;
+                wake_orchestrator.wake()?;
+                continue;
+            }
             None => return Err(ServerError::UnknownCommand(cmd.kind)),
         }
         let step = cmd.step;
@@ -178,6 +221,10 @@ pub fn serve(run_id: &str, scene: &Scene) -> Result<(), ServerError> {
             exchange_us,
             dt_limit: limits.dt,
             near_singular: solver.near_singular(),
+            kind: CommandKind::Advance as u32,
+            kinetic_energy: solver.stats().kinetic_energy,
+            max_speed: solver.stats().max_speed,
+            max_density_error: solver.stats().max_density_error,
             ..Default::default()
         })?;
         wake_orchestrator.wake()?;

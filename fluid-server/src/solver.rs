@@ -25,10 +25,12 @@
 //! With the gradient correction the marker loads' velocity gradient takes a one-sided
 //! B ([`crate::joubert2020_body_loads`]).
 
+use crate::checkpoint::{self, FluidState};
 use crate::constants::{SphConstants, StepParams};
 use crate::gpu::Gpu;
 use crate::joubert2020_boundary_values::BoundaryFrame;
 use crate::limits::FluidLimits;
+use crate::marker_update::AccelerationEstimate;
 use crate::marker_update::{BodyAcceleration, Clock, GpuBody, GpuMarker, point_acceleration};
 use crate::neighbour_grid::{GridBox, NeighbourGrid};
 use crate::particles::{Kind, ParticleKinds, ParticleSet, initial_particles, wall_layers};
@@ -38,10 +40,11 @@ use crate::sph_kernel::{
     particle_binding as pb,
 };
 use crate::timing::{self, StageTimer};
+use crate::window_stats::WindowStats;
 use crate::{
     adami2012_boundary_pressure, blowup_check, body_load_reduce, fluid_rates, integrate,
     joubert2020_body_loads, joubert2020_boundary_values, joubert2020_gradients, marker_update,
-    neighbour_count, particle_shifting, plan, tait_eos,
+    neighbour_count, particle_shifting, plan, tait_eos, window_stats,
 };
 use couplet_protocol::{BodyLoad, BodyState, CouplingPoint, ParticleRecord, Scene};
 use wgpu::util::DeviceExt;
@@ -99,6 +102,7 @@ pub struct SphPipelines {
     correct: SphKernel,
     find_bad: SphKernel,
     capture_bad: SphKernel,
+    window_stats: SphKernel,
     neighbour_count: SphKernel,
     gradients: Option<SphKernel>,
     shift: Option<SphKernel>,
@@ -125,6 +129,7 @@ impl SphPipelines {
             correct: integrate::correct_kernel(gpu, c),
             find_bad: blowup_check::find_kernel(gpu, c),
             capture_bad: blowup_check::capture_kernel(gpu, c),
+            window_stats: window_stats::kernel(gpu, c),
             neighbour_count: neighbour_count::kernel(gpu, c, grid_layout),
             gradients: c
                 .gradient_pass()
@@ -177,6 +182,7 @@ struct Bound {
     correct: BoundKernel,
     find_bad: BoundKernel,
     capture_bad: BoundKernel,
+    window_stats: BoundKernel,
     gradients: Option<BoundKernel>,
     shift: Option<BoundKernel>,
     grain_reaction: Option<BoundKernel>,
@@ -206,6 +212,8 @@ pub struct SphData {
     pub params: wgpu::Buffer,
     pub status: wgpu::Buffer,
     pub bad_values: wgpu::Buffer,
+    /// The window's telemetry, one vec4 per workgroup ([`crate::window_stats`]).
+    pub stats_partials: wgpu::Buffer,
     pub grid: NeighbourGrid,
     pub bodies: Option<BodyBuffers>,
     /// The gradient pass's outputs (see [`crate::joubert2020_gradients`]); only with
@@ -337,6 +345,7 @@ impl SphData {
             n_fluid: set.kinds.n_fluid as u32,
             n_wall: set.kinds.n_wall as u32,
             n_markers: set.kinds.n_markers as u32,
+            gravity: StepParams::gravity_of(c.gravity_fluid),
             ..Default::default()
         };
         let params = gpu
@@ -352,6 +361,11 @@ impl SphData {
             bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]),
         );
         let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 32]);
+        let stats_partials = storage_init(
+            gpu,
+            "sph: window stats partials",
+            &vec![0u8; window_stats::partials_bytes(n as u32) as usize],
+        );
 
         let mut grid = NeighbourGrid::new(gpu, bounds, c.support_radius(), n as u32)?;
         grid.register(gpu, &pos, 16)?;
@@ -461,6 +475,7 @@ impl SphData {
                         qb::PARAMS => Some(&params),
                         qb::STATUS => Some(&status),
                         qb::BAD_VALUES => Some(&bad_values),
+                        qb::PARTIALS => Some(&stats_partials),
                         qb::DIAG => gradients.as_ref().map(|g| &g.diag),
                         _ => None,
                     },
@@ -519,6 +534,10 @@ impl SphData {
                     .capture_bad
                     .bind(gpu, resolve, None)
                     .ok_or_else(|| missing("capture_bad"))?,
+                window_stats: p
+                    .window_stats
+                    .bind(gpu, resolve, None)
+                    .ok_or_else(|| missing("window_stats"))?,
                 gradients: match &p.gradients {
                     Some(k) => Some(
                         k.bind(gpu, resolve, g)
@@ -558,6 +577,7 @@ impl SphData {
             params,
             status,
             bad_values,
+            stats_partials,
             grid,
             bodies,
             gradients,
@@ -757,6 +777,9 @@ pub struct FluidSolver {
     /// Particle-steps of the last window whose truncation matrix was near-singular
     /// (kept the uncorrected gradient); 0 without the gradient pass.
     near_singular: u32,
+    /// The fluid's kinetic energy, largest speed and density error at the end of the
+    /// last window.
+    stats: WindowStats,
     /// Joubert walls' frames by wall index (empty with Adami walls); the carve-out of
     /// bodies renumbers fluid ids only, so the wall order, and these, stay valid.
     wall_frames: Vec<BoundaryFrame>,
@@ -778,7 +801,18 @@ impl FluidSolver {
     pub fn from_particles(
         gpu: &Gpu,
         scene: &Scene,
+        set: ParticleSet,
+    ) -> Result<FluidSolver, FluidError> {
+        Self::build(gpu, scene, set, scene.bodies.len())
+    }
+
+    /// [`Self::from_particles`] with room for `body_capacity` bodies in the marker
+    /// buffers.
+    fn build(
+        gpu: &Gpu,
+        scene: &Scene,
         mut set: ParticleSet,
+        body_capacity: usize,
     ) -> Result<FluidSolver, FluidError> {
         let consts = SphConstants::from_scene(scene)?;
         let limits = FluidLimits::from_scene(scene)?;
@@ -829,7 +863,7 @@ impl FluidSolver {
             &set,
             &wall_frames,
             bounds,
-            scene.bodies.len(),
+            body_capacity,
         )?;
         let step_params = StepParams {
             n_total: data.n_total,
@@ -837,6 +871,7 @@ impl FluidSolver {
             n_wall: data.kinds.n_wall as u32,
             n_markers: data.kinds.n_markers as u32,
             dt: limits.dt as f32,
+            gravity: StepParams::gravity_of(consts.gravity_fluid),
             ..Default::default()
         };
         let solver = FluidSolver {
@@ -855,6 +890,7 @@ impl FluidSolver {
             steps: 0,
             loads_ready: false,
             near_singular: 0,
+            stats: WindowStats::default(),
             wall_frames,
             grains,
         };
@@ -908,12 +944,93 @@ impl FluidSolver {
         self.near_singular
     }
 
+    /// Everything that carries this solver from one window to the next (see
+    /// [`crate::checkpoint`]), with the server's body-acceleration estimate.
+    pub fn save_state(
+        &self,
+        gpu: &Gpu,
+        acceleration: &AccelerationEstimate,
+    ) -> Result<FluidState, FluidError> {
+        let k = self.data.kinds;
+        Ok(FluidState {
+            kinds: [k.n_fluid, k.n_wall, k.n_markers],
+            marker_capacity: self.marker_capacity,
+            body_capacity: self.data.bodies.as_ref().map_or(0, |b| b.body_capacity),
+            load_bodies: self.load_bodies.clone(),
+            step_params: bytemuck::bytes_of(&self.step_params).to_vec(),
+            gravity_fluid: self.consts.gravity_fluid,
+            time: self.time,
+            steps: self.steps,
+            loads_ready: self.loads_ready,
+            near_singular: self.near_singular,
+            stats: [
+                self.stats.kinetic_energy,
+                self.stats.max_speed,
+                self.stats.max_density_error,
+            ],
+            buffers: checkpoint::read_buffers(gpu, &self.data)?,
+            acceleration: acceleration.clone(),
+        })
+    }
+
+    /// A solver for `scene` that continues from `state` (saved by [`Self::save_state`]
+    /// of a solver of the same scene): built like a fresh one for the saved particle
+    /// counts, then every state buffer and counter is overwritten with the saved one.
+    pub fn restore(
+        gpu: &Gpu,
+        scene: &Scene,
+        state: &FluidState,
+    ) -> Result<FluidSolver, FluidError> {
+        let consts = SphConstants::from_scene(scene)?;
+        let d = &scene.domain;
+        let origin: [f64; 3] = std::array::from_fn(|k| 0.5 * (d.min[k] + d.max[k]));
+        let set = checkpoint::particle_set(state, origin, consts.mass)?;
+        let mut solver = Self::build(gpu, scene, set, state.body_capacity)?;
+        if solver.data.kinds.n_markers > 0 && solver.pipelines.markers.is_none() {
+            return Err(FluidError::Restore(
+                "the checkpoint has markers but this scene has no resolved body".into(),
+            ));
+        }
+        checkpoint::write_buffers(gpu, &solver.data, &state.buffers)?;
+        solver.step_params = bytemuck::try_pod_read_unaligned(&state.step_params)
+            .map_err(|e| FluidError::Restore(format!("step parameters: {e}")))?;
+        solver.consts.gravity_fluid = state.gravity_fluid;
+        solver.marker_capacity = state.marker_capacity;
+        solver.load_bodies = state.load_bodies.clone();
+        solver.time = state.time;
+        solver.steps = state.steps;
+        solver.loads_ready = state.loads_ready;
+        solver.near_singular = state.near_singular;
+        solver.stats = state.stats();
+        solver.write_params(gpu);
+        gpu.wait()?;
+        Ok(solver)
+    }
+
+    /// Kinetic energy, largest speed and largest density error of the fluid at the end
+    /// of the last window ([`crate::window_stats`]).
+    pub fn stats(&self) -> WindowStats {
+        self.stats
+    }
+
     pub fn time(&self) -> f64 {
         self.time
     }
 
     pub fn steps(&self) -> u64 {
         self.steps
+    }
+
+    /// Gravity becomes `g`, m/s², from the next step on. It reaches the fluid only when
+    /// the scene has `gravity.on_fluid` (the kernels read it from the per-window
+    /// uniform); otherwise the fluid feels none and the DEM applies `g` to the bodies
+    /// with Joubert eq. (28)'s buoyancy.
+    pub fn set_gravity(&mut self, gpu: &Gpu, g: [f64; 3]) {
+        if self.consts.gravity_on_fluid {
+            self.consts.gravity_fluid = g;
+            self.step_params.gravity = StepParams::gravity_of(g);
+            self.write_params(gpu);
+        }
     }
 
     fn write_params(&self, gpu: &Gpu) {
@@ -1248,15 +1365,15 @@ impl FluidSolver {
         self.time += window;
         self.steps += u64::from(substeps);
         self.loads_ready = self.data.bodies.is_some();
-        self.near_singular = self.check(gpu)?;
+        (self.near_singular, self.stats) = self.check(gpu)?;
         Ok(substeps)
     }
 
     /// End-of-window checks: blow-up (non-finite, runaway density or speed) and
     /// particles outside the grid. Returns the window's near-singular particle-steps of
     /// the gradient pass and of Joubert's boundary values (0 without the pass), copied
-    /// into `status[1..3]` so that one readback serves both.
-    fn check(&self, gpu: &Gpu) -> Result<u32, FluidError> {
+    /// into `status[1..3]` so that one readback serves both; and the window's telemetry.
+    fn check(&self, gpu: &Gpu) -> Result<(u32, WindowStats), FluidError> {
         let d = &self.data;
         gpu.queue.write_buffer(
             &d.status,
@@ -1272,6 +1389,7 @@ impl FluidSolver {
             let mut pass = timing::begin_pass(None, gpu, &mut encoder, "sph: blowup_check");
             d.bound.find_bad.dispatch(&mut pass, d.n_total);
             d.bound.capture_bad.dispatch(&mut pass, d.n_total);
+            d.bound.window_stats.dispatch(&mut pass, d.n_total);
         }
         if let Some(g) = &d.gradients {
             encoder.copy_buffer_to_buffer(&g.diag, 4, &d.status, 4, 8);
@@ -1329,7 +1447,12 @@ impl FluidSolver {
                 message: e.to_string(),
             });
         }
-        Ok(near_singular)
+        let partials: Vec<[f32; 4]> = gpu.read_buffer(
+            &d.stats_partials,
+            0,
+            window_stats::partial_count(d.n_total) as u64,
+        )?;
+        Ok((near_singular, WindowStats::from_partials(&partials)))
     }
 
     /// Fluid force and moment per body, averaged over the last window (Joubert eqs.

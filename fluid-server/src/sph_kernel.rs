@@ -84,6 +84,8 @@ pub mod param_binding {
     /// particles and markers (corrected ∇u of the loads) whose one-sided matrix was
     /// (per evaluation, two per step).
     pub const DIAG: u32 = 4;
+    /// Per-workgroup partial sums of the window's telemetry (`window_stats.wgsl`).
+    pub const PARTIALS: u32 = 5;
 }
 
 /// The WGSL part before this line is a function library other modules may include;

@@ -158,10 +158,41 @@ enum Cmd {
     },
     /// (internal) Serve the fluid side of a run.
     #[command(name = "fluid-server", hide = true)]
-    FluidServer { run_id: String, scene: PathBuf },
+    FluidServer {
+        run_id: String,
+        scene: PathBuf,
+        #[command(flatten)]
+        dirs: ServerDirs,
+    },
     /// (internal) Serve the DEM side of a run.
     #[command(name = "dem-server", hide = true)]
-    DemServer { run_id: String, scene: PathBuf },
+    DemServer {
+        run_id: String,
+        scene: PathBuf,
+        #[command(flatten)]
+        dirs: ServerDirs,
+    },
+}
+
+/// Where a server writes checkpoints and what it starts from
+/// ([`couplet_protocol::state::StateDirs`]).
+#[derive(Debug, clap::Args)]
+pub struct ServerDirs {
+    /// Root folder of the run's checkpoints.
+    #[arg(long)]
+    checkpoints: Option<PathBuf>,
+    /// Start from this checkpoint folder (`ROOT/step-N`).
+    #[arg(long)]
+    restore: Option<PathBuf>,
+}
+
+impl ServerDirs {
+    fn state_dirs(self) -> couplet_protocol::state::StateDirs {
+        couplet_protocol::state::StateDirs {
+            checkpoints: self.checkpoints,
+            restore: self.restore,
+        }
+    }
 }
 
 /// Parses the process arguments and runs; the exit code is what `main` returns.
@@ -314,13 +345,22 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             )?;
         }
         Cmd::Ctl { conn, cmd } => crate::ctl::ctl(&conn, cmd)?,
-        Cmd::FluidServer { run_id, scene } => {
+        Cmd::FluidServer {
+            run_id,
+            scene,
+            dirs,
+        } => {
             let s = couplet_protocol::Scene::load(&scene)?;
-            couplet_fluid::server::serve(&run_id, &s).context("fluid-server")?;
+            couplet_fluid::server::serve(&run_id, &s, &dirs.state_dirs())
+                .context("fluid-server")?;
         }
-        Cmd::DemServer { run_id, scene } => {
+        Cmd::DemServer {
+            run_id,
+            scene,
+            dirs,
+        } => {
             let s = couplet_protocol::Scene::load(&scene)?;
-            couplet_dem::server::serve(&run_id, &s).context("dem-server")?;
+            couplet_dem::server::serve(&run_id, &s, &dirs.state_dirs()).context("dem-server")?;
         }
     }
     Ok(())

@@ -1,6 +1,7 @@
 //! Starting and supervising the server processes.
 
 use couplet_protocol::Role;
+use couplet_protocol::state::StateDirs;
 use std::path::Path;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
@@ -32,11 +33,13 @@ pub enum LaunchError {
 }
 
 impl Server {
-    /// Starts `exe` (None: this executable) in `role` (`couplet fluid-server RUN_ID SCENE`).
+    /// Starts `exe` (None: this executable) in `role` (`couplet fluid-server RUN_ID SCENE
+    /// [--checkpoints DIR] [--restore DIR]`).
     pub fn spawn(
         role: Role,
         run_id: &str,
         scene: &Path,
+        dirs: &StateDirs,
         exe: Option<&Path>,
     ) -> Result<Self, LaunchError> {
         let exe = match exe {
@@ -50,6 +53,7 @@ impl Server {
             .arg(role.name())
             .arg(run_id)
             .arg(scene)
+            .args(dirs.to_args())
             .stdin(Stdio::null())
             .spawn()
             .map_err(|source| LaunchError::Spawn {

@@ -10,11 +10,14 @@
 use crate::launch::{LaunchError, Server};
 use crate::record::{RecordError, Recorder};
 use crate::window::{WindowPlan, choose_window};
+use couplet_protocol::state::{
+    StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
+};
 use couplet_protocol::transport::{
     Endpoint, SliceReceiver, TransportError, ValueReceiver, ValueSender, WakeListener, Waker,
 };
 use couplet_protocol::{
-    BodyLoad, BodyState, Command, CommandKind, HandshakeError, Hello, PROTOCOL_VERSION,
+    BodyLoad, BodyState, Command, CommandKind, HandshakeError, Hello, Motion, PROTOCOL_VERSION,
     ParticleRecord, Role, Scene, SceneError, ServiceLeaf, SideReport, check_hello,
 };
 use indicatif::{ProgressBar, ProgressStyle};
@@ -44,6 +47,18 @@ pub enum RunError {
     },
     #[error("the scene has neither fluid nor bodies: nothing to simulate")]
     Empty,
+    #[error(transparent)]
+    State(#[from] StateError),
+    /// A live change the run cannot take (the message says why and what can).
+    #[error("{0}")]
+    Refused(String),
+    /// A server answered a command out of turn.
+    #[error("the {role} answered command {got} while the orchestrator waited for {expected}")]
+    UnexpectedReport {
+        role: &'static str,
+        got: u32,
+        expected: u32,
+    },
 }
 
 /// What `couplet run` (and `bench`) is asked to do.
@@ -143,6 +158,7 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
             record: opts.record,
             max_windows: opts.max_windows,
             server_exe: None,
+            restore: None,
         },
     )?;
     let bar = progress_bar(opts.progress, run.end_time());
@@ -175,6 +191,29 @@ pub struct LaunchOptions {
     /// The executable to start in the server roles (`EXE fluid-server RUN_ID SCENE`);
     /// None: this executable, which is the `couplet` CLI.
     pub server_exe: Option<PathBuf>,
+    /// Continue from this checkpoint folder (`OUT/checkpoints/step-N` of an earlier run,
+    /// written by [`CoupledRun::checkpoint`]) instead of the scene's initial state; the
+    /// scene must be the checkpoint's own `scene.toml`.
+    pub restore: Option<PathBuf>,
+}
+
+/// The orchestrator's part of a checkpoint: where the run stands between windows.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+struct OrchestratorState {
+    step: u64,
+    plan: WindowPlan,
+    output_interval: f64,
+    next_output: f64,
+    next_body_record: f64,
+    last_states: Vec<BodyState>,
+    last_loads: Vec<BodyLoad>,
+    prescribed: Vec<([f64; 3], [f64; 3])>,
+}
+
+/// The scene file a checkpoint folder holds: the run's scene with every live change
+/// made before the checkpoint (gravity).
+pub fn checkpoint_scene(dir: &Path) -> PathBuf {
+    dir.join("scene.toml")
 }
 
 /// What one window did, as the orchestrator saw it.
@@ -195,6 +234,13 @@ pub struct WindowDone {
 /// servers; [`CoupledRun::close`] shuts them down cleanly and closes the recording.
 pub struct CoupledRun {
     scene: Scene,
+    /// The scene's TOML with the live changes made so far (a checkpoint keeps it).
+    text: String,
+    /// Root of this run's checkpoints, `OUT/checkpoints`.
+    checkpoints: PathBuf,
+    /// Each body's velocity and angular velocity as the scene or a live change set them
+    /// (what a kinematic body moves with).
+    prescribed: Vec<([f64; 3], [f64; 3])>,
     plan: WindowPlan,
     /// Windows this run will advance (the plan's, or fewer with `max_windows`).
     windows: u64,
@@ -266,6 +312,9 @@ impl CoupledRun {
             None
         };
         let output_interval = scene.time.output_interval;
+        let prescribed = (scene.bodies.iter())
+            .map(|b| (b.velocity, b.angular_velocity))
+            .collect();
         // The ports exist before the servers start: a hello sent to no subscriber is lost.
         let mut run = Self {
             plan: WindowPlan::default(),
@@ -298,13 +347,24 @@ impl CoupledRun {
             wake_dem: ep.waker(ServiceLeaf::DemWake)?,
             _endpoint: ep,
             scene,
+            text: text.to_owned(),
+            checkpoints: out.join("checkpoints"),
+            prescribed,
         };
         let exe = opts.server_exe.as_deref();
-        let spawn = |role| Server::spawn(role, &run_id, &scene_path, exe);
+        let dirs = StateDirs {
+            checkpoints: Some(run.checkpoints.clone()),
+            restore: opts.restore.clone(),
+        };
+        let spawn = |role| Server::spawn(role, &run_id, &scene_path, &dirs, exe);
         let started = (|| {
             run.peers.fluid = has_fluid.then(|| spawn(Role::Fluid)).transpose()?;
             run.peers.dem = has_dem.then(|| spawn(Role::Dem)).transpose()?;
-            run.handshake(opts.max_windows)
+            run.handshake(opts.max_windows)?;
+            match &opts.restore {
+                Some(dir) => run.resume(dir, opts.max_windows),
+                None => Ok(()),
+            }
         })();
         match started {
             Ok(()) => Ok(run),
@@ -386,6 +446,185 @@ impl CoupledRun {
         self.output_interval
     }
 
+    /// Takes up where the checkpoint in `dir` left off (the servers have read their
+    /// parts at start): the window plan, the output clocks and the last exchange.
+    fn resume(&mut self, dir: &Path, max_windows: Option<u64>) -> Result<(), RunError> {
+        let (_, saved): (_, OrchestratorState) =
+            read_state(&state_file(dir, Role::Orchestrator), Role::Orchestrator)?;
+        // The window is the saved run's, whatever the servers' hello says: a restored run
+        // continues as the original would have.
+        self.plan = saved.plan;
+        self.windows = max_windows.map_or(self.plan.windows, |m| m.min(self.plan.windows));
+        self.summary.plan = Some(self.plan.clone());
+        self.step = saved.step;
+        self.output_interval = saved.output_interval;
+        self.next_output = saved.next_output;
+        self.next_body_record = saved.next_body_record;
+        self.last_states = saved.last_states;
+        self.last_loads = saved.last_loads;
+        self.prescribed = saved.prescribed;
+        Ok(())
+    }
+
+    /// Writes a checkpoint of the boundary before the next window into
+    /// `OUT/checkpoints/step-N/`: each server's whole state, the orchestrator's, and the
+    /// scene with the live changes so far. Returns the folder; a run launched with
+    /// [`LaunchOptions::restore`] set to it continues as this one will.
+    pub fn checkpoint(&mut self) -> Result<PathBuf, RunError> {
+        let dir = checkpoint_dir(&self.checkpoints, self.step);
+        self.request(CommandKind::Checkpoint, 0, [0.0; 6])?;
+        let scene = checkpoint_scene(&dir);
+        std::fs::create_dir_all(&dir).map_err(|source| RunError::Io {
+            what: format!("creating {}", dir.display()),
+            source,
+        })?;
+        std::fs::write(&scene, &self.text).map_err(|source| RunError::Io {
+            what: format!("writing {}", scene.display()),
+            source,
+        })?;
+        let state = OrchestratorState {
+            step: self.step,
+            plan: self.plan.clone(),
+            output_interval: self.output_interval,
+            next_output: self.next_output,
+            next_body_record: self.next_body_record,
+            last_states: self.last_states.clone(),
+            last_loads: self.last_loads.clone(),
+            prescribed: self.prescribed.clone(),
+        };
+        let time = self.step as f64 * self.plan.window;
+        write_state(
+            &state_file(&dir, Role::Orchestrator),
+            Role::Orchestrator,
+            self.step,
+            time,
+            &state,
+        )?;
+        Ok(dir)
+    }
+
+    /// Gravity becomes `g`, m/s², from the next window on, on both sides (on the fluid
+    /// only with `gravity.on_fluid`); a later checkpoint's scene has it.
+    pub fn set_gravity(&mut self, g: [f64; 3]) -> Result<(), RunError> {
+        if g.iter().any(|x| !x.is_finite()) {
+            return Err(RunError::Refused(format!(
+                "gravity.vector = {g:?}: must be three finite numbers, m/s²"
+            )));
+        }
+        self.request(
+            CommandKind::SetGravity,
+            0,
+            [g[0], g[1], g[2], 0.0, 0.0, 0.0],
+        )?;
+        self.scene.gravity.vector = g;
+        self.text = couplet_protocol::scene::override_field(
+            &self.text,
+            Path::new("scene.toml"),
+            "gravity.vector",
+            &format!("[{:?}, {:?}, {:?}]", g[0], g[1], g[2]),
+        )?;
+        Ok(())
+    }
+
+    /// Kinematic body `body` moves on from where it is with `linear` (m/s) and `angular`
+    /// (rad/s, world frame) velocity from the next window on.
+    pub fn set_kinematic_velocity(
+        &mut self,
+        body: usize,
+        linear: [f64; 3],
+        angular: [f64; 3],
+    ) -> Result<(), RunError> {
+        let Some(spec) = self.scene.bodies.get(body) else {
+            return Err(RunError::Refused(format!(
+                "no body {body}: the scene has {} (bodies[0..{}])",
+                self.scene.bodies.len(),
+                self.scene.bodies.len()
+            )));
+        };
+        if spec.motion != Motion::Kinematic {
+            return Err(RunError::Refused(format!(
+                "bodies[{body}] \"{}\" is {:?}: only a kinematic body's velocity can be prescribed during a run",
+                spec.name, spec.motion
+            )));
+        }
+        if linear.iter().chain(&angular).any(|x| !x.is_finite()) {
+            return Err(RunError::Refused(format!(
+                "bodies[{body}] velocity {linear:?} m/s, angular velocity {angular:?} rad/s: must be finite"
+            )));
+        }
+        let [a, b, c] = linear;
+        let [d, e, f] = angular;
+        self.request(
+            CommandKind::SetKinematicVelocity,
+            body as u32,
+            [a, b, c, d, e, f],
+        )?;
+        self.prescribed[body] = (linear, angular);
+        Ok(())
+    }
+
+    /// Body `body`'s velocity and angular velocity as the scene or the last live change
+    /// prescribed them.
+    pub fn prescribed_velocity(&self, body: usize) -> Result<([f64; 3], [f64; 3]), RunError> {
+        self.prescribed.get(body).copied().ok_or_else(|| {
+            RunError::Refused(format!(
+                "no body {body}: the scene has {}",
+                self.prescribed.len()
+            ))
+        })
+    }
+
+    /// Sends a command that acts between windows to every server and waits until each
+    /// has acknowledged it.
+    fn request(&mut self, kind: CommandKind, body: u32, values: [f64; 6]) -> Result<(), RunError> {
+        let step = self.step;
+        self.commands.send(Command {
+            protocol_version: PROTOCOL_VERSION,
+            kind: kind as u32,
+            step,
+            time: step as f64 * self.plan.window,
+            window: self.plan.window,
+            snapshot: 0,
+            body,
+            values,
+        })?;
+        let expect_fluid = self.peers.fluid.is_some();
+        let expect_dem = self.peers.dem.is_some();
+        if expect_fluid {
+            self.wake_fluid.wake()?;
+        }
+        if expect_dem {
+            self.wake_dem.wake()?;
+        }
+        let (mut fluid, mut dem) = (!expect_fluid, !expect_dem);
+        let peers = &mut self.peers;
+        let reports = &self.reports;
+        let mut unexpected = None;
+        self.wake.wait_for(
+            || {
+                while let Some(r) = reports.try_next()? {
+                    let role = Role::from_u32(r.role);
+                    if r.step != step || r.kind != kind as u32 {
+                        unexpected = Some(RunError::UnexpectedReport {
+                            role: role.map_or("unknown role", Role::name),
+                            got: r.kind,
+                            expected: kind as u32,
+                        });
+                        return Ok(Some(()));
+                    }
+                    match role {
+                        Some(Role::Fluid) => fluid = true,
+                        Some(Role::Dem) => dem = true,
+                        _ => {}
+                    }
+                }
+                Ok((fluid && dem).then_some(()))
+            },
+            || peers.check(),
+        )?;
+        unexpected.map_or(Ok(()), Err)
+    }
+
     /// Takes a new particle-snapshot interval from the next window on; the next snapshot
     /// falls on the first window end at or after the last one plus `interval` (every
     /// window when `interval` is shorter than the window).
@@ -421,7 +660,8 @@ impl CoupledRun {
             time,
             window,
             snapshot: snapshot as u32,
-            _pad: 0,
+            body: 0,
+            values: [0.0; 6],
         })?;
         if expect_fluid {
             self.wake_fluid.wake()?;
@@ -436,7 +676,7 @@ impl CoupledRun {
         self.wake.wait_for(
             || {
                 while let Some(r) = reports.try_next()? {
-                    if r.step != step {
+                    if r.step != step || r.kind != CommandKind::Advance as u32 {
                         return Err(TransportError::OutOfSequence {
                             service: "report".into(),
                             expected: step,

@@ -8,21 +8,22 @@
 //! channel, whose sender never waits: a watcher that falls behind loses the oldest
 //! frames and is told how many (DESIGN.md: a slow client never slows the simulation).
 
-use crate::run::{CoupledRun, LaunchOptions, WindowDone};
+use crate::run::{CoupledRun, LaunchOptions, RunError, WindowDone, checkpoint_scene};
 use couplet_protocol::grpc::{
-    self, BodyFrame, CreateRunRequest, DeleteRunRequest, DeleteRunResponse, Engine,
-    ListEnginesRequest, ListEnginesResponse, ListRunsRequest, ListRunsResponse, Quat, Run,
-    RunRequest, RunState, SetParameterRequest, StepRunRequest, Vec3, WatchEvent, WindowFrame,
+    self, BodyFrame, CheckpointResponse, CreateRunRequest, DeleteRunRequest, DeleteRunResponse,
+    Engine, ListEnginesRequest, ListEnginesResponse, ListRunsRequest, ListRunsResponse, Quat,
+    RestoreRunRequest, Run, RunRequest, RunState, SetParameterRequest, StepRunRequest, Vec3,
+    WatchEvent, WindowFrame,
     couplet_server::{Couplet, CoupletServer},
     watch_event,
 };
-use couplet_protocol::{Scene, SceneError};
+use couplet_protocol::{Motion, Scene, SceneError};
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::pin::Pin;
 use std::sync::{Arc, Condvar, Mutex};
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{broadcast, mpsc, oneshot, watch};
 use tokio_stream::Stream;
 use tokio_stream::wrappers::{ReceiverStream, TcpListenerStream};
 use tonic::{Request, Response, Status};
@@ -51,19 +52,47 @@ pub struct ServeConfig {
 pub const DEFAULT_MAX_RUNS: usize = 2;
 
 /// What a run's thread may do next; changed by the handlers under the mutex.
-#[derive(Debug, Default)]
+#[derive(Default)]
 struct Control {
     /// Windows the thread may still advance before it pauses; None: to the end.
     budget: Option<u64>,
     /// Stop at the next window boundary.
     stop: bool,
-    /// A new output interval to take at the next window boundary.
-    output_interval: Option<f64>,
+    /// Changes to make at the next window boundary, in the order asked.
+    pending: Vec<Pending>,
+}
+
+/// A change a handler asks of a run; its thread makes it between two windows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Change {
+    OutputInterval(f64),
+    Gravity([f64; 3]),
+    /// A kinematic body's velocities; a `None` keeps the current one.
+    Kinematic {
+        body: usize,
+        linear: Option<[f64; 3]>,
+        angular: Option<[f64; 3]>,
+    },
+    Checkpoint,
+}
+
+/// What a change gave back.
+enum Applied {
+    Done,
+    Checkpoint { path: PathBuf, step: u64, time: f64 },
+}
+
+struct Pending {
+    change: Change,
+    /// The refusal, or the run's error, as text.
+    reply: oneshot::Sender<Result<Applied, String>>,
 }
 
 /// One run as the service holds it.
 struct RunHandle {
     id: String,
+    /// Name and motion of every scene body (SetParameter resolves `bodies.NAME`).
+    bodies: Vec<(String, Motion)>,
     ctl: Mutex<Control>,
     wake: Condvar,
     status: watch::Sender<Run>,
@@ -79,6 +108,20 @@ impl RunHandle {
         let mut c = self.ctl.lock().unwrap_or_else(|e| e.into_inner());
         f(&mut c);
         self.wake.notify_all();
+    }
+
+    /// Hands `change` to the run's thread and waits until it has been made.
+    async fn submit(&self, change: Change) -> Result<Applied, Status> {
+        let (reply, answer) = oneshot::channel();
+        self.control(|c| c.pending.push(Pending { change, reply }));
+        match answer.await {
+            Ok(Ok(applied)) => Ok(applied),
+            Ok(Err(why)) => Err(Status::failed_precondition(why)),
+            Err(_) => Err(Status::failed_precondition(format!(
+                "run {} ended before the change was made",
+                self.id
+            ))),
+        }
     }
 
     /// Waits until `done` holds for the published state, or the run has ended.
@@ -182,15 +225,38 @@ impl CoupletService {
             .find(|id| !runs.contains_key(id) && !self.cfg.data_dir.join(id).exists())
             .unwrap_or_default()
     }
-}
 
-type WatchStream = Pin<Box<dyn Stream<Item = Result<WatchEvent, Status>> + Send>>;
+    /// A checkpoint folder the client named: absolute or relative to the data folder,
+    /// and inside it (a client may only restore what this server wrote or was given).
+    fn checkpoint_dir(&self, given: &str) -> Result<PathBuf, Status> {
+        if given.is_empty() {
+            return Err(Status::invalid_argument(
+                "RestoreRun needs the checkpoint folder Checkpoint returned",
+            ));
+        }
+        let data = std::fs::canonicalize(&self.cfg.data_dir).map_err(|e| {
+            Status::internal(format!("data folder {}: {e}", self.cfg.data_dir.display()))
+        })?;
+        let dir = std::fs::canonicalize(data.join(given))
+            .map_err(|e| Status::not_found(format!("checkpoint {given}: {e}")))?;
+        if !dir.starts_with(&data) {
+            return Err(Status::invalid_argument(format!(
+                "checkpoint {given} lies outside this server's data folder {}: copy it there first",
+                data.display()
+            )));
+        }
+        Ok(dir)
+    }
 
-#[tonic::async_trait]
-impl Couplet for CoupletService {
-    async fn create_run(&self, req: Request<CreateRunRequest>) -> Result<Response<Run>, Status> {
-        let req = req.into_inner();
-        let (scene, text) = Self::scene(&req)?;
+    /// Registers a run and starts its thread, which launches the servers (from the
+    /// checkpoint `restore` when given).
+    fn launch(
+        &self,
+        scene: Scene,
+        text: String,
+        record: bool,
+        restore: Option<PathBuf>,
+    ) -> Result<Arc<RunHandle>, Status> {
         if scene.fluid.is_none() && !scene.needs_dem() {
             return Err(Status::invalid_argument(
                 "the scene has neither fluid nor bodies: nothing to simulate",
@@ -218,10 +284,14 @@ impl Couplet for CoupletService {
                 output_dir: out.display().to_string(),
                 output_interval: scene.time.output_interval,
                 warnings: scene.warnings(),
+                gravity: vec3(scene.gravity.vector),
                 ..Default::default()
             };
             let handle = Arc::new(RunHandle {
                 id: id.clone(),
+                bodies: (scene.bodies.iter())
+                    .map(|b| (b.name.clone(), b.motion))
+                    .collect(),
                 // Created paused: StartRun or StepRun give it windows.
                 ctl: Mutex::new(Control {
                     budget: Some(0),
@@ -233,9 +303,10 @@ impl Couplet for CoupletService {
             });
             runs.insert(id, handle.clone());
             let opts = LaunchOptions {
-                record: !req.skip_recording,
+                record,
                 max_windows: None,
                 server_exe: self.cfg.server_exe.clone(),
+                restore,
             };
             let h = handle.clone();
             std::thread::Builder::new()
@@ -244,7 +315,59 @@ impl Couplet for CoupletService {
                 .map_err(|e| Status::internal(format!("cannot start the run's thread: {e}")))?;
             handle
         };
+        Ok(handle)
+    }
+}
+
+type WatchStream = Pin<Box<dyn Stream<Item = Result<WatchEvent, Status>> + Send>>;
+
+#[tonic::async_trait]
+impl Couplet for CoupletService {
+    async fn create_run(&self, req: Request<CreateRunRequest>) -> Result<Response<Run>, Status> {
+        let req = req.into_inner();
+        let (scene, text) = Self::scene(&req)?;
+        let handle = self.launch(scene, text, !req.skip_recording, None)?;
         Ok(Response::new(handle.snapshot()))
+    }
+
+    async fn restore_run(&self, req: Request<RestoreRunRequest>) -> Result<Response<Run>, Status> {
+        let req = req.into_inner();
+        let dir = self.checkpoint_dir(&req.checkpoint)?;
+        let file = checkpoint_scene(&dir);
+        let text = std::fs::read_to_string(&file).map_err(|e| {
+            Status::not_found(format!(
+                "{}: {e} (a checkpoint folder holds scene.toml and one .state file per process)",
+                file.display()
+            ))
+        })?;
+        let scene =
+            Scene::parse(&text, &file).map_err(|e| Status::invalid_argument(e.to_string()))?;
+        let handle = self.launch(scene, text, !req.skip_recording, Some(dir))?;
+        Ok(Response::new(handle.snapshot()))
+    }
+
+    async fn checkpoint(
+        &self,
+        req: Request<RunRequest>,
+    ) -> Result<Response<CheckpointResponse>, Status> {
+        let h = self.get(&req.into_inner().run_id)?;
+        let s = h.snapshot().state();
+        if ended(s) {
+            return Err(Status::failed_precondition(format!(
+                "run {} is {}: its servers are gone, nothing to checkpoint",
+                h.id,
+                state_name(s)
+            )));
+        }
+        match h.submit(Change::Checkpoint).await? {
+            Applied::Checkpoint { path, step, time } => Ok(Response::new(CheckpointResponse {
+                run_id: h.id.clone(),
+                path: path.display().to_string(),
+                step,
+                time,
+            })),
+            Applied::Done => Err(Status::internal("a checkpoint gave no folder")),
+        }
     }
 
     async fn start_run(&self, req: Request<RunRequest>) -> Result<Response<Run>, Status> {
@@ -468,31 +591,9 @@ impl Couplet for CoupletService {
                 state_name(s)
             )));
         }
-        match req.path.as_str() {
-            "time.output_interval" => {
-                let dt: f64 = req.value.trim().parse().map_err(|_| {
-                    Status::invalid_argument(format!(
-                        "time.output_interval = {}: expected a number of seconds",
-                        req.value
-                    ))
-                })?;
-                if !(dt.is_finite() && dt > 0.0) {
-                    return Err(Status::invalid_argument(format!(
-                        "time.output_interval = {dt}: must be a positive number of seconds"
-                    )));
-                }
-                h.control(|c| c.output_interval = Some(dt));
-                Ok(Response::new(h.wait_for(|r| r.output_interval == dt).await))
-            }
-            p if p.starts_with("gravity") => Err(Status::failed_precondition(
-                "gravity cannot change during a run in this version: the fluid server \
-                 compiles it into its kernels as a constant. Create a new run with the \
-                 override gravity.vector = [...]",
-            )),
-            p => Err(Status::failed_precondition(format!(
-                "{p} cannot change during a run; what can: time.output_interval"
-            ))),
-        }
+        let change = parse_change(&req.path, &req.value, &h.bodies)?;
+        h.submit(change).await?;
+        Ok(Response::new(h.snapshot()))
     }
 
     async fn list_engines(
@@ -512,6 +613,127 @@ impl Couplet for CoupletService {
     }
 }
 
+/// The live change `path = value` asks for (SetParameter), checked against the scene's
+/// bodies: INVALID_ARGUMENT for a value of the wrong kind, FAILED_PRECONDITION for what
+/// cannot change during a run.
+fn parse_change(path: &str, value: &str, bodies: &[(String, Motion)]) -> Result<Change, Status> {
+    const LIVE: &str = "time.output_interval, gravity.vector, bodies.NAME.velocity and \
+                        bodies.NAME.angular_velocity (kinematic bodies)";
+    let toml_value = || -> Result<toml::Value, Status> {
+        let t: toml::Table = toml::from_str(&format!("v = {value}"))
+            .map_err(|_| Status::invalid_argument(format!("{path} = {value}: not a TOML value")))?;
+        t.get("v")
+            .cloned()
+            .ok_or_else(|| Status::invalid_argument(format!("{path} = {value}: no value")))
+    };
+    let number = |v: &toml::Value| match v {
+        toml::Value::Float(x) => Some(*x),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    };
+    let vector = |unit: &str| -> Result<[f64; 3], Status> {
+        let bad = || {
+            Status::invalid_argument(format!(
+                "{path} = {value}: expected three finite numbers [x, y, z] in {unit}"
+            ))
+        };
+        let v = toml_value()?;
+        let a = v.as_array().filter(|a| a.len() == 3).ok_or_else(bad)?;
+        let mut out = [0.0; 3];
+        for (o, x) in out.iter_mut().zip(a) {
+            *o = number(x).filter(|x| x.is_finite()).ok_or_else(bad)?;
+        }
+        Ok(out)
+    };
+    match path.split('.').collect::<Vec<_>>().as_slice() {
+        ["time", "output_interval"] => {
+            let dt = number(&toml_value()?).ok_or_else(|| {
+                Status::invalid_argument(format!(
+                    "time.output_interval = {value}: expected a number of seconds"
+                ))
+            })?;
+            if !(dt.is_finite() && dt > 0.0) {
+                return Err(Status::invalid_argument(format!(
+                    "time.output_interval = {dt}: must be a positive number of seconds"
+                )));
+            }
+            Ok(Change::OutputInterval(dt))
+        }
+        ["gravity", "vector"] => Ok(Change::Gravity(vector("m/s²")?)),
+        ["bodies", name, field @ ("velocity" | "angular_velocity")] => {
+            let body = bodies
+                .iter()
+                .position(|(n, _)| n == name)
+                .or_else(|| name.parse().ok().filter(|i| *i < bodies.len()))
+                .ok_or_else(|| {
+                    let names: Vec<&str> = bodies.iter().map(|(n, _)| n.as_str()).collect();
+                    Status::invalid_argument(format!(
+                        "{path}: no body {name:?}; the scene's bodies are {names:?} (or their indices 0..{})",
+                        bodies.len()
+                    ))
+                })?;
+            let (body_name, motion) = &bodies[body];
+            if *motion != Motion::Kinematic {
+                return Err(Status::failed_precondition(format!(
+                    "{path}: body {body} \"{body_name}\" is {motion:?}; only a kinematic body's \
+                     velocity can be prescribed during a run (a dynamic one moves under its forces)"
+                )));
+            }
+            let (linear, angular) = if *field == "velocity" {
+                (Some(vector("m/s")?), None)
+            } else {
+                (None, Some(vector("rad/s")?))
+            };
+            Ok(Change::Kinematic {
+                body,
+                linear,
+                angular,
+            })
+        }
+        ["gravity", "on_fluid"] => Err(Status::failed_precondition(
+            "gravity.on_fluid cannot change during a run: it decides whether the fluid's \
+             pressure or Joubert eq. (28) carries the bodies' buoyancy, and the fluid's \
+             hydrostatic start follows it. Create a new run with the override",
+        )),
+        _ => Err(Status::failed_precondition(format!(
+            "{path} cannot change during a run (create a new run with the override); what can: {LIVE}"
+        ))),
+    }
+}
+
+/// Makes one change between windows. A refusal is the client's answer; any other error
+/// has cost the run its servers, and ends it.
+fn apply(run: &mut CoupledRun, h: &RunHandle, change: Change) -> Result<Applied, RunError> {
+    match change {
+        Change::OutputInterval(dt) => {
+            run.set_output_interval(dt);
+            h.status.send_modify(|r| r.output_interval = dt);
+        }
+        Change::Gravity(g) => {
+            run.set_gravity(g)?;
+            h.status.send_modify(|r| r.gravity = vec3(g));
+        }
+        Change::Kinematic {
+            body,
+            linear,
+            angular,
+        } => {
+            let (v, w) = run.prescribed_velocity(body)?;
+            run.set_kinematic_velocity(body, linear.unwrap_or(v), angular.unwrap_or(w))?;
+        }
+        Change::Checkpoint => {
+            let path = run.checkpoint()?;
+            let step = run.windows_done();
+            return Ok(Applied::Checkpoint {
+                path,
+                step,
+                time: step as f64 * run.plan().window,
+            });
+        }
+    }
+    Ok(Applied::Done)
+}
+
 /// The life of one run: launch, then advance while its control allows, then close.
 fn run_thread(h: &RunHandle, scene: Scene, text: &str, out: &Path, opts: &LaunchOptions) {
     let mut run = match CoupledRun::launch(scene, text, out, opts) {
@@ -527,28 +749,42 @@ fn run_thread(h: &RunHandle, scene: Scene, text: &str, out: &Path, opts: &Launch
     h.status.send_modify(|r| {
         r.set_state(RunState::Ready);
         r.windows_total = run.windows();
+        r.windows_done = run.windows_done();
+        r.time = run.windows_done() as f64 * run.plan().window;
         r.window = run.plan().window;
         r.window_reason = run.plan().reason.clone();
         r.end_time = run.end_time();
     });
+    // A restored run starts READY at its checkpoint's window.
+    let first = run.windows_done();
     let mut failure = None;
     let mut stopped = false;
-    'windows: while !run.done() {
-        {
+    loop {
+        enum Next {
+            Apply(Vec<Pending>),
+            Advance,
+            Stop,
+            Done,
+        }
+        let next = {
             let mut c = h.ctl.lock().unwrap_or_else(|e| e.into_inner());
             loop {
-                if let Some(dt) = c.output_interval.take() {
-                    run.set_output_interval(dt);
-                    h.status.send_modify(|r| r.output_interval = dt);
+                if !c.pending.is_empty() {
+                    break Next::Apply(std::mem::take(&mut c.pending));
                 }
                 if c.stop {
-                    stopped = true;
-                    break 'windows;
+                    break Next::Stop;
+                }
+                if run.done() {
+                    break Next::Done;
                 }
                 if c.budget != Some(0) {
-                    break;
+                    if let Some(b) = c.budget.as_mut() {
+                        *b -= 1;
+                    }
+                    break Next::Advance;
                 }
-                let idle = if run.windows_done() == 0 {
+                let idle = if run.windows_done() == first {
                     RunState::Ready
                 } else {
                     RunState::Paused
@@ -560,30 +796,63 @@ fn run_thread(h: &RunHandle, scene: Scene, text: &str, out: &Path, opts: &Launch
                 });
                 c = h.wake.wait(c).unwrap_or_else(|e| e.into_inner());
             }
-            if let Some(b) = c.budget.as_mut() {
-                *b -= 1;
+        };
+        match next {
+            // Made with the lock released: a checkpoint takes a while.
+            Next::Apply(list) => {
+                for p in list {
+                    match apply(&mut run, h, p.change) {
+                        Ok(a) => {
+                            let _ = p.reply.send(Ok(a));
+                        }
+                        Err(RunError::Refused(why)) => {
+                            let _ = p.reply.send(Err(why));
+                        }
+                        Err(e) => {
+                            let _ = p.reply.send(Err(format!("the run failed: {e}")));
+                            failure = Some(e.to_string());
+                        }
+                    }
+                }
+                if failure.is_some() {
+                    break;
+                }
             }
-        }
-        h.status.send_if_modified(|r| {
-            let change = r.state() != RunState::Running;
-            r.set_state(RunState::Running);
-            change
-        });
-        match run.advance() {
-            Ok(w) => {
-                // No watcher is no error: the frame is simply not kept.
-                let _ = h.frames.send(Arc::new(frame(&w, &run)));
-                h.status.send_modify(|r| {
-                    r.windows_done = w.step + 1;
-                    r.time = w.end;
-                    r.wall_seconds += w.wall_s;
-                });
-            }
-            Err(e) => {
-                failure = Some(e.to_string());
+            Next::Stop => {
+                stopped = true;
                 break;
             }
+            Next::Done => break,
+            Next::Advance => {
+                h.status.send_if_modified(|r| {
+                    let change = r.state() != RunState::Running;
+                    r.set_state(RunState::Running);
+                    change
+                });
+                match run.advance() {
+                    Ok(w) => {
+                        // No watcher is no error: the frame is simply not kept.
+                        let _ = h.frames.send(Arc::new(frame(&w, &run)));
+                        h.status.send_modify(|r| {
+                            r.windows_done = w.step + 1;
+                            r.time = w.end;
+                            r.wall_seconds += w.wall_s;
+                        });
+                    }
+                    Err(e) => {
+                        failure = Some(e.to_string());
+                        break;
+                    }
+                }
+            }
         }
+    }
+    // Changes asked for after the last boundary are answered by the run's end.
+    for p in std::mem::take(&mut h.ctl.lock().unwrap_or_else(|e| e.into_inner()).pending) {
+        let _ = p.reply.send(Err(format!(
+            "run {} ended before the change was made",
+            h.id
+        )));
     }
     let closed = run.close(failure.is_none());
     let failure = failure.or_else(|| closed.err().map(|e| e.to_string()));
@@ -617,6 +886,9 @@ fn frame(w: &WindowDone, run: &CoupledRun) -> WindowFrame {
         wall_seconds: w.wall_s,
         fluid_compute_seconds: w.fluid.map_or(0.0, |r| r.compute_us * 1e-6),
         dem_compute_seconds: w.dem.map_or(0.0, |r| r.compute_us * 1e-6),
+        kinetic_energy: w.fluid.map_or(0.0, |r| r.kinetic_energy),
+        max_speed: w.fluid.map_or(0.0, |r| r.max_speed),
+        max_density_error: w.fluid.map_or(0.0, |r| r.max_density_error),
         bodies: run
             .states()
             .iter()

@@ -3,7 +3,7 @@
 use couplet_protocol::Scene;
 
 /// The coupling window and the substeps it implies on each side.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WindowPlan {
     /// Coupling window Δt_w, s.
     pub window: f64,

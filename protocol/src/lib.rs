@@ -1,6 +1,6 @@
 //! The contract between couplet's processes: scene schema, zero-copy payloads,
 //! iceoryx2 service names, protocol version and handshake, validation of received data,
-//! and the gRPC control API.
+//! checkpoint state files, and the gRPC control API.
 
 pub use handshake::{HandshakeError, check_hello};
 pub use payload::{
@@ -19,6 +19,7 @@ pub mod handshake;
 pub mod payload;
 pub mod scene;
 pub mod service;
+pub mod state;
 pub mod transport;
 pub mod validate;
 

@@ -8,7 +8,7 @@ use iceoryx2::prelude::ZeroCopySend;
 
 /// Bumped whenever a payload layout or the meaning of a field changes; a peer with
 /// another version is refused at the handshake.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// User header of every windowed sample: which coupling window the slice belongs to.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
@@ -53,7 +53,9 @@ pub fn monotonic_ns() -> u64 {
 }
 
 /// State of one rigid body at the start of a window, world frame, SI units.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, serde::Serialize, serde::Deserialize,
+)]
 #[repr(C)]
 pub struct BodyState {
     /// Centre of mass, m.
@@ -94,7 +96,9 @@ pub struct CouplingPoint {
 
 /// Fluid load on one body over a window: force and moment about its centre of mass
 /// (Joubert eqs. 31–32).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, serde::Serialize, serde::Deserialize,
+)]
 #[repr(C)]
 pub struct BodyLoad {
     /// N.
@@ -164,7 +168,10 @@ pub struct Hello {
     pub count: u64,
 }
 
-/// What the orchestrator asks of a server.
+/// What the orchestrator asks of a server. Every kind but `Advance` and `Shutdown`
+/// acts at the window boundary before window `step` and is acknowledged by a
+/// [`SideReport`] of the same kind and step, so the orchestrator knows it took effect
+/// before it sends the next command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u32)]
 pub enum CommandKind {
@@ -172,6 +179,29 @@ pub enum CommandKind {
     Advance = 1,
     /// Finish: release resources and exit 0.
     Shutdown = 2,
+    /// Gravity becomes `values[0..3]`, m/s², from window `step` on (on the fluid when the
+    /// scene has `gravity.on_fluid`, on the bodies in any case).
+    SetGravity = 3,
+    /// Kinematic body `body` moves from now on with linear velocity `values[0..3]`, m/s,
+    /// and angular velocity `values[3..6]`, rad/s (world frame), from where it is.
+    SetKinematicVelocity = 4,
+    /// Write this server's whole state for the boundary before window `step` into the
+    /// checkpoint directory it was started with (`--checkpoints DIR`), as
+    /// `DIR/step-<step>/<role>.state`.
+    Checkpoint = 5,
+}
+
+impl CommandKind {
+    pub fn from_u32(v: u32) -> Option<Self> {
+        match v {
+            1 => Some(Self::Advance),
+            2 => Some(Self::Shutdown),
+            3 => Some(Self::SetGravity),
+            4 => Some(Self::SetKinematicVelocity),
+            5 => Some(Self::Checkpoint),
+            _ => None,
+        }
+    }
 }
 
 /// A command from the orchestrator to both servers.
@@ -186,16 +216,15 @@ pub struct Command {
     pub window: f64,
     /// 1 when the fluid server must publish a particle snapshot at the end of this window.
     pub snapshot: u32,
-    pub _pad: u32,
+    /// The body a `SetKinematicVelocity` names (scene index).
+    pub body: u32,
+    /// The values of a parameter change (see [`CommandKind`]); zero otherwise.
+    pub values: [f64; 6],
 }
 
 impl Command {
     pub fn kind(&self) -> Option<CommandKind> {
-        match self.kind {
-            1 => Some(CommandKind::Advance),
-            2 => Some(CommandKind::Shutdown),
-            _ => None,
-        }
+        CommandKind::from_u32(self.kind)
     }
 }
 
@@ -220,6 +249,22 @@ pub struct SideReport {
     pub exchange_us: f64,
     /// Largest stable step this side saw during the window, s.
     pub dt_limit: f64,
+    /// The [`CommandKind`] this report answers (`Advance` for a window's report, or the
+    /// parameter change or checkpoint it acknowledges).
+    pub kind: u32,
+    pub _pad: u32,
+    /// Fluid at the end of the window: kinetic energy Σ ½ m |u|², J; largest speed,
+    /// m/s; largest density error |ρ/(ε ρ0) − 1| (ε the grains' porosity, 1 without
+    /// grains). Zero for the DEM and in acknowledgements.
+    pub kinetic_energy: f64,
+    pub max_speed: f64,
+    pub max_density_error: f64,
+}
+
+impl SideReport {
+    pub fn kind(&self) -> Option<CommandKind> {
+        CommandKind::from_u32(self.kind)
+    }
 }
 
 const _: () = {
@@ -227,4 +272,6 @@ const _: () = {
     assert!(core::mem::size_of::<ParticleRecord>() == 32);
     assert!(core::mem::size_of::<BodyLoad>() == 56);
     assert!(core::mem::size_of::<WindowHeader>() == 40);
+    assert!(core::mem::size_of::<Command>() == 88);
+    assert!(core::mem::size_of::<SideReport>() == 88);
 };

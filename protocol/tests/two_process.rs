@@ -130,6 +130,7 @@ fn peer_process() {
     // Wait for the go (the parent's subscribers exist by then).
     let go = within(|| commands.try_next().unwrap());
     assert_eq!(go.kind(), Some(CommandKind::Advance));
+    assert_eq!((go.body, go.values), (3, [1.0, -2.0, 0.5, 0.0, 0.0, 7.0]));
     let h = |n: usize| WindowHeader::new(go.step, go.time, go.window, n);
     match mode {
         "all" => {
@@ -202,7 +203,8 @@ fn go(p: &Parent) {
             time: 0.25,
             window: 1e-4,
             snapshot: 0,
-            _pad: 0,
+            body: 3,
+            values: [1.0, -2.0, 0.5, 0.0, 0.0, 7.0],
         })
         .unwrap();
 }
