@@ -829,15 +829,16 @@ pub struct OutputSpec {
     /// Write ParaView files at every particle snapshot: `vtk/fluid_NNNNNN.vtp` (the fluid
     /// particles with velocity, pressure and density), `vtk/bodies_NNNNNN.vtp` (every
     /// body's surface at its pose) and the collections `fluid.pvd` and `bodies.pvd`.
-    /// Default false: a snapshot costs about 40 bytes per particle uncompressed (the MCAP
-    /// holds the same data compressed), so a million-particle run writes 40 MB per frame;
-    /// switch it on with `--set output.vtk=true` where ParaView is the viewer.
+    /// Default false: a fluid frame costs about 55 bytes per particle (the MCAP holds the
+    /// same data compressed), 55 MB per snapshot of a million particles; switch it on
+    /// with `--set output.vtk=true` where ParaView is the viewer.
     #[serde(default)]
     pub vtk: bool,
     /// Write `bodies.csv`: one row per body per recorded body time (the times of
-    /// `/bodies/states`), with pose, velocities and fluid load. Default true: it costs
-    /// about 300 bytes per body and record, a few per cent of a resolved run's MCAP;
-    /// switch it off for scenes of many grains, or thin it with `time.body_output_interval`.
+    /// `/bodies/states`), with pose, velocities and fluid load. Default true: about 400
+    /// bytes per body and record, small beside the particle snapshots of a resolved run;
+    /// switch it off for scenes of many grains, or thin it with
+    /// `time.body_output_interval`.
     #[serde(default = "default_true")]
     pub body_csv: bool,
 }
