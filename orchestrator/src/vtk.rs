@@ -344,9 +344,9 @@ impl VtkWriter {
         let n32 = i32_count(&path, "particles", n)?;
         write_then_rename(&path, |w| {
             write_header(w, time, n, n, 0)?;
-            write!(
+            writeln!(
                 w,
-                "      <PointData Scalars=\"pressure\" Vectors=\"velocity\">\n"
+                "      <PointData Scalars=\"pressure\" Vectors=\"velocity\">"
             )?;
             data_array(w, "Float32", Some("velocity"), 3, |e| {
                 particles
@@ -364,14 +364,14 @@ impl VtkWriter {
                     .iter()
                     .try_for_each(|p| e.write_all(&p.density.to_le_bytes()))
             })?;
-            write!(w, "      </PointData>\n      <Points>\n")?;
+            writeln!(w, "      </PointData>\n      <Points>")?;
             data_array(w, "Float32", None, 3, |e| {
                 particles
                     .iter()
                     .flat_map(|p| p.position)
                     .try_for_each(|v| e.write_all(&v.to_le_bytes()))
             })?;
-            write!(w, "      </Points>\n      <Verts>\n")?;
+            writeln!(w, "      </Points>\n      <Verts>")?;
             // One vertex cell per particle: cell i is point i.
             data_array(w, "Int32", Some("connectivity"), 1, |e| {
                 (0..n32).try_for_each(|i| e.write_all(&i.to_le_bytes()))
@@ -379,7 +379,7 @@ impl VtkWriter {
             data_array(w, "Int32", Some("offsets"), 1, |e| {
                 (1..=n32).try_for_each(|i| e.write_all(&i.to_le_bytes()))
             })?;
-            write!(w, "      </Verts>\n")?;
+            writeln!(w, "      </Verts>")?;
             write_footer(w)
         })?;
         self.fluid.times.push(time);
@@ -417,7 +417,7 @@ impl VtkWriter {
         };
         write_then_rename(&path, |w| {
             write_header(w, time, n_points, 0, n_tris)?;
-            write!(w, "      <PointData Vectors=\"velocity\">\n")?;
+            writeln!(w, "      <PointData Vectors=\"velocity\">")?;
             // Rigid-body velocity at each vertex: v + ω × (x − c).
             data_array(w, "Float64", Some("velocity"), 3, |e| {
                 for (_, m, b) in &drawn {
@@ -431,7 +431,7 @@ impl VtkWriter {
                 }
                 Ok(())
             })?;
-            write!(w, "      </PointData>\n      <CellData Scalars=\"body\">\n")?;
+            writeln!(w, "      </PointData>\n      <CellData Scalars=\"body\">")?;
             data_array(w, "Int32", Some("body"), 1, |e| {
                 for (i, m, _) in &drawn {
                     let i = *i as i32;
@@ -441,7 +441,7 @@ impl VtkWriter {
                 }
                 Ok(())
             })?;
-            write!(w, "      </CellData>\n      <Points>\n")?;
+            writeln!(w, "      </CellData>\n      <Points>")?;
             data_array(w, "Float64", None, 3, |e| {
                 for (_, m, b) in &drawn {
                     for p in world(m, b) {
@@ -452,7 +452,7 @@ impl VtkWriter {
                 }
                 Ok(())
             })?;
-            write!(w, "      </Points>\n      <Polys>\n")?;
+            writeln!(w, "      </Points>\n      <Polys>")?;
             data_array(w, "Int32", Some("connectivity"), 1, |e| {
                 let mut base = 0i32;
                 for (_, m, _) in &drawn {
@@ -468,7 +468,7 @@ impl VtkWriter {
             data_array(w, "Int32", Some("offsets"), 1, |e| {
                 (1..=n_tris as i32).try_for_each(|k| e.write_all(&(3 * k).to_le_bytes()))
             })?;
-            write!(w, "      </Polys>\n")?;
+            writeln!(w, "      </Polys>")?;
             write_footer(w)
         })?;
         self.bodies.times.push(time);
@@ -543,7 +543,7 @@ fn write_header(
 }
 
 fn write_footer(w: &mut impl Write) -> std::io::Result<()> {
-    write!(w, "    </Piece>\n  </PolyData>\n</VTKFile>\n")
+    writeln!(w, "    </Piece>\n  </PolyData>\n</VTKFile>")
 }
 
 /// One `<DataArray>` of `components` per tuple, its values written by `values`.
@@ -680,6 +680,56 @@ mod tests {
                 g.volume()
             );
         }
+    }
+
+    /// After every frame the collections are whole XML listing exactly the frames written
+    /// so far, each present, and no partial file is left: what a run killed between two
+    /// frames leaves ParaView.
+    #[test]
+    fn collections_are_whole_after_every_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = body_mesh(&BodyGeometry::Sphere { radius: 0.1 });
+        let mut w = VtkWriter::create(dir.path(), vec![mesh]).unwrap();
+        let still = BodyMotion {
+            position: [0.5; 3],
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            velocity: [0.0; 3],
+            angular_velocity: [0.0, 1.0, 0.0],
+        };
+        let particles = vec![ParticleRecord::default(); 10];
+        for k in 1..=3 {
+            let t = k as f64 * 0.01;
+            w.fluid(t, &particles).unwrap();
+            w.bodies(t, &[still]).unwrap();
+            for name in ["fluid", "bodies"] {
+                let text = std::fs::read_to_string(dir.path().join(format!("{name}.pvd"))).unwrap();
+                let doc = roxmltree::Document::parse(&text).unwrap();
+                let sets: Vec<_> = doc
+                    .descendants()
+                    .filter(|n| n.has_tag_name("DataSet"))
+                    .collect();
+                assert_eq!(sets.len(), k, "{name}.pvd after frame {k}");
+                for (i, d) in sets.iter().enumerate() {
+                    let file = d.attribute("file").unwrap();
+                    assert_eq!(file, format!("vtk/{name}_{i:06}.vtp"));
+                    assert!(dir.path().join(file).exists());
+                    let step: f64 = d.attribute("timestep").unwrap().parse().unwrap();
+                    assert_eq!(step, (i + 1) as f64 * 0.01);
+                }
+            }
+        }
+        let partial = std::fs::read_dir(dir.path().join(VTK_DIR))
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .ends_with(".partial")
+            })
+            .count();
+        assert_eq!(partial, 0);
+        assert_eq!(w.frames(), (3, 3));
     }
 
     /// Rotating by the quaternion of a scaled axis turns x into y for π/2 about z.
