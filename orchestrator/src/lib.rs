@@ -1,5 +1,5 @@
 //! The `couplet` orchestrator: launches the fluid and DEM servers, keeps them in lockstep
-//! window by window, records runs to MCAP, plans and benchmarks scenes, and serves the
+//! window by window, records runs (MCAP, CSV, VTK), plans and benchmarks scenes, and serves the
 //! gRPC control API.
 
 pub use run::{RunError, RunOptions, RunSummary, run};
@@ -9,10 +9,12 @@ pub mod bench;
 pub mod cli;
 pub mod ctl;
 pub mod launch;
+pub mod outputs;
 pub mod plan;
 pub mod record;
 pub mod robinson_reference;
 pub mod run;
 pub mod serve;
 pub mod validate;
+pub mod vtk;
 pub mod window;

@@ -3,23 +3,39 @@
 //!
 //! | topic | schema | when |
 //! |---|---|---|
-//! | `/fluid/particles` | `foxglove.PointCloud` (protobuf): float32 `x y z pressure vx vy vz density`, stride 32 B | every output interval |
-//! | `/bodies/poses` | `foxglove.PosesInFrame` (protobuf), one pose per body, scene order | every window |
-//! | `/bodies/states` | `couplet.BodyStates` (JSON): per body position, orientation `[x,y,z,w]`, velocity, angular velocity, mass | every window |
-//! | `/bodies/loads` | `couplet.BodyLoads` (JSON): per coupled body index, fluid force (N) and moment about the COM (N·m) | every window with resolved bodies |
-//! | `/run/windows` | `couplet.Window` (JSON): step, time, substeps, compute and exchange µs per side, fluid particle-steps with a near-singular truncation matrix | every window |
+//! | `/fluid/particles` | `foxglove.PointCloud` (protobuf): float32 `x y z pressure vx vy vz density`, stride 32 B, frame `world` | every particle snapshot (output interval, and the last window) |
+//! | `/bodies/scene` | `foxglove.SceneUpdate` (protobuf): one entity per body, id and frame `body/<i>` (i = scene index), `frame_locked`, its real shape in its body frame: `SpherePrimitive`, `CubePrimitive`, `CylinderPrimitive` (turned so that Foxglove's z axis is the body's y), or a `TriangleListPrimitive` of the faces of its convex parts (prism, ring, cross, convex, compound); metadata `name` | once, at t = 0; entities never expire |
+//! | `/tf` | `foxglove.FrameTransforms` (protobuf): parent `world`, child `body/<i>`, the body's centre of mass and orientation | at t = 0 from the scene, then every recorded body time |
+//! | `/bodies/poses` | `foxglove.PosesInFrame` (protobuf), one pose per body, frame `world`, the order of `/bodies/states` | every recorded body time |
+//! | `/bodies/states` | `couplet.BodyStates` (JSON): `time` (s), `bodies[]`: `body`, `name`, `position` (m), `orientation` `[x,y,z,w]`, `velocity` (m/s), `angular_velocity` (rad/s), `mass` (kg) | every recorded body time |
+//! | `/bodies/loads` | `couplet.BodyLoads` (JSON): `time` (s, the window's start), `loads[]`: `body`, fluid `force` (N), `moment` about the centre of mass (N·m) | every recorded body time of a scene whose fluid sends loads |
+//! | `/run/windows` | `couplet.Window` (JSON): `step`, `time` (window start, s), `window` (s), `fluid` and `dem` (null for a side that does not run): `substeps`, `compute_us`, `wait_us`, `exchange_us`, `near_singular` | every window |
+//!
+//! "Every recorded body time" is every window's end, or `time.body_output_interval`'s
+//! thinning of it. The JSON channels are Foxglove's time series: its Plot panel reads
+//! `/bodies/loads.loads[0].force[1]`; their schemas (`jsonschema` encoding, draft
+//! 2020-12) type every field, arrays with their `items` and lengths.
 //!
 //! Log time = simulation time in ns (the recording starts at t = 0). Frame `world`,
 //! SI units. The scene file is attached (`scene.toml`) and the run described in the
-//! `couplet` metadata record. The writer is closed on every exit path, so a recording
-//! stays readable when a server dies.
+//! `couplet` metadata record. Chunks of 1 MiB, zstd-compressed, with message and chunk
+//! indexes and a summary (statistics, schemas, channels) when the file is closed. The
+//! writer is closed on every exit path, so a recording stays readable when a server dies;
+//! a run killed outright leaves a file without its summary, which [`read_recording`]
+//! still reads up to its last complete chunk.
 
+use crate::vtk::{BodyMotion, polyhedra_mesh};
+use couplet_dem::BodyGeometry;
+use couplet_dem::DemError;
 use couplet_protocol::{BodyLoad, BodyState, ParticleRecord, SideReport};
 use foxglove::messages::packed_element_field::NumericType;
 use foxglove::messages::{
-    PackedElementField, PointCloud, Pose, PosesInFrame, Quaternion, Timestamp, Vector3,
+    Color, CubePrimitive, CylinderPrimitive, FrameTransform, FrameTransforms, KeyValuePair,
+    PackedElementField, Point3, PointCloud, Pose, PosesInFrame, Quaternion, SceneEntity,
+    SceneUpdate, SpherePrimitive, Timestamp, TriangleListPrimitive, Vector3,
 };
-use foxglove::{Channel, Context, McapWriterHandle, RawChannel, Schema};
+use foxglove::{Channel, Context, McapWriteOptions, McapWriterHandle, RawChannel, Schema};
+use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
@@ -27,31 +43,165 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 pub const TOPIC_PARTICLES: &str = "/fluid/particles";
+pub const TOPIC_SCENE: &str = "/bodies/scene";
+pub const TOPIC_TF: &str = "/tf";
 pub const TOPIC_POSES: &str = "/bodies/poses";
 pub const TOPIC_STATES: &str = "/bodies/states";
 pub const TOPIC_LOADS: &str = "/bodies/loads";
 pub const TOPIC_WINDOWS: &str = "/run/windows";
+/// The frame every body's entity and transform hang from.
+pub const WORLD_FRAME: &str = "world";
 
+/// Uncompressed size at which a chunk is closed, compressed and indexed. mcap's default,
+/// written out: a killed run loses at most the chunk it was filling, and Foxglove seeks
+/// by chunk.
+const CHUNK_SIZE: u64 = 1024 * 1024;
+
+/// Errors writing a run's outputs (MCAP, VTK, CSV); each names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum RecordError {
     #[error("recording {path}: {detail}")]
     Mcap { path: PathBuf, detail: String },
+    #[error("{path}: {what}: {source}")]
+    Io {
+        path: PathBuf,
+        what: &'static str,
+        source: std::io::Error,
+    },
+    #[error("{path}: {count} {what} exceed the Int32 indices of a VTK file")]
+    TooLarge {
+        path: PathBuf,
+        what: &'static str,
+        count: usize,
+    },
+    #[error("bodies[{index}] ({name}): its shape cannot be drawn: {source}")]
+    Shape {
+        index: usize,
+        name: String,
+        source: DemError,
+    },
+}
+
+/// A scene body as the outputs draw it.
+#[derive(Debug, Clone)]
+pub struct SceneBody {
+    pub name: String,
+    /// Body-frame shape, origin at the centre of mass.
+    pub geometry: BodyGeometry,
+    /// Where the scene puts it at t = 0.
+    pub start: BodyMotion,
+}
+
+/// The frame of scene body `index` in `/tf` and `/bodies/scene`.
+pub fn body_frame(index: usize) -> String {
+    format!("body/{index}")
 }
 
 pub struct Recorder {
     path: PathBuf,
+    /// Scene body names, scene order (for `/bodies/states`).
+    names: Vec<String>,
     // Keeps the channels' context alive for the writer's lifetime.
     _ctx: Arc<Context>,
     writer: Option<McapWriterHandle<BufWriter<File>>>,
+    /// Logged once at creation; held so that its channel lives as long as the writer.
+    scene: Option<Channel<SceneUpdate>>,
     particles: Channel<PointCloud>,
     poses: Channel<PosesInFrame>,
+    transforms: Channel<FrameTransforms>,
     states: Arc<RawChannel>,
     loads: Arc<RawChannel>,
     windows: Arc<RawChannel>,
 }
 
-fn json_schema(name: &str, schema: &str) -> Schema {
-    Schema::new(name, "jsonschema", schema.as_bytes().to_vec())
+fn json_schema(schema: &Value) -> Schema {
+    let name = schema["title"].as_str().unwrap_or_default().to_owned();
+    Schema::new(name, "jsonschema", schema.to_string().into_bytes())
+}
+
+/// JSON Schema of an array of `n` numbers.
+fn numbers(n: usize, description: &str) -> Value {
+    json!({"type": "array", "items": {"type": "number"}, "minItems": n, "maxItems": n, "description": description})
+}
+
+fn object(title: Option<&str>, description: &str, properties: Value) -> Value {
+    let required: Vec<String> = properties
+        .as_object()
+        .map(|p| p.keys().cloned().collect())
+        .unwrap_or_default();
+    let mut o = json!({"type": "object", "description": description, "properties": properties, "required": required});
+    if let Some(t) = title {
+        o["$schema"] = json!("https://json-schema.org/draft/2020-12/schema");
+        o["title"] = json!(t);
+    }
+    o
+}
+
+/// `couplet.BodyStates`: what [`Recorder::bodies`] writes.
+pub fn body_states_schema() -> Value {
+    let body = object(
+        None,
+        "one body",
+        json!({
+            "body": {"type": "integer", "minimum": 0, "description": "index in the scene's [[bodies]]"},
+            "name": {"type": "string"},
+            "position": numbers(3, "centre of mass, m"),
+            "orientation": numbers(4, "unit quaternion [x, y, z, w], body to world"),
+            "velocity": numbers(3, "of the centre of mass, m/s"),
+            "angular_velocity": numbers(3, "rad/s, world frame"),
+            "mass": {"type": "number", "description": "kg"},
+        }),
+    );
+    object(
+        Some("couplet.BodyStates"),
+        "body states at one time",
+        json!({"time": {"type": "number", "description": "s"}, "bodies": {"type": "array", "items": body}}),
+    )
+}
+
+/// `couplet.BodyLoads`: what [`Recorder::loads`] writes.
+pub fn body_loads_schema() -> Value {
+    let load = object(
+        None,
+        "the fluid's load on one body",
+        json!({
+            "body": {"type": "integer", "minimum": 0, "description": "index in the scene's [[bodies]]"},
+            "force": numbers(3, "N"),
+            "moment": numbers(3, "about the centre of mass, N·m"),
+        }),
+    );
+    object(
+        Some("couplet.BodyLoads"),
+        "fluid loads held over one window",
+        json!({"time": {"type": "number", "description": "the window's start, s"}, "loads": {"type": "array", "items": load}}),
+    )
+}
+
+/// `couplet.Window`: what [`Recorder::window`] writes.
+pub fn window_schema() -> Value {
+    let mut side = object(
+        None,
+        "one side's report; null when that side does not run",
+        json!({
+            "substeps": {"type": "integer", "minimum": 0},
+            "compute_us": {"type": "number"},
+            "wait_us": {"type": "number"},
+            "exchange_us": {"type": "number"},
+            "near_singular": {"type": "integer", "minimum": 0, "description": "fluid particle-steps that kept the uncorrected gradient (Joubert eq. 10)"},
+        }),
+    );
+    side["type"] = json!(["object", "null"]);
+    object(
+        Some("couplet.Window"),
+        "one coupling window",
+        json!({
+            "step": {"type": "integer", "minimum": 0},
+            "time": {"type": "number", "description": "the window's start, s"},
+            "window": {"type": "number", "description": "its length, s"},
+            "fluid": side.clone(),
+            "dem": side,
+        }),
+    )
 }
 
 fn stamp(t: f64) -> Timestamp {
@@ -63,10 +213,117 @@ fn ns(t: f64) -> u64 {
     (t * 1e9).round().max(0.0) as u64
 }
 
+fn vector3(v: [f64; 3]) -> Vector3 {
+    Vector3 {
+        x: v[0],
+        y: v[1],
+        z: v[2],
+    }
+}
+
+fn quaternion(q: [f64; 4]) -> Quaternion {
+    Quaternion {
+        x: q[0],
+        y: q[1],
+        z: q[2],
+        w: q[3],
+    }
+}
+
+/// Colours of the bodies, by scene index (Okabe & Ito's palette, told apart with every
+/// kind of colour vision).
+const PALETTE: [[f64; 3]; 7] = [
+    [0.902, 0.624, 0.0],
+    [0.337, 0.706, 0.914],
+    [0.0, 0.620, 0.451],
+    [0.941, 0.894, 0.259],
+    [0.0, 0.447, 0.698],
+    [0.835, 0.369, 0.0],
+    [0.800, 0.475, 0.655],
+];
+
+/// The rotation −π/2 about x: it turns Foxglove's cylinder axis (z) onto couplet's (y).
+const Z_TO_Y: [f64; 4] = [
+    -std::f64::consts::FRAC_1_SQRT_2,
+    0.0,
+    0.0,
+    std::f64::consts::FRAC_1_SQRT_2,
+];
+
+/// The `/bodies/scene` entity of scene body `index`: its shape in its own frame.
+pub fn scene_entity(index: usize, body: &SceneBody) -> SceneEntity {
+    let [r, g, b] = PALETTE[index % PALETTE.len()];
+    let color = Some(Color { r, g, b, a: 1.0 });
+    let at_origin = Some(identity_pose());
+    let mut e = SceneEntity {
+        timestamp: Some(stamp(0.0)),
+        frame_id: body_frame(index),
+        id: body_frame(index),
+        // None: the entity stays until replaced; the transforms move it.
+        lifetime: None,
+        frame_locked: true,
+        metadata: vec![KeyValuePair {
+            key: "name".into(),
+            value: body.name.clone(),
+        }],
+        ..Default::default()
+    };
+    match &body.geometry {
+        BodyGeometry::Sphere { radius } => e.spheres.push(SpherePrimitive {
+            pose: at_origin,
+            size: Some(vector3([2.0 * radius; 3])),
+            color,
+        }),
+        BodyGeometry::Box { half_extents } => e.cubes.push(CubePrimitive {
+            pose: at_origin,
+            size: Some(vector3(half_extents.map(|h| 2.0 * h))),
+            color,
+        }),
+        BodyGeometry::Cylinder {
+            radius,
+            half_height,
+        } => e.cylinders.push(CylinderPrimitive {
+            pose: Some(Pose {
+                position: Some(vector3([0.0; 3])),
+                orientation: Some(quaternion(Z_TO_Y)),
+            }),
+            size: Some(vector3([2.0 * radius, 2.0 * radius, 2.0 * half_height])),
+            bottom_scale: 1.0,
+            top_scale: 1.0,
+            color,
+        }),
+        BodyGeometry::Polyhedra(parts) => {
+            let mesh = polyhedra_mesh(parts);
+            e.triangles.push(TriangleListPrimitive {
+                pose: at_origin,
+                points: mesh
+                    .points
+                    .iter()
+                    .map(|p| Point3 {
+                        x: p[0],
+                        y: p[1],
+                        z: p[2],
+                    })
+                    .collect(),
+                color,
+                colors: Vec::new(),
+                indices: mesh.triangles.iter().flatten().copied().collect(),
+            })
+        }
+    }
+    e
+}
+
 impl Recorder {
     /// Creates `path` (replacing an earlier recording there: re-running into the same
-    /// output folder is the usual way to redo a run) and attaches `scene_text`.
-    pub fn create(path: &Path, scene_name: &str, scene_text: &str) -> Result<Self, RecordError> {
+    /// output folder is the usual way to redo a run), attaches `scene_text`, and writes
+    /// the bodies' shapes and their start poses at t = 0.
+    pub fn create(
+        path: &Path,
+        scene_name: &str,
+        scene_text: &str,
+        bodies: &[SceneBody],
+    ) -> Result<Self, RecordError> {
         let err = |e: foxglove::FoxgloveError| RecordError::Mcap {
             path: path.to_owned(),
             detail: e.to_string(),
@@ -82,34 +339,38 @@ impl Recorder {
             }
         }
         let ctx = Context::new();
+        // Set explicitly rather than left to the defaults: the recording must be chunked,
+        // compressed and indexed whatever mcap's defaults become. zstd is what every MCAP
+        // reader decodes (Foxglove, the mcap CLI and crate), and it halves a small run
+        // (`tests/tests/recordings.rs`: 91.5 kB of records in 46.7 kB). Compression threads stay
+        // mcap's default (one per physical core): the run records after both servers
+        // have reported, while they wait for the next window, so the workers use cores
+        // that would otherwise idle.
+        let options = McapWriteOptions::new()
+            .compression(Some(foxglove::McapCompression::Zstd))
+            .chunk_size(Some(CHUNK_SIZE))
+            .use_chunks(true)
+            .emit_message_indexes(true)
+            .emit_chunk_indexes(true)
+            .emit_statistics(true)
+            .emit_summary_offsets(true);
         let writer = ctx
-            .mcap_writer()
+            .mcap_writer_with_options(options)
             .create_new_buffered_file(path)
             .map_err(err)?;
-        let raw = |topic: &str, name: &str, schema: &str| {
+        let raw = |topic: &str, schema: Value| {
             ctx.channel_builder(topic)
                 .message_encoding("json")
-                .schema(json_schema(name, schema))
+                .schema(json_schema(&schema))
                 .build_raw()
                 .map_err(err)
         };
-        let states = raw(
-            TOPIC_STATES,
-            "couplet.BodyStates",
-            r#"{"type":"object","properties":{"time":{"type":"number"},"bodies":{"type":"array","items":{"type":"object","properties":{"body":{"type":"integer"},"position":{"type":"array"},"orientation":{"type":"array"},"velocity":{"type":"array"},"angular_velocity":{"type":"array"},"mass":{"type":"number"}}}}}}"#,
-        )?;
-        let loads = raw(
-            TOPIC_LOADS,
-            "couplet.BodyLoads",
-            r#"{"type":"object","properties":{"time":{"type":"number"},"loads":{"type":"array","items":{"type":"object","properties":{"body":{"type":"integer"},"force":{"type":"array"},"moment":{"type":"array"}}}}}}"#,
-        )?;
-        let windows = raw(
-            TOPIC_WINDOWS,
-            "couplet.Window",
-            r#"{"type":"object","properties":{"step":{"type":"integer"},"time":{"type":"number"},"window":{"type":"number"},"fluid":{"type":"object"},"dem":{"type":"object"}}}"#,
-        )?;
+        let states = raw(TOPIC_STATES, body_states_schema())?;
+        let loads = raw(TOPIC_LOADS, body_loads_schema())?;
+        let windows = raw(TOPIC_WINDOWS, window_schema())?;
         let particles = ctx.channel_builder(TOPIC_PARTICLES).build::<PointCloud>();
         let poses = ctx.channel_builder(TOPIC_POSES).build::<PosesInFrame>();
+        let transforms = ctx.channel_builder(TOPIC_TF).build::<FrameTransforms>();
         writer
             .attach(&foxglove::McapAttachment {
                 log_time: 0,
@@ -123,16 +384,36 @@ impl Recorder {
         meta.insert("scene".into(), scene_name.into());
         meta.insert("couplet_version".into(), env!("CARGO_PKG_VERSION").into());
         writer.write_metadata("couplet", meta).map_err(err)?;
-        Ok(Self {
+        let scene =
+            (!bodies.is_empty()).then(|| ctx.channel_builder(TOPIC_SCENE).build::<SceneUpdate>());
+        let rec = Self {
             path: path.to_owned(),
+            names: bodies.iter().map(|b| b.name.clone()).collect(),
             _ctx: ctx,
             writer: Some(writer),
+            scene,
             particles,
             poses,
+            transforms,
             states,
             loads,
             windows,
-        })
+        };
+        if let Some(scene) = &rec.scene {
+            scene.log_with_time(
+                &SceneUpdate {
+                    deletions: Vec::new(),
+                    entities: bodies
+                        .iter()
+                        .enumerate()
+                        .map(|(i, b)| scene_entity(i, b))
+                        .collect(),
+                },
+                0,
+            );
+            rec.log_transforms(0.0, bodies.iter().enumerate().map(|(i, b)| (i, &b.start)));
+        }
+        Ok(rec)
     }
 
     pub fn path(&self) -> &Path {
@@ -153,7 +434,7 @@ impl Recorder {
         let data: Vec<u8> = bytemuck_cast(particles);
         let msg = PointCloud {
             timestamp: Some(stamp(time)),
-            frame_id: "world".into(),
+            frame_id: WORLD_FRAME.into(),
             pose: Some(identity_pose()),
             point_stride: core::mem::size_of::<ParticleRecord>() as u32,
             fields,
@@ -162,36 +443,48 @@ impl Recorder {
         self.particles.log_with_time(&msg, ns(time));
     }
 
+    fn log_transforms<'a>(&self, time: f64, bodies: impl Iterator<Item = (usize, &'a BodyMotion)>) {
+        let transforms = bodies
+            .map(|(i, b)| FrameTransform {
+                timestamp: Some(stamp(time)),
+                parent_frame_id: WORLD_FRAME.into(),
+                child_frame_id: body_frame(i),
+                translation: Some(vector3(b.position)),
+                rotation: Some(quaternion(b.orientation)),
+            })
+            .collect();
+        self.transforms
+            .log_with_time(&FrameTransforms { transforms }, ns(time));
+    }
+
+    /// `/tf`, `/bodies/poses` and `/bodies/states` at `time`.
     pub fn bodies(&self, time: f64, states: &[BodyState]) {
+        let motion: Vec<(usize, BodyMotion)> = states
+            .iter()
+            .map(|s| (s.body as usize, motion_of(s)))
+            .collect();
+        self.log_transforms(time, motion.iter().map(|(i, m)| (*i, m)));
         let poses = states
             .iter()
             .map(|s| Pose {
-                position: Some(Vector3 {
-                    x: s.position[0],
-                    y: s.position[1],
-                    z: s.position[2],
-                }),
-                orientation: Some(Quaternion {
-                    x: s.orientation[0],
-                    y: s.orientation[1],
-                    z: s.orientation[2],
-                    w: s.orientation[3],
-                }),
+                position: Some(vector3(s.position)),
+                orientation: Some(quaternion(s.orientation)),
             })
             .collect();
         self.poses.log_with_time(
             &PosesInFrame {
                 timestamp: Some(stamp(time)),
-                frame_id: "world".into(),
+                frame_id: WORLD_FRAME.into(),
                 poses,
             },
             ns(time),
         );
-        let bodies: Vec<serde_json::Value> = states
+        let bodies: Vec<Value> = states
             .iter()
             .map(|s| {
-                serde_json::json!({
-                    "body": s.body, "position": s.position, "orientation": s.orientation,
+                let name = self.names.get(s.body as usize).map_or("", String::as_str);
+                json!({
+                    "body": s.body, "name": name, "position": s.position, "orientation": s.orientation,
                     "velocity": s.linear_velocity, "angular_velocity": s.angular_velocity, "mass": s.mass,
                 })
             })
@@ -199,20 +492,16 @@ impl Recorder {
         self.log_json(
             &self.states,
             time,
-            &serde_json::json!({ "time": time, "bodies": bodies }),
+            &json!({ "time": time, "bodies": bodies }),
         );
     }
 
     pub fn loads(&self, time: f64, loads: &[BodyLoad]) {
-        let loads: Vec<serde_json::Value> = loads
+        let loads: Vec<Value> = loads
             .iter()
-            .map(|l| serde_json::json!({ "body": l.body, "force": l.force, "moment": l.moment }))
+            .map(|l| json!({ "body": l.body, "force": l.force, "moment": l.moment }))
             .collect();
-        self.log_json(
-            &self.loads,
-            time,
-            &serde_json::json!({ "time": time, "loads": loads }),
-        );
+        self.log_json(&self.loads, time, &json!({ "time": time, "loads": loads }));
     }
 
     pub fn window(
@@ -225,17 +514,17 @@ impl Recorder {
     ) {
         let side = |r: Option<&SideReport>| {
             r.map(|r| {
-                serde_json::json!({ "substeps": r.substeps, "compute_us": r.compute_us, "wait_us": r.wait_us, "exchange_us": r.exchange_us, "near_singular": r.near_singular })
+                json!({ "substeps": r.substeps, "compute_us": r.compute_us, "wait_us": r.wait_us, "exchange_us": r.exchange_us, "near_singular": r.near_singular })
             })
         };
         self.log_json(
             &self.windows,
             time,
-            &serde_json::json!({ "step": step, "time": time, "window": window, "fluid": side(fluid), "dem": side(dem) }),
+            &json!({ "step": step, "time": time, "window": window, "fluid": side(fluid), "dem": side(dem) }),
         );
     }
 
-    fn log_json(&self, channel: &RawChannel, time: f64, value: &serde_json::Value) {
+    fn log_json(&self, channel: &RawChannel, time: f64, value: &Value) {
         channel.log_with_meta(
             value.to_string().as_bytes(),
             foxglove::PartialMetadata {
@@ -260,6 +549,16 @@ impl Drop for Recorder {
     fn drop(&mut self) {
         // Every exit path closes the file: an unwinding error must not leave it unreadable.
         let _ = self.close();
+    }
+}
+
+/// A body state's pose and velocities.
+pub fn motion_of(s: &BodyState) -> BodyMotion {
+    BodyMotion {
+        position: s.position,
+        orientation: s.orientation,
+        velocity: s.linear_velocity,
+        angular_velocity: s.angular_velocity,
     }
 }
 
@@ -455,7 +754,7 @@ mod tests {
 
     /// A recording of `n` snapshots of 1000 particles at t = k ms, closed.
     fn write(path: &Path, n: usize) {
-        let mut rec = Recorder::create(path, "test", "name = \"test\"\n").unwrap();
+        let mut rec = Recorder::create(path, "test", "name = \"test\"\n", &[]).unwrap();
         for k in 0..n {
             let p: Vec<ParticleRecord> = (0..1000)
                 .map(|i| ParticleRecord {
@@ -468,6 +767,50 @@ mod tests {
             rec.particles(k as f64 * 1e-3, &p);
         }
         rec.close().unwrap();
+    }
+
+    fn body(geometry: BodyGeometry) -> SceneBody {
+        SceneBody {
+            name: "b".into(),
+            geometry,
+            start: BodyMotion {
+                position: [0.0; 3],
+                orientation: [0.0, 0.0, 0.0, 1.0],
+                velocity: [0.0; 3],
+                angular_velocity: [0.0; 3],
+            },
+        }
+    }
+
+    /// Each analytic shape becomes Foxglove's primitive of its full size (diameter, edge,
+    /// height), in the body's own frame; the cylinder's primitive is turned so that its
+    /// axis (Foxglove's z) lies along the body's y, couplet's cylinder axis.
+    #[test]
+    fn analytic_shapes_become_primitives_of_their_size() {
+        let e = scene_entity(
+            3,
+            &body(BodyGeometry::Box {
+                half_extents: [0.1, 0.2, 0.3],
+            }),
+        );
+        assert_eq!((e.frame_id.as_str(), e.id.as_str()), ("body/3", "body/3"));
+        let size = e.cubes[0].size.unwrap();
+        assert_eq!((size.x, size.y, size.z), (0.2, 0.4, 0.6));
+        let e = scene_entity(
+            0,
+            &body(BodyGeometry::Cylinder {
+                radius: 0.1,
+                half_height: 0.5,
+            }),
+        );
+        let c = e.cylinders[0];
+        let size = c.size.unwrap();
+        assert_eq!((size.x, size.y, size.z), (0.2, 0.2, 1.0));
+        let q = c.pose.unwrap().orientation.unwrap();
+        let axis = crate::vtk::rotate([q.x, q.y, q.z, q.w], [0.0, 0.0, 1.0]);
+        assert!(axis[0].abs() < 1e-15 && (axis[1] - 1.0).abs() < 1e-15 && axis[2].abs() < 1e-15);
+        let e = scene_entity(0, &body(BodyGeometry::Sphere { radius: 0.25 }));
+        assert_eq!(e.spheres[0].size.unwrap().y, 0.5);
     }
 
     /// Regression (session 12): a run killed before its recorder closed the file (the RTI

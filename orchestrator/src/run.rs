@@ -8,7 +8,8 @@
 //! block slice (100 ms), so a dead server stops the run within a second.
 
 use crate::launch::{LaunchError, Server};
-use crate::record::{RecordError, Recorder};
+use crate::outputs::Outputs;
+use crate::record::RecordError;
 use crate::window::{WindowPlan, choose_window};
 use couplet_protocol::state::{
     StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
@@ -71,7 +72,7 @@ pub struct RunOptions {
     pub overrides: Vec<(String, String)>,
     /// Stop after this many windows (benchmarks); None: run to `time.end`.
     pub max_windows: Option<u64>,
-    /// Write an MCAP recording.
+    /// Write the outputs: `run.mcap`, and `bodies.csv` and VTK as the scene's `[output]` asks.
     pub record: bool,
     /// Show a progress bar.
     pub progress: bool,
@@ -184,7 +185,8 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
 /// How [`CoupledRun::launch`] starts a run.
 #[derive(Debug, Clone, Default)]
 pub struct LaunchOptions {
-    /// Write an MCAP recording to `OUT/run.mcap`.
+    /// Write the outputs to `OUT` (`run.mcap`, and `bodies.csv` and VTK as the scene's
+    /// `[output]` asks; `outputs.rs`).
     pub record: bool,
     /// Stop after this many windows (benchmarks); None: run to `time.end`.
     pub max_windows: Option<u64>,
@@ -257,7 +259,7 @@ pub struct CoupledRun {
     dem_compute: f64,
     exchange: f64,
     window_wall: f64,
-    recorder: Option<Recorder>,
+    recorder: Option<Outputs>,
     peers: Peers,
     // The ports before the endpoint: fields drop in order, and the ports belong to it.
     commands: ValueSender<Command>,
@@ -303,11 +305,7 @@ impl CoupledRun {
         );
         let ep = Endpoint::new(&run_id)?;
         let recorder = if opts.record {
-            Some(Recorder::create(
-                &out.join("run.mcap"),
-                &scene.meta.name,
-                text,
-            )?)
+            Some(Outputs::create(out, &scene, text)?)
         } else {
             None
         };
@@ -729,7 +727,7 @@ impl CoupledRun {
             }
             None => true,
         };
-        let recorder = self.recorder.as_ref();
+        let mut recorder = self.recorder.as_mut();
         while let Some(s) = self.bodies_rx.try_latest()? {
             self.last_states.clear();
             self.last_states.extend_from_slice(s.payload());
@@ -737,15 +735,15 @@ impl CoupledRun {
             if let Some(b) = self.last_states.first() {
                 summary.body0_track.push((t, b.position, b.linear_velocity));
             }
-            if let Some(r) = recorder.filter(|_| record_bodies) {
-                r.bodies(t, &self.last_states);
+            if let Some(r) = recorder.as_deref_mut().filter(|_| record_bodies) {
+                r.bodies(t, &self.last_states)?;
             }
         }
         if let Some(s) = self.loads_rx.try_latest()? {
             self.last_loads.clear();
             self.last_loads.extend_from_slice(s.payload());
-            if let Some(r) = recorder.filter(|_| record_bodies) {
-                r.loads(time, s.payload());
+            if let Some(r) = recorder.as_deref_mut().filter(|_| record_bodies) {
+                r.loads(time, s.payload())?;
             }
         }
         if snapshot {
@@ -754,8 +752,8 @@ impl CoupledRun {
             let s = self
                 .wake
                 .wait_for(|| particles.try_step(step), || peers.check())?;
-            if let Some(r) = recorder {
-                r.particles(s.user_header().time, s.payload());
+            if let Some(r) = recorder.as_deref_mut() {
+                r.particles(s.user_header().time, s.payload(), &self.last_states)?;
             }
         }
         if let Some(r) = recorder {
@@ -765,7 +763,7 @@ impl CoupledRun {
                 window,
                 fluid_report.as_ref(),
                 dem_report.as_ref(),
-            );
+            )?;
         }
         let wall_s = w_start.elapsed().as_secs_f64();
         summary.wall_s += wall_s;
@@ -807,7 +805,7 @@ impl CoupledRun {
         }
         if let Some(r) = self.recorder.as_mut() {
             r.close()?;
-            self.summary.recording = Some(r.path().to_owned());
+            self.summary.recording = Some(r.mcap_path().to_owned());
         }
         let mut s = std::mem::take(&mut self.summary);
         let n = s.windows.saturating_sub(1).max(1) as f64;

@@ -9,8 +9,8 @@ pub use payload::{
 };
 pub use scene::{
     BodySpec, ContactLaw, CouplingMode, CouplingScheme, DemSpec, Domain, DragLawName, EffectsSpec,
-    FluidBlock, FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta, Motion, Scene, SceneError,
-    Shape, SoftSphereSpec, TimeSpec, ViscosityModel, WallKind, WallModel,
+    FluidBlock, FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta, Motion, OutputSpec, Scene,
+    SceneError, Shape, SoftSphereSpec, TimeSpec, ViscosityModel, WallKind, WallModel,
 };
 pub use service::{ServiceLeaf, service_name};
 pub use validate::{ValidationError, validate_loads, validate_points, validate_states};

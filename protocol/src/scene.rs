@@ -53,6 +53,8 @@ pub struct Scene {
     pub grain_lattices: Vec<GrainLattice>,
     #[serde(default)]
     pub coupling: CouplingSpec,
+    #[serde(default)]
+    pub output: OutputSpec,
 }
 
 /// `[[grain_lattices]]`: unresolved spherical grains on a simple cubic lattice filling a
@@ -815,6 +817,37 @@ impl Default for CouplingSpec {
             window_substeps: default_window_substeps(),
             drag: default_drag(),
             two_way: default_two_way(),
+        }
+    }
+}
+
+/// `[output]`: which files a run writes beside `run.mcap` (MCAP is always written; see
+/// the README's "Recordings" section for every file and its layout).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Write ParaView files at every particle snapshot: `vtk/fluid_NNNNNN.vtp` (the fluid
+    /// particles with velocity, pressure and density), `vtk/bodies_NNNNNN.vtp` (every
+    /// body's surface at its pose) and the collections `fluid.pvd` and `bodies.pvd`.
+    /// Default false: a fluid frame costs about 55 bytes per particle (the MCAP holds the
+    /// same data compressed), 55 MB per snapshot of a million particles; switch it on
+    /// with `--set output.vtk=true` where ParaView is the viewer.
+    #[serde(default)]
+    pub vtk: bool,
+    /// Write `bodies.csv`: one row per body per recorded body time (the times of
+    /// `/bodies/states`), with pose, velocities and fluid load. Default true: about 400
+    /// bytes per body and record, small beside the particle snapshots of a resolved run;
+    /// switch it off for scenes of many grains, or thin it with
+    /// `time.body_output_interval`.
+    #[serde(default = "default_true")]
+    pub body_csv: bool,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self {
+            vtk: false,
+            body_csv: default_true(),
         }
     }
 }
@@ -1606,6 +1639,29 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
                 .warnings()
                 .is_empty()
         );
+    }
+
+    /// `[output]` defaults to no VTK and a body CSV; `--set output.vtk=true` creates the
+    /// table the file leaves out, and a misspelt field under it is refused by name.
+    #[test]
+    fn output_section_defaults_and_overrides() {
+        let s = Scene::parse(MINIMAL, Path::new("t.toml")).unwrap();
+        assert!(!s.output.vtk && s.output.body_csv);
+        let on = override_field(MINIMAL, Path::new("t.toml"), "output.vtk", "true").unwrap();
+        let s = Scene::parse(&on, Path::new("t.toml")).unwrap();
+        assert!(s.output.vtk && s.output.body_csv);
+        let off = override_field(&on, Path::new("t.toml"), "output.body_csv", "false").unwrap();
+        assert!(
+            !Scene::parse(&off, Path::new("t.toml"))
+                .unwrap()
+                .output
+                .body_csv
+        );
+        let typo = override_field(MINIMAL, Path::new("t.toml"), "output.vkt", "true").unwrap();
+        match Scene::parse(&typo, Path::new("t.toml")) {
+            Err(SceneError::Parse { message, .. }) => assert!(message.contains("vkt"), "{message}"),
+            other => panic!("expected a parse error naming `vkt`, got {other:?}"),
+        }
     }
 
     #[test]
