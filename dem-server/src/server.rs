@@ -118,12 +118,23 @@ pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), Server
             Some(CommandKind::Shutdown) => return Ok(()),
             Some(CommandKind::Advance) => {}
             Some(kind) => {
-                if kind == CommandKind::SetKinematicVelocity {
-                    // The states already published for this window carry the old
-                    // velocity: publish them again when the window starts.
-                    published = None;
-                }
                 apply(&mut *engine, &cmd, kind, dirs)?;
+                if kind == CommandKind::SetKinematicVelocity && published == Some(cmd.step) {
+                    // The states already published for this window carry the old
+                    // velocity: publish them again before the acknowledgement, so the
+                    // fluid finds only the new ones newest when the window starts.
+                    publish(
+                        &*engine,
+                        &markers,
+                        cmd.step,
+                        cmd.time,
+                        cmd.window,
+                        &mut states,
+                        &mut points,
+                        &bodies_tx,
+                        &points_tx,
+                    )?;
+                }
                 acknowledge(&report, &cmd)?;
                 wake_orchestrator.wake()?;
                 continue;

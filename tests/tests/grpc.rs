@@ -1,11 +1,13 @@
 //! The gRPC control service over real gRPC on 127.0.0.1:0, in process (issue 6): runs are
-//! created, stepped, watched, paused, resumed and stopped; every error status the API
-//! promises is provoked; two runs at once each see only their own data.
+//! created, stepped, watched, paused, changed live (gravity, a kinematic body's
+//! velocity), checkpointed, resumed, restored and stopped; every error status the API
+//! promises is provoked; a restored run repeats the original; two runs at once each see
+//! only their own data.
 
 use couplet_orchestrator::serve::{CoupletService, ServeConfig, serve_on};
 use couplet_protocol::grpc::{
-    CreateRunRequest, DeleteRunRequest, ListEnginesRequest, ListRunsRequest, Override, Run,
-    RunRequest, RunState, SetParameterRequest, StepRunRequest, WindowFrame,
+    CreateRunRequest, DeleteRunRequest, ListEnginesRequest, ListRunsRequest, Override,
+    RestoreRunRequest, Run, RunRequest, RunState, SetParameterRequest, StepRunRequest, WindowFrame,
     couplet_client::CoupletClient, watch_event,
 };
 use couplet_tests::{read_recording, scene};
@@ -16,7 +18,8 @@ use tonic::transport::Channel;
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
 
 /// A 0.1 × 0.08 × 0.04 m tank of water at rest with a 3 cm box (ρ = 1500) submerged at
-/// mid-depth: one fluid + one body, a few hundred particles, fast on lavapipe.
+/// mid-depth and a kinematic paddle (a 1 cm sphere, at rest until told): one fluid +
+/// two bodies, a few hundred particles, fast on lavapipe.
 const TANK: &str = r#"
 [meta]
 name = "tank"
@@ -47,6 +50,12 @@ name = "box"
 shape.box.half_extents = [0.015, 0.015, 0.015]
 density = 1500.0
 position = [0.05, 0.03, 0.02]
+[[bodies]]
+name = "paddle"
+shape.sphere.radius = 0.01
+density = 1000.0
+position = [0.015, 0.045, 0.02]
+motion = "kinematic"
 "#;
 
 struct Server {
@@ -170,15 +179,47 @@ async fn a_run_driven_over_grpc_steps_pauses_resumes_and_reports_every_error() {
     assert!(r.windows_total > 10, "{r:?}");
     let (k, m) = code(c.start_run(id(&run)).await);
     assert_eq!(k, Code::FailedPrecondition, "{m}");
-    let (k, m) = code(
-        c.set_parameter(SetParameterRequest {
-            run_id: run.run_id.clone(),
-            path: "gravity.vector".into(),
-            value: "[0, -1, 0]".into(),
-        })
-        .await,
-    );
-    assert_eq!(k, Code::FailedPrecondition, "{m}");
+    let set = |path: &str, value: &str| SetParameterRequest {
+        run_id: run.run_id.clone(),
+        path: path.into(),
+        value: value.into(),
+    };
+    // What cannot change live is FAILED_PRECONDITION with the reason; a value of the
+    // wrong kind or an unknown body INVALID_ARGUMENT.
+    for (path, value, want) in [
+        ("gravity.on_fluid", "false", Code::FailedPrecondition),
+        ("fluid.density", "1100.0", Code::FailedPrecondition),
+        (
+            "bodies.box.velocity",
+            "[0.1, 0, 0]",
+            Code::FailedPrecondition,
+        ),
+        ("gravity.vector", "[0, -1]", Code::InvalidArgument),
+        ("gravity.vector", "\"down\"", Code::InvalidArgument),
+        ("bodies.oar.velocity", "[0.1, 0, 0]", Code::InvalidArgument),
+        ("time.output_interval", "-1", Code::InvalidArgument),
+    ] {
+        let (k, m) = code(c.set_parameter(set(path, value)).await);
+        assert_eq!(k, want, "{path} = {value}: {m}");
+    }
+    // Gravity and the paddle's velocity change at the next boundary.
+    let r = c
+        .set_parameter(set("gravity.vector", "[0, -1, 0]"))
+        .await
+        .unwrap()
+        .into_inner();
+    let g = r.gravity.unwrap();
+    assert_eq!([g.x, g.y, g.z], [0.0, -1.0, 0.0]);
+    c.set_parameter(set("bodies.paddle.velocity", "[0.5, 0, 0]"))
+        .await
+        .unwrap();
+    c.set_parameter(set("bodies.1.angular_velocity", "[0, 0, 2.0]"))
+        .await
+        .unwrap();
+    // A checkpoint of the paused run at window 3.
+    let cp = c.checkpoint(id(&run)).await.unwrap().into_inner();
+    assert_eq!(cp.step, 3);
+    assert!((cp.time - 3.0 * r.window).abs() < 1e-15, "{cp:?}");
     let r = c
         .set_parameter(SetParameterRequest {
             run_id: run.run_id.clone(),
@@ -223,26 +264,68 @@ async fn a_run_driven_over_grpc_steps_pauses_resumes_and_reports_every_error() {
             .all(|f| f.missed == 0 && f.fluid_substeps >= 1)
     );
     assert!((frames.last().unwrap().time - 0.004).abs() < 1e-12);
+    // The fluid's telemetry: it moves (the box sinks, gravity changes, the paddle starts)
+    // and stays weakly compressible. The paddle's impulsive start at u = 0.5 m/s sends
+    // an acoustic pulse of density error u/c_s = 2.5 % (c_s = 20 m/s); doubled where it
+    // reflects: below 5 %. The hydrostatic column adds ρ g h/(ρ c²) ≈ 1.5e-3.
+    for f in &frames {
+        assert!(f.kinetic_energy >= 0.0 && f.max_speed >= 0.0, "{f:?}");
+        assert!(
+            f.max_density_error > 0.0 && f.max_density_error < 0.05,
+            "{f:?}"
+        );
+    }
+    assert!(frames.last().unwrap().kinetic_energy > 0.0);
+    // The paddle moved at its new velocities from window 3 on: x = x₀ + 0.5 (t − t₃),
+    // turning at 2 rad/s (prescribed motion: round-off only).
+    let t3 = cp.time;
+    for f in &frames {
+        let p = &f.bodies[1];
+        let (x, v, w) = (
+            p.position.unwrap().x,
+            p.linear_velocity.unwrap(),
+            p.angular_velocity.unwrap(),
+        );
+        let want = if f.step < 3 {
+            (0.015, 0.0, 0.0)
+        } else {
+            (0.015 + 0.5 * (f.time - t3), 0.5, 2.0)
+        };
+        assert!(
+            (x - want.0).abs() < 1e-9,
+            "window {}: x = {x}, want {}",
+            f.step,
+            want.0
+        );
+        assert_eq!((v.x, w.z), (want.1, want.2), "window {}", f.step);
+    }
 
-    // The frames carry the fluid's load: the same numbers as the recording's, and the
-    // submerged box is pushed up (Archimedes: ρ g V = 0.265 N; the uncorrected pressure
-    // on one marker layer is 13–58 % off, tests/tests/buoyancy.rs, so only the sign and
-    // the order of magnitude are asserted here).
+    // The frames carry the fluid's load: the same numbers as the recording's, and before
+    // the live changes (window 2) the submerged box is pushed up (Archimedes: ρ g V =
+    // 0.265 N; the uncorrected pressure on one marker layer is 13–58 % off,
+    // tests/tests/buoyancy.rs, so only the sign and the order of magnitude are asserted).
     let rec = read_recording(&std::path::Path::new(&end.output_dir).join("run.mcap")).unwrap();
     assert!(rec.has_summary);
     assert_eq!(rec.windows as u64, end.windows_total);
-    let last = frames.last().unwrap();
-    let f = last.bodies[0].force.unwrap();
-    let recorded = rec.loads.last().unwrap();
-    // (to the last bit but one: the recording stores JSON, whose decimal round trip
-    // may move an f64 by one ulp)
-    for (a, b) in [f.x, f.y, f.z].into_iter().zip(recorded.force) {
-        assert!(
-            (a - b).abs() <= 4.0 * f64::EPSILON * b.abs(),
-            "{a} vs recorded {b}"
-        );
+    for f in [&frames[2], frames.last().unwrap()] {
+        let force = f.bodies[0].force.unwrap();
+        // The recording stamps a load with its window's start.
+        let start = f.time - f.window;
+        let recorded = (rec.loads.iter())
+            .find(|l| l.body == 0 && (l.time - start).abs() < 1e-12)
+            .unwrap();
+        // (to the last bit but one: the recording stores JSON, whose decimal round trip
+        // may move an f64 by one ulp)
+        for (a, b) in [force.x, force.y, force.z].into_iter().zip(recorded.force) {
+            assert!(
+                (a - b).abs() <= 4.0 * f64::EPSILON * b.abs(),
+                "window {}: {a} vs recorded {b}",
+                f.step
+            );
+        }
     }
-    assert!(f.y > 0.05 && f.y < 1.0, "buoyancy {} N", f.y);
+    let lift = frames[2].bodies[0].force.unwrap().y;
+    assert!(lift > 0.05 && lift < 1.0, "buoyancy {lift} N");
     // Snapshots every 0.001 s after the change at window 3 (and at the end).
     assert!(
         rec.snapshots.len() >= 4,
@@ -258,6 +341,72 @@ async fn a_run_driven_over_grpc_steps_pauses_resumes_and_reports_every_error() {
         .await,
     );
     assert_eq!(k, Code::FailedPrecondition, "{m}");
+    let (k, m) = code(c.checkpoint(id(&run)).await);
+    assert_eq!(k, Code::FailedPrecondition, "{m}");
+
+    // Restored from window 3, the run repeats the original's windows 3.. to the end:
+    // same bodies, same fluid. Reference: the original run on the same machine; both
+    // run the same kernels on the same saved buffers, so round-off would be the only
+    // excuse for a difference and none is allowed (exact equality).
+    // Regression (paddle velocity a window late): the DEM re-published window 3's states
+    // with the paddle's new velocity only when the window started, racing the fluid,
+    // which took the stale ones; the restored run had the new ones at once, and window
+    // 3's loads differed. The DEM now re-publishes before it acknowledges the change.
+    let restore = |path: &str| RestoreRunRequest {
+        checkpoint: path.into(),
+        skip_recording: false,
+    };
+    let (k, m) = code(c.restore_run(restore("/etc")).await);
+    assert_eq!(k, Code::InvalidArgument, "{m}");
+    let (k, m) = code(c.restore_run(restore("tank-1/checkpoints/step-99")).await);
+    assert_eq!(k, Code::NotFound, "{m}");
+    let again = c.restore_run(restore(&cp.path)).await.unwrap().into_inner();
+    let watcher = watch(c.clone(), &again);
+    let ready = c
+        .step_run(StepRunRequest {
+            run_id: again.run_id.clone(),
+            windows: 1,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(ready.windows_done, 4, "{ready:?}");
+    let g = ready.gravity.unwrap();
+    assert_eq!(
+        [g.x, g.y, g.z],
+        [0.0, -1.0, 0.0],
+        "the checkpoint keeps live gravity"
+    );
+    c.resume_run(id(&again)).await.unwrap();
+    let (again_frames, again_end) = watcher.await.unwrap();
+    assert_eq!(again_end.state(), RunState::Finished, "{again_end:?}");
+    assert_eq!(again_end.windows_done, end.windows_total);
+    assert_eq!(again_frames.first().unwrap().step, 3);
+    for g in &again_frames {
+        let f = &frames[g.step as usize];
+        assert_eq!(
+            (f.time, &f.bodies),
+            (g.time, &g.bodies),
+            "window {}",
+            g.step
+        );
+        assert_eq!(f.kinetic_energy, g.kinetic_energy, "window {}", g.step);
+    }
+    let again_rec =
+        read_recording(&std::path::Path::new(&again_end.output_dir).join("run.mcap")).unwrap();
+    let (a, b) = (
+        rec.snapshots.last().unwrap(),
+        again_rec.snapshots.last().unwrap(),
+    );
+    assert_eq!(a.0, b.0);
+    assert!(a.1 == b.1, "the restored run's fluid differs at the end");
+    c.delete_run(DeleteRunRequest {
+        run_id: again.run_id.clone(),
+        delete_files: true,
+    })
+    .await
+    .unwrap();
+
     let d = c
         .delete_run(DeleteRunRequest {
             run_id: run.run_id.clone(),
