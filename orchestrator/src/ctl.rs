@@ -4,9 +4,9 @@
 use anyhow::Context;
 use clap::Subcommand;
 use couplet_protocol::grpc::{
-    CreateRunRequest, DeleteRunRequest, ListEnginesRequest, ListRunsRequest, Override, Run,
-    RunRequest, RunState, SetParameterRequest, StepRunRequest, Vec3, WindowFrame,
-    couplet_client::CoupletClient, watch_event,
+    CreateRunRequest, DeleteRunRequest, ListEnginesRequest, ListRunsRequest, Override,
+    RestoreRunRequest, Run, RunRequest, RunState, SetParameterRequest, StepRunRequest, Vec3,
+    WindowFrame, couplet_client::CoupletClient, watch_event,
 };
 use std::path::PathBuf;
 use tonic::metadata::{Ascii, MetadataValue};
@@ -69,11 +69,26 @@ pub enum CtlCmd {
         #[arg(long, default_value_t = 4)]
         bodies: usize,
     },
-    /// Change a live parameter (`time.output_interval`).
+    /// Change a live parameter: `time.output_interval`, `gravity.vector`,
+    /// `bodies.NAME.velocity` or `bodies.NAME.angular_velocity` (a kinematic body; NAME
+    /// or its index), the value as TOML (`'[0, -9.81, 0]'`).
     Set {
         run: String,
         path: String,
         value: String,
+    },
+    /// Write a checkpoint at the next window boundary; prints its folder.
+    Checkpoint { run: String },
+    /// Create a run that continues from a checkpoint folder (as `checkpoint` printed
+    /// it, or relative to the server's data folder), READY at its window.
+    Restore {
+        checkpoint: String,
+        /// Write no MCAP recording.
+        #[arg(long)]
+        no_record: bool,
+        /// Start it at once.
+        #[arg(long)]
+        start: bool,
     },
     /// The DEM engines the server offers.
     Engines,
@@ -240,6 +255,30 @@ pub fn ctl(conn: &Connection, cmd: CtlCmd) -> anyhow::Result<()> {
                     .into_inner();
                 print!("{}", run_text(&r));
             }
+            CtlCmd::Checkpoint { run } => {
+                let r = c.checkpoint(id(&run)).await?.into_inner();
+                println!(
+                    "{}: checkpoint of window {} (t = {:.6} s) in {}",
+                    r.run_id, r.step, r.time, r.path
+                );
+            }
+            CtlCmd::Restore {
+                checkpoint,
+                no_record,
+                start,
+            } => {
+                let mut r = c
+                    .restore_run(RestoreRunRequest {
+                        checkpoint,
+                        skip_recording: no_record,
+                    })
+                    .await?
+                    .into_inner();
+                if start {
+                    r = c.start_run(id(&r.run_id)).await?.into_inner();
+                }
+                print!("{}", run_text_with(&r, true));
+            }
             CtlCmd::Engines => {
                 for e in c
                     .list_engines(ListEnginesRequest {})
@@ -277,8 +316,10 @@ fn run_text_with(r: &Run, warnings: bool) -> String {
         t += &format!("  Δt_w = {:.3e} s: {}\n", r.window, r.window_reason);
     }
     t += &format!(
-        "  output: {} (snapshots every {} s)\n",
-        r.output_dir, r.output_interval
+        "  output: {} (snapshots every {} s)  gravity {} m/s²\n",
+        r.output_dir,
+        r.output_interval,
+        v(&r.gravity)
     );
     for w in r.warnings.iter().filter(|_| warnings) {
         t += &format!("  warning: {w}\n");
@@ -308,6 +349,12 @@ fn frame_text(f: &WindowFrame, bodies: usize) -> String {
         t += &format!("  ({} windows missed: this client was too slow)", f.missed);
     }
     t.push('\n');
+    if f.fluid_substeps > 0 {
+        t += &format!(
+            "  fluid: kinetic energy {:.4e} J  |u|max {:.4e} m/s  |ρ/ρ0 − 1|max {:.3e}\n",
+            f.kinetic_energy, f.max_speed, f.max_density_error
+        );
+    }
     for b in f.bodies.iter().take(bodies) {
         t += &format!(
             "  body {}: x = {}  v = {}  F = {}\n",
