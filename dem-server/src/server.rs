@@ -11,7 +11,7 @@ use crate::registry::create_engine;
 use couplet_protocol::state::{
     StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
 };
-use couplet_protocol::transport::{Control, Endpoint, TransportError, ValueSender, parent_alive};
+use couplet_protocol::transport::{Control, Endpoint, TransportError, parent_alive};
 use couplet_protocol::{
     BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, Role, Scene,
     ServiceLeaf, SideReport, WindowHeader, monotonic_ns, validate_loads,
@@ -135,7 +135,7 @@ pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), Server
                         &points_tx,
                     )?;
                 }
-                acknowledge(&report, &cmd)?;
+                report.send(SideReport::acknowledging(Role::Dem, &cmd))?;
                 wake_orchestrator.wake()?;
                 continue;
             }
@@ -256,17 +256,6 @@ fn apply(
         CommandKind::Advance | CommandKind::Shutdown => {}
     }
     Ok(())
-}
-
-/// Tells the orchestrator that `cmd` took effect.
-fn acknowledge(report: &ValueSender<SideReport>, cmd: &Command) -> Result<(), TransportError> {
-    report.send(SideReport {
-        protocol_version: PROTOCOL_VERSION,
-        role: Role::Dem as u32,
-        step: cmd.step,
-        kind: cmd.kind,
-        ..Default::default()
-    })
 }
 
 /// Publishes states and world-frame coupling points for window `step`; returns the µs spent.

@@ -123,13 +123,7 @@ pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), Server
                     // A kinematic body's new velocity reaches the fluid with its state.
                     _ => {}
                 }
-                report.send(SideReport {
-                    protocol_version: PROTOCOL_VERSION,
-                    role: Role::Fluid as u32,
-                    step: cmd.step,
-                    kind: cmd.kind,
-                    ..Default::default()
-                })?;
+                report.send(SideReport::acknowledging(Role::Fluid, &cmd))?;
                 wake_orchestrator.wake()?;
                 continue;
             }

@@ -265,6 +265,17 @@ impl SideReport {
     pub fn kind(&self) -> Option<CommandKind> {
         CommandKind::from_u32(self.kind)
     }
+
+    /// `role`'s acknowledgement that `cmd` (a change between windows) took effect.
+    pub fn acknowledging(role: Role, cmd: &Command) -> Self {
+        Self {
+            protocol_version: PROTOCOL_VERSION,
+            role: role as u32,
+            step: cmd.step,
+            kind: cmd.kind,
+            ..Default::default()
+        }
+    }
 }
 
 const _: () = {
