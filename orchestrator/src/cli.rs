@@ -105,6 +105,23 @@ enum Cmd {
         /// with each of its schemes; a table of error against wall time and particles.
         #[arg(long, conflicts_with = "quick")]
         sweep: bool,
+        /// With --sweep: run only point K of the sweep (0-based, in the order
+        /// --list-points prints) and write its row to OUT/<scheme>-<spacing>/sweep-point.json
+        /// for --gather. One process per point fans a sweep out over a cluster (a job
+        /// array's index as K, a shared OUT); a run that fails is a row, not an error.
+        #[arg(long, requires = "sweep", value_name = "K")]
+        point: Option<usize>,
+        /// With --sweep: do not run; build the sweep's table (sweep.md, .csv, .svg in OUT)
+        /// from the rows its points wrote under OUT, the same table --sweep prints. Fails,
+        /// after writing the table of the rows found, when a point has no row.
+        #[arg(long, requires = "sweep", conflicts_with_all = ["point", "variants", "spacing", "set"])]
+        gather: bool,
+        /// With --sweep: print the number of points (the size of a job array) and exit.
+        #[arg(long, requires = "sweep", conflicts_with_all = ["point", "gather"])]
+        count: bool,
+        /// With --sweep: print each point, one a line (index, spacing in m, scheme), and exit.
+        #[arg(long, requires = "sweep", conflicts_with_all = ["point", "gather", "count"])]
+        list_points: bool,
         /// Run only this variant of a case made of several (its label as the report
         /// prints it, or its folder name: `--variant "water, ε = 0.8"` or
         /// `--variant water-ε-0.8`); repeatable. Default: every variant.
@@ -230,6 +247,85 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             if !r.passed() {
                 std::process::exit(1);
             }
+        }
+        Cmd::Validate {
+            name,
+            sweep: true,
+            count,
+            list_points,
+            ..
+        } if count || list_points => {
+            let specs = validate::sweep_specs(&name.unwrap_or_default())?;
+            if count {
+                println!("{}", specs.len());
+            } else {
+                for p in specs {
+                    println!("{}\t{:e}\t{}", p.index, p.spacing, p.scheme);
+                }
+            }
+        }
+        Cmd::Validate {
+            name,
+            sweep: true,
+            gather: true,
+            out,
+            ..
+        } => {
+            let name = name.unwrap_or_default();
+            let g = validate::sweep_gather(&name, out)
+                .with_context(|| format!("gathering the sweep of {name}"))?;
+            println!("{}", g.markdown);
+            if !g.missing.is_empty() {
+                anyhow::bail!(
+                    "{name}: {} of the sweep's points have no row yet (the table above leaves them out): {}",
+                    g.missing.len(),
+                    g.missing
+                        .iter()
+                        .map(|(k, f)| format!("point {k} ({})", f.display()))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            }
+        }
+        Cmd::Validate {
+            name,
+            sweep: true,
+            point: Some(point),
+            variants,
+            out,
+            scenes,
+            overrides,
+            ..
+        } => {
+            let name = name.unwrap_or_default();
+            let (p, row) = validate::sweep_point(
+                &name,
+                point,
+                &variants,
+                out,
+                &overrides.list()?,
+                scenes.as_deref(),
+                true,
+            )
+            .with_context(|| format!("sweeping {name}, point {point}"))?;
+            match &p.failure {
+                Some(f) => println!(
+                    "point {point} ({}, δ = {:e} m): the run failed: {f}",
+                    p.scheme, p.spacing
+                ),
+                None => println!(
+                    "point {point} ({}, δ = {:e} m): {} fluid particles, {:.1} s, error {}, all rows pass: {}",
+                    p.scheme,
+                    p.spacing,
+                    p.particles,
+                    p.wall_s,
+                    p.headline
+                        .as_ref()
+                        .map_or("none".into(), |(m, e)| format!("{e:e} ({m})")),
+                    p.passed
+                ),
+            }
+            println!("row: {}", row.display());
         }
         Cmd::Validate {
             name,
