@@ -4059,6 +4059,167 @@ mod tests {
     use super::*;
     use crate::record::LoadSample;
 
+    /// A fresh folder under the system's temp dir, removed when dropped.
+    struct TempDir(PathBuf);
+    impl TempDir {
+        fn new(tag: &str) -> Self {
+            let d = std::env::temp_dir().join(format!(
+                "couplet-{tag}-{}-{}",
+                std::process::id(),
+                couplet_protocol::monotonic_ns()
+            ));
+            std::fs::create_dir_all(&d).unwrap();
+            Self(d)
+        }
+    }
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// Synthetic results for every point of the hydrostatic tank's sweep (3 spacings × 3
+    /// schemes): one failed run, one NaN headline (a fit that did not converge), the rest
+    /// with errors that shrink with the spacing.
+    fn synthetic_points(specs: &[SweepSpec]) -> Vec<SweepPoint> {
+        specs
+            .iter()
+            .map(|s| SweepPoint {
+                scheme: s.scheme.into(),
+                spacing: s.spacing,
+                particles: (0.4 / s.spacing).powi(2) as usize,
+                wall_s: 1.5 + s.index as f64,
+                headline: match s.index {
+                    4 => None,
+                    5 => Some(("pressure error".into(), f64::NAN)),
+                    k => Some(("pressure error".into(), 0.3 * s.spacing + 1e-4 * k as f64)),
+                },
+                passed: s.index % 3 != 0 && s.index != 4,
+                failure: (s.index == 4).then(|| "fluid blew up at t = 0.12 s | step 40".into()),
+            })
+            .collect()
+    }
+
+    /// The fan-out of a sweep: rows written by the points, each into its own folder,
+    /// gather into exactly the table (markdown, CSV) that one sweep over the same results
+    /// writes, every field surviving the round trip (a NaN headline and a failure message
+    /// with a `|` included).
+    #[test]
+    fn gathered_rows_make_the_sweeps_table() {
+        let specs = sweep_specs("hydrostatic-tank").unwrap();
+        assert_eq!(specs.len(), 9);
+        assert_eq!(
+            (specs[4].index, specs[4].scheme, specs[4].spacing),
+            (4, "δ-SPH 0.1", 0.02)
+        );
+        let points = synthetic_points(&specs);
+        let (fanned, single) = (TempDir::new("fanout"), TempDir::new("single"));
+        for (spec, p) in specs.iter().zip(&points) {
+            write_sweep_row("hydrostatic-tank", spec, &fanned.0, p).unwrap();
+        }
+        assert!(
+            fanned
+                .0
+                .join("δ-SPH-0.1-2e-2")
+                .join(SWEEP_ROW_FILE)
+                .is_file()
+        );
+        let g = sweep_gather("hydrostatic-tank", Some(fanned.0.clone())).unwrap();
+        assert!(g.missing.is_empty(), "{:?}", g.missing);
+        let md = write_sweep("hydrostatic-tank", &single.0, &points).unwrap();
+        assert_eq!(g.markdown, md);
+        let csv = |d: &Path| std::fs::read_to_string(d.join("sweep.csv")).unwrap();
+        assert_eq!(csv(&fanned.0), csv(&single.0));
+        for (spec, p) in specs.iter().zip(&points) {
+            let back = read_sweep_row("hydrostatic-tank", spec, &spec.row_file(&fanned.0)).unwrap();
+            let nan = |p: &SweepPoint| p.headline.as_ref().is_some_and(|h| h.1.is_nan());
+            if nan(p) {
+                assert!(nan(&back));
+            } else {
+                assert_eq!(&back, p);
+            }
+        }
+        assert_eq!(md.lines().count(), 4 + 9, "{md}");
+        assert!(
+            md.contains("run failed: fluid blew up at t = 0.12 s / step 40"),
+            "{md}"
+        );
+    }
+
+    /// A point that has not written its row is left out of the table and named; a row
+    /// that belongs to another point or case is refused, naming the file and both points.
+    #[test]
+    fn gather_names_missing_points_and_refuses_foreign_rows() {
+        let specs = sweep_specs("hydrostatic-tank").unwrap();
+        let points = synthetic_points(&specs);
+        let dir = TempDir::new("gather");
+        for (spec, p) in specs.iter().zip(&points).filter(|(s, _)| s.index != 7) {
+            write_sweep_row("hydrostatic-tank", spec, &dir.0, p).unwrap();
+        }
+        let g = sweep_gather("hydrostatic-tank", Some(dir.0.clone())).unwrap();
+        assert_eq!(g.missing, vec![(7, specs[7].row_file(&dir.0))]);
+        assert_eq!(g.markdown.lines().count(), 4 + 8);
+        assert_eq!(specs[7].scheme, "δ-SPH 0.1");
+        assert!(
+            !g.markdown.contains("| δ-SPH 0.1 | 1e-2 |"),
+            "{}",
+            g.markdown
+        );
+        assert!(
+            g.markdown.contains("| shifting 0.1 | 1e-2 |"),
+            "{}",
+            g.markdown
+        );
+
+        // Point 0's result written where point 7 belongs.
+        write_sweep_row(
+            "hydrostatic-tank",
+            &SweepSpec {
+                index: 0,
+                ..specs[7]
+            },
+            &dir.0,
+            &points[0],
+        )
+        .unwrap();
+        let e = sweep_gather("hydrostatic-tank", Some(dir.0.clone()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("δ-SPH-0.1-1e-2/sweep-point.json"), "{e}");
+        assert!(
+            e.contains("it is point 0 of `hydrostatic-tank` (standard, δ = 4e-2 m)"),
+            "{e}"
+        );
+        assert!(
+            e.contains("holds point 7 of `hydrostatic-tank` (δ-SPH 0.1, δ = 1e-2 m)"),
+            "{e}"
+        );
+
+        // The same folder read as another case's sweep.
+        let e = read_sweep_row("settling-sphere", &specs[1], &specs[1].row_file(&dir.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("of `hydrostatic-tank`"), "{e}");
+    }
+
+    /// `--point K` outside the sweep and a case without a sweep are refused with the
+    /// valid range, before anything runs.
+    #[test]
+    fn sweep_point_out_of_range_is_refused() {
+        let e = sweep_point("settling-sphere", 9, &[], None, &[], None, false)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "case `settling-sphere`'s sweep has 9 points, 0 to 8: there is no point 9"
+        );
+        let e = sweep_specs("constant-porosity-block")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("has no sweep"), "{e}");
+        assert!(sweep_specs("no-such-case").is_err());
+    }
+
     /// Every CPB variant, full and quick, resolves to a valid scene whose column tiles
     /// both lattices (a whole number of lattice spacings Δr(ε) and of fluid spacings δ
     /// across, 43 δ high) at h/d = 1.5 δ/d within 2.0–2.1 (Robinson §6.2's h = 2d in his
