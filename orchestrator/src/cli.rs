@@ -6,6 +6,8 @@
 use crate::{RunOptions, RunSummary, bench, plan, run, validate};
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use couplet_protocol::Role;
+use couplet_protocol::transport::Orchestrator;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -61,6 +63,18 @@ enum Cmd {
         /// Stop after this many coupling windows.
         #[arg(long)]
         windows: Option<u64>,
+        /// The run's id (its iceoryx2 namespace). Default: made up from the pid and the
+        /// clock. Servers started apart (--external) are given the same id.
+        #[arg(long, value_name = "ID")]
+        run_id: Option<String>,
+        /// Do not start this server; wait (up to 300 s) for one started apart as
+        /// `couplet ROLE RUN_ID SCENE --detached`, on this scene file, sharing this
+        /// machine's /dev/shm and /tmp/iceoryx2 (another container); repeatable. Its
+        /// liveness is its iceoryx2 node: a dead one stops the run within a second.
+        #[arg(long = "external", value_name = "ROLE", requires = "run_id",
+              conflicts_with_all = ["spacing", "set"],
+              value_parser = ["fluid-server", "dem-server"])]
+        external: Vec<String>,
     },
     /// Print the processes, GPU stages and time-step limits a scene will use, and why.
     Plan {
@@ -173,12 +187,45 @@ enum Cmd {
         #[command(subcommand)]
         cmd: crate::ctl::CtlCmd,
     },
-    /// (internal) Serve the fluid side of a run.
-    #[command(name = "fluid-server", hide = true)]
-    FluidServer { run_id: String, scene: PathBuf },
-    /// (internal) Serve the DEM side of a run.
-    #[command(name = "dem-server", hide = true)]
-    DemServer { run_id: String, scene: PathBuf },
+    /// Serve the fluid side of run RUN_ID. `couplet run` starts it itself; start it by
+    /// hand, with --detached, for `couplet run --external fluid-server` (another container).
+    #[command(name = "fluid-server")]
+    FluidServer {
+        run_id: String,
+        scene: PathBuf,
+        #[command(flatten)]
+        start: ServerStart,
+    },
+    /// Serve the DEM side of run RUN_ID. `couplet run` starts it itself; start it by hand,
+    /// with --detached, for `couplet run --external dem-server` (another container).
+    #[command(name = "dem-server")]
+    DemServer {
+        run_id: String,
+        scene: PathBuf,
+        #[command(flatten)]
+        start: ServerStart,
+    },
+}
+
+/// How a server role was started.
+#[derive(clap::Args, Clone)]
+struct ServerStart {
+    /// Started apart from the orchestrator (`couplet run --run-id RUN_ID --external ROLE`,
+    /// on the same machine or in a container sharing its /dev/shm and /tmp/iceoryx2): wait
+    /// up to 300 s for it, say hello until it listens, and exit when its iceoryx2 node
+    /// goes. SCENE must be the file the orchestrator runs, unchanged (it checks).
+    #[arg(long)]
+    detached: bool,
+}
+
+impl ServerStart {
+    fn orchestrator(&self, run_id: &str) -> Orchestrator {
+        if self.detached {
+            Orchestrator::detached(run_id)
+        } else {
+            Orchestrator::parent()
+        }
+    }
 }
 
 /// Parses the process arguments and runs; the exit code is what `main` returns.
@@ -204,6 +251,8 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             out,
             overrides,
             windows,
+            run_id,
+            external,
         } => {
             let s = run(&RunOptions {
                 scene: scene.clone(),
@@ -212,6 +261,14 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                 max_windows: windows,
                 record: true,
                 progress: true,
+                run_id,
+                external: external
+                    .iter()
+                    .map(|r| match r.as_str() {
+                        "fluid-server" => Role::Fluid,
+                        _ => Role::Dem,
+                    })
+                    .collect(),
             })
             .with_context(|| format!("running {}", scene.display()))?;
             println!("{}", summary_text(&s));
@@ -410,13 +467,24 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             )?;
         }
         Cmd::Ctl { conn, cmd } => crate::ctl::ctl(&conn, cmd)?,
-        Cmd::FluidServer { run_id, scene } => {
-            let s = couplet_protocol::Scene::load(&scene)?;
-            couplet_fluid::server::serve(&run_id, &s).context("fluid-server")?;
+        Cmd::FluidServer {
+            run_id,
+            scene,
+            start,
+        } => {
+            let orchestrator = start.orchestrator(&run_id);
+            let (s, digest) = couplet_protocol::Scene::load_with_digest(&scene)?;
+            couplet_fluid::server::serve(&run_id, &s, &orchestrator, digest)
+                .context("fluid-server")?;
         }
-        Cmd::DemServer { run_id, scene } => {
-            let s = couplet_protocol::Scene::load(&scene)?;
-            couplet_dem::server::serve(&run_id, &s).context("dem-server")?;
+        Cmd::DemServer {
+            run_id,
+            scene,
+            start,
+        } => {
+            let orchestrator = start.orchestrator(&run_id);
+            let (s, digest) = couplet_protocol::Scene::load_with_digest(&scene)?;
+            couplet_dem::server::serve(&run_id, &s, &orchestrator, digest).context("dem-server")?;
         }
     }
     Ok(())

@@ -236,6 +236,8 @@ impl Couplet for CoupletService {
                 record: !req.skip_recording,
                 max_windows: None,
                 server_exe: self.cfg.server_exe.clone(),
+                run_id: None,
+                external: Vec::new(),
             };
             let h = handle.clone();
             std::thread::Builder::new()

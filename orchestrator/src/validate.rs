@@ -883,6 +883,8 @@ fn run_one(
         max_windows: None,
         record: true,
         progress,
+        run_id: None,
+        external: Vec::new(),
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
     let rec = read_recording(&out.join("run.mcap")).map_err(ValidateError::Recording)?;
