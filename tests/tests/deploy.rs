@@ -44,11 +44,21 @@ struct Node {
 }
 
 impl Node {
+    /// The value of `key`, also through merge keys (`<<: *anchor`, compose's `x-` blocks).
     fn get(&self, key: &str) -> Option<&Node> {
-        match &self.value {
-            Value::Map(m) => m.iter().find(|(k, _)| k == key).map(|(_, v)| v),
-            _ => None,
-        }
+        let Value::Map(m) = &self.value else {
+            return None;
+        };
+        m.iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v)
+            .or_else(|| {
+                let merged = m.iter().find(|(k, _)| k == "<<").map(|(_, v)| v)?;
+                match &merged.value {
+                    Value::Seq(maps) => maps.iter().find_map(|n| n.get(key)),
+                    _ => merged.get(key),
+                }
+            })
     }
     fn scalar(&self) -> Option<&str> {
         match &self.value {
@@ -67,22 +77,28 @@ impl Node {
     }
 }
 
+/// A collection being built: its line, its anchor id (0: none), its items.
 enum Frame {
-    Seq(usize, Vec<Node>),
-    Map(usize, Vec<(String, Node)>, Option<String>),
+    Seq(usize, usize, Vec<Node>),
+    Map(usize, usize, Vec<(String, Node)>, Option<String>),
 }
 
 #[derive(Default)]
 struct Builder {
     stack: Vec<Frame>,
     docs: Vec<Node>,
+    /// Anchored nodes by id, for the aliases that repeat them.
+    anchors: HashMap<usize, Node>,
 }
 
 impl Builder {
-    fn finish(&mut self, node: Node) {
+    fn finish(&mut self, node: Node, anchor: usize) {
+        if anchor > 0 {
+            self.anchors.insert(anchor, node.clone());
+        }
         match self.stack.last_mut() {
-            Some(Frame::Seq(_, items)) => items.push(node),
-            Some(Frame::Map(_, entries, key)) => match key.take() {
+            Some(Frame::Seq(_, _, items)) => items.push(node),
+            Some(Frame::Map(_, _, entries, key)) => match key.take() {
                 Some(k) => entries.push((k, node)),
                 // A complex (non-scalar) key is kept as empty: manifests use none.
                 None => *key = Some(node.scalar().unwrap_or_default().to_owned()),
@@ -96,30 +112,46 @@ impl MarkedEventReceiver for Builder {
     fn on_event(&mut self, ev: Event, mark: Marker) {
         let line = mark.line();
         match ev {
-            Event::Scalar(s, ..) => self.finish(Node {
-                line,
-                value: Value::Scalar(s),
-            }),
-            // An alias repeats a node defined elsewhere in the file; it is checked there.
-            Event::Alias(_) => self.finish(Node {
-                line,
-                value: Value::Scalar(String::new()),
-            }),
-            Event::SequenceStart(..) => self.stack.push(Frame::Seq(line, Vec::new())),
-            Event::MappingStart(..) => self.stack.push(Frame::Map(line, Vec::new(), None)),
+            Event::Scalar(s, _, anchor, _) => self.finish(
+                Node {
+                    line,
+                    value: Value::Scalar(s),
+                },
+                anchor,
+            ),
+            // The anchored node again (the parser has refused an unknown alias).
+            Event::Alias(id) => {
+                let node = self.anchors.get(&id).cloned().unwrap_or(Node {
+                    line,
+                    value: Value::Scalar(String::new()),
+                });
+                self.finish(node, 0);
+            }
+            Event::SequenceStart(anchor, _) => {
+                self.stack.push(Frame::Seq(line, anchor, Vec::new()))
+            }
+            Event::MappingStart(anchor, _) => {
+                self.stack.push(Frame::Map(line, anchor, Vec::new(), None))
+            }
             Event::SequenceEnd | Event::MappingEnd => {
-                let node = match self.stack.pop() {
-                    Some(Frame::Seq(line, items)) => Node {
-                        line,
-                        value: Value::Seq(items),
-                    },
-                    Some(Frame::Map(line, entries, _)) => Node {
-                        line,
-                        value: Value::Map(entries),
-                    },
+                let (node, anchor) = match self.stack.pop() {
+                    Some(Frame::Seq(line, anchor, items)) => (
+                        Node {
+                            line,
+                            value: Value::Seq(items),
+                        },
+                        anchor,
+                    ),
+                    Some(Frame::Map(line, anchor, entries, _)) => (
+                        Node {
+                            line,
+                            value: Value::Map(entries),
+                        },
+                        anchor,
+                    ),
                     None => return,
                 };
-                self.finish(node);
+                self.finish(node, anchor);
             }
             _ => {}
         }
@@ -521,7 +553,12 @@ fn strings(file: &Path, node: &Node) -> Result<Vec<String>, String> {
 fn yaml_commands(file: &Path, doc: &Node, image: &Image) -> Result<Vec<Found>, String> {
     let kubernetes = doc.get("apiVersion").is_some();
     let mut all = Vec::new();
-    doc.walk(&mut all);
+    if kubernetes {
+        doc.walk(&mut all);
+    } else if let Some(Value::Map(services)) = doc.get("services").map(|s| &s.value) {
+        // compose runs only what `services` names (`x-…` blocks are templates).
+        all.extend(services.iter().map(|(_, s)| s));
+    }
     let mut found = Vec::new();
     for c in all {
         let ours = c
@@ -886,6 +923,15 @@ fn deploy_matches_the_cli() {
     };
     assert!(subcommands("serve") >= 3, "{found:#?}");
     assert!(subcommands("validate") >= 4, "{found:#?}");
+    // compose.split.yaml's two sides, one through a merge key (`<<: *couplet`).
+    assert!(subcommands("fluid-server") >= 1, "{found:#?}");
+    assert!(
+        found
+            .iter()
+            .any(|f| f.args.first().is_some_and(|a| a == "run")
+                && f.args.iter().any(|a| a == "--external")),
+        "{found:#?}"
+    );
 }
 
 /// An Indexed Job that fans out a sweep has one completion per point of the case's sweep.
