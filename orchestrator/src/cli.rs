@@ -70,7 +70,9 @@ enum Cmd {
         /// Do not start this server; wait (up to 300 s) for one started apart as
         /// `couplet ROLE RUN_ID SCENE --detached`, on this scene file, sharing this
         /// machine's /dev/shm and /tmp/iceoryx2 (another container); repeatable. Its
-        /// liveness is its iceoryx2 node: a dead one stops the run within a second.
+        /// liveness is its iceoryx2 node: a dead one stops the run within a second. Not
+        /// with --set/--spacing: the server loads the scene file as it is, and the digest
+        /// of it in its hello must match this run's.
         #[arg(long = "external", value_name = "ROLE", requires = "run_id",
               conflicts_with_all = ["spacing", "set"],
               value_parser = ["fluid-server", "dem-server"])]
