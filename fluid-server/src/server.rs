@@ -78,7 +78,6 @@ pub fn serve(
         dt_acoustic: limits.dt_acoustic,
         dt_viscous: limits.dt_viscous,
         count: counts.fluid as u64,
-        ..Default::default()
     };
     hello.send(greeting)?;
     wake_orchestrator.wake()?;

@@ -317,8 +317,8 @@ fn couplet_in_shell(line: &str, image_entry: &[String]) -> Vec<Vec<String>> {
                 let assignment = w
                     .split_once('=')
                     .is_some_and(|(n, _)| !n.is_empty() && !n.starts_with('-'));
-                command_position = (command_position && assignment)
-                    || PREFIXES.contains(&w.as_str()) && command_position;
+                command_position =
+                    command_position && (assignment || PREFIXES.contains(&w.as_str()));
             }
         }
     }
@@ -656,8 +656,18 @@ fn ext(p: &Path) -> &str {
 }
 
 /// Every file of `dir` parsed (YAML, TOML) and searched for couplet command lines.
-/// Returns the command lines, each file's count, and the Indexed Jobs (file, document).
-fn scan(dir: &Path) -> Result<(Vec<Found>, HashMap<PathBuf, usize>, Vec<(PathBuf, Node)>), String> {
+/// What [`scan`] found in a folder.
+#[derive(Debug)]
+struct Scan {
+    /// Every couplet command line.
+    found: Vec<Found>,
+    /// How many of them each file holds.
+    per_file: HashMap<PathBuf, usize>,
+    /// The Indexed Jobs: file, document.
+    jobs: Vec<(PathBuf, Node)>,
+}
+
+fn scan(dir: &Path) -> Result<Scan, String> {
     let files = files_under(dir);
     let image = match files
         .iter()
@@ -706,7 +716,11 @@ fn scan(dir: &Path) -> Result<(Vec<Found>, HashMap<PathBuf, usize>, Vec<(PathBuf
         per_file.insert(f.clone(), here.len());
         found.extend(here);
     }
-    Ok((found, per_file, jobs))
+    Ok(Scan {
+        found,
+        per_file,
+        jobs,
+    })
 }
 
 // ---------------------------------------------------------------------------------------
@@ -727,7 +741,8 @@ struct Help {
 
 /// `couplet-cli PATH… --help`, parsed: its subcommands and options (clap's layout).
 fn help(path: &[String]) -> Result<Help, String> {
-    static CACHE: Mutex<Option<HashMap<Vec<String>, Result<Help, String>>>> = Mutex::new(None);
+    type Cache = HashMap<Vec<String>, Result<Help, String>>;
+    static CACHE: Mutex<Option<Cache>> = Mutex::new(None);
     let mut cache = CACHE.lock().unwrap_or_else(|p| p.into_inner());
     let cache = cache.get_or_insert_with(HashMap::new);
     if let Some(h) = cache.get(path) {
@@ -899,7 +914,9 @@ fn check_all(found: &[Found]) -> Vec<String> {
 #[test]
 fn deploy_matches_the_cli() {
     let dir = deploy_dir();
-    let (found, per_file, _) = scan(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let Scan {
+        found, per_file, ..
+    } = scan(&dir).unwrap_or_else(|e| panic!("{e}"));
     let errors = check_all(&found);
     assert!(
         errors.is_empty(),
@@ -938,7 +955,7 @@ fn deploy_matches_the_cli() {
 #[test]
 fn indexed_jobs_cover_the_sweep() {
     let dir = deploy_dir();
-    let (_, _, jobs) = scan(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let jobs = scan(&dir).unwrap_or_else(|e| panic!("{e}")).jobs;
     assert!(!jobs.is_empty(), "no Indexed Job in deploy/");
     let (image, _) = dockerfile(
         &dir.join("Dockerfile"),
@@ -1070,7 +1087,7 @@ fn drift_is_reported_with_file_and_line() {
     assert!(e.contains("bad.toml"), "{e}");
     std::fs::remove_file(dir.path().join("bad.toml")).unwrap();
 
-    let (found, _, _) = scan(dir.path()).unwrap();
+    let found = scan(dir.path()).unwrap().found;
     let errors = check_all(&found);
     let has = |needle: &str| errors.iter().any(|e| e.contains(needle));
     assert!(
