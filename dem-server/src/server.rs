@@ -11,7 +11,7 @@ use crate::registry::create_engine;
 use couplet_protocol::state::{
     StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
 };
-use couplet_protocol::transport::{Control, Endpoint, TransportError, parent_alive};
+use couplet_protocol::transport::{Control, Endpoint, Orchestrator, TransportError};
 use couplet_protocol::{
     BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, Role, Scene,
     ServiceLeaf, SideReport, WindowHeader, monotonic_ns, validate_loads,
@@ -56,9 +56,17 @@ struct DemCheckpoint {
 }
 
 /// Runs the DEM side of run `run_id` until the orchestrator says shutdown or goes away;
-/// from the checkpoint `dirs.restore` when given.
-pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), ServerError> {
-    let parent = std::os::unix::process::parent_id();
+/// from the checkpoint `dirs.restore` when given. `orchestrator` says how to tell that it
+/// is still there (it started this process, or it runs apart); `scene_digest` is
+/// [`couplet_protocol::scene_digest`] of the scene file loaded, which the orchestrator
+/// checks against its own.
+pub fn serve(
+    run_id: &str,
+    scene: &Scene,
+    orchestrator: &Orchestrator,
+    scene_digest: u32,
+    dirs: &StateDirs,
+) -> Result<(), ServerError> {
     let mut engine = create_engine(scene)?;
     if let Some(dir) = &dirs.restore {
         let (_, saved): (_, DemCheckpoint) = read_state(&state_file(dir, Role::Dem), Role::Dem)?;
@@ -77,7 +85,7 @@ pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), Server
     let expected_loads = markers.body_count() + scene.grains().len();
     let n_bodies = engine.body_count();
 
-    let ep = Endpoint::new(run_id)?;
+    let ep = Endpoint::named(run_id, Role::Dem.name())?;
     let commands = Control::command_receiver(&ep)?;
     let report = Control::report_sender(&ep)?;
     let bodies_tx = ep.slice_sender::<BodyState>(ServiceLeaf::Bodies, n_bodies)?;
@@ -90,24 +98,42 @@ pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), Server
     // Hello last: once the orchestrator has it, every port of this process exists.
     // Kept for the whole run: a dropped publisher takes its undelivered samples with it.
     let hello = Control::hello_sender(&ep)?;
-    hello.send(Hello {
+    let greeting = Hello {
         protocol_version: PROTOCOL_VERSION,
         role: Role::Dem as u32,
         pid: std::process::id(),
+        scene_digest,
         dt_limit: engine.stable_dt(),
         count: n_bodies as u64,
         ..Default::default()
-    })?;
+    };
+    hello.send(greeting)?;
     wake_orchestrator.wake()?;
 
     let mut states = Vec::with_capacity(n_bodies);
     let mut points = Vec::with_capacity(markers.len());
     let mut loads: Vec<BodyLoad> = Vec::with_capacity(n_bodies);
     let mut published: Option<u64> = None;
-    let alive = || parent_alive(parent);
+    let alive = || orchestrator.check();
 
+    let mut heard = false;
     loop {
-        let cmd = wake.wait_for(|| commands.try_next(), alive)?;
+        let cmd = if orchestrator.is_detached() && !heard {
+            // Started apart, this server may say hello before the orchestrator listens,
+            // and a hello sent to no subscriber is lost: it is said again every wait
+            // slice until the first command shows that it was heard.
+            wake.wait_for(
+                || commands.try_next(),
+                || {
+                    orchestrator.check()?;
+                    hello.send(greeting)?;
+                    wake_orchestrator.wake()
+                },
+            )?
+        } else {
+            wake.wait_for(|| commands.try_next(), alive)?
+        };
+        heard = true;
         if cmd.protocol_version != PROTOCOL_VERSION {
             return Err(ServerError::Version {
                 step: cmd.step,

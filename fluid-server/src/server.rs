@@ -13,7 +13,7 @@ use crate::solver::FluidSolver;
 use couplet_protocol::state::{
     StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
 };
-use couplet_protocol::transport::{Control, Endpoint, TransportError, parent_alive};
+use couplet_protocol::transport::{Control, Endpoint, Orchestrator, TransportError};
 use couplet_protocol::{
     BodyLoad, BodyState, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, ParticleRecord, Role,
     Scene, ServiceLeaf, SideReport, WindowHeader, monotonic_ns, validate_points, validate_states,
@@ -43,9 +43,17 @@ pub enum ServerError {
 }
 
 /// Runs the fluid side of run `run_id` until the orchestrator says shutdown or goes away;
-/// from the checkpoint `dirs.restore` when given.
-pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), ServerError> {
-    let parent = std::os::unix::process::parent_id();
+/// from the checkpoint `dirs.restore` when given. `orchestrator` says how to tell that it
+/// is still there (it started this process, or it runs apart); `scene_digest` is
+/// [`couplet_protocol::scene_digest`] of the scene file loaded, which the orchestrator
+/// checks against its own.
+pub fn serve(
+    run_id: &str,
+    scene: &Scene,
+    orchestrator: &Orchestrator,
+    scene_digest: u32,
+    dirs: &StateDirs,
+) -> Result<(), ServerError> {
     if scene.fluid.is_none() {
         return Err(ServerError::NoFluid);
     }
@@ -67,7 +75,7 @@ pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), Server
     let counts = solver.counts();
     let limits = solver.limits();
 
-    let ep = Endpoint::new(run_id)?;
+    let ep = Endpoint::named(run_id, Role::Fluid.name())?;
     let commands = Control::command_receiver(&ep)?;
     let report = Control::report_sender(&ep)?;
     let points_rx = ep.slice_receiver::<CouplingPoint>(ServiceLeaf::Points)?;
@@ -81,23 +89,40 @@ pub fn serve(run_id: &str, scene: &Scene, dirs: &StateDirs) -> Result<(), Server
 
     // Kept for the whole run: a dropped publisher takes its undelivered samples with it.
     let hello = Control::hello_sender(&ep)?;
-    hello.send(Hello {
+    let greeting = Hello {
         protocol_version: PROTOCOL_VERSION,
         role: Role::Fluid as u32,
         pid: std::process::id(),
+        scene_digest,
         dt_limit: limits.dt,
         dt_acoustic: limits.dt_acoustic,
         dt_viscous: limits.dt_viscous,
         count: counts.fluid as u64,
-        ..Default::default()
-    })?;
+    };
+    hello.send(greeting)?;
     wake_orchestrator.wake()?;
 
-    let alive = || parent_alive(parent);
+    let alive = || orchestrator.check();
     let mut points: Vec<CouplingPoint> = Vec::new();
     let mut states: Vec<BodyState> = Vec::new();
+    let mut heard = false;
     loop {
-        let cmd = wake.wait_for(|| commands.try_next(), alive)?;
+        let cmd = if orchestrator.is_detached() && !heard {
+            // Started apart, this server may say hello before the orchestrator listens,
+            // and a hello sent to no subscriber is lost: it is said again every wait
+            // slice until the first command shows that it was heard.
+            wake.wait_for(
+                || commands.try_next(),
+                || {
+                    orchestrator.check()?;
+                    hello.send(greeting)?;
+                    wake_orchestrator.wake()
+                },
+            )?
+        } else {
+            wake.wait_for(|| commands.try_next(), alive)?
+        };
+        heard = true;
         if cmd.protocol_version != PROTOCOL_VERSION {
             return Err(ServerError::Version {
                 step: cmd.step,

@@ -138,6 +138,8 @@ pub fn bench(
             max_windows: Some(windows),
             record: false,
             progress: false,
+            run_id: None,
+            external: Vec::new(),
         })?;
         let _ = std::fs::remove_dir_all(&out);
         let _ = writeln!(

@@ -6,6 +6,8 @@
 use crate::{RunOptions, RunSummary, bench, plan, run, validate};
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use couplet_protocol::Role;
+use couplet_protocol::transport::Orchestrator;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -61,6 +63,20 @@ enum Cmd {
         /// Stop after this many coupling windows.
         #[arg(long)]
         windows: Option<u64>,
+        /// The run's id (its iceoryx2 namespace). Default: made up from the pid and the
+        /// clock. Servers started apart (--external) are given the same id.
+        #[arg(long, value_name = "ID")]
+        run_id: Option<String>,
+        /// Do not start this server; wait (up to 300 s) for one started apart as
+        /// `couplet ROLE RUN_ID SCENE --detached`, on this scene file, sharing this
+        /// machine's /dev/shm and /tmp/iceoryx2 (another container); repeatable. Its
+        /// liveness is its iceoryx2 node: a dead one stops the run within a second. Not
+        /// with --set/--spacing: the server loads the scene file as it is, and the digest
+        /// of it in its hello must match this run's.
+        #[arg(long = "external", value_name = "ROLE", requires = "run_id",
+              conflicts_with_all = ["spacing", "set"],
+              value_parser = ["fluid-server", "dem-server"])]
+        external: Vec<String>,
     },
     /// Print the processes, GPU stages and time-step limits a scene will use, and why.
     Plan {
@@ -105,6 +121,23 @@ enum Cmd {
         /// with each of its schemes; a table of error against wall time and particles.
         #[arg(long, conflicts_with = "quick")]
         sweep: bool,
+        /// With --sweep: run only point K of the sweep (0-based, in the order
+        /// --list-points prints) and write its row to OUT/<scheme>-<spacing>/sweep-point.json
+        /// for --gather. One process per point fans a sweep out over a cluster (a job
+        /// array's index as K, a shared OUT); a run that fails is a row, not an error.
+        #[arg(long, requires = "sweep", value_name = "K")]
+        point: Option<usize>,
+        /// With --sweep: do not run; build the sweep's table (sweep.md, .csv, .svg in OUT)
+        /// from the rows its points wrote under OUT, the same table --sweep prints. Fails,
+        /// after writing the table of the rows found, when a point has no row.
+        #[arg(long, requires = "sweep", conflicts_with_all = ["point", "variants", "spacing", "set"])]
+        gather: bool,
+        /// With --sweep: print the number of points (the size of a job array) and exit.
+        #[arg(long, requires = "sweep", conflicts_with_all = ["point", "gather"])]
+        count: bool,
+        /// With --sweep: print each point, one a line (index, spacing in m, scheme), and exit.
+        #[arg(long, requires = "sweep", conflicts_with_all = ["point", "gather", "count"])]
+        list_points: bool,
         /// Run only this variant of a case made of several (its label as the report
         /// prints it, or its folder name: `--variant "water, ε = 0.8"` or
         /// `--variant water-ε-0.8`); repeatable. Default: every variant.
@@ -156,41 +189,58 @@ enum Cmd {
         #[command(subcommand)]
         cmd: crate::ctl::CtlCmd,
     },
-    /// (internal) Serve the fluid side of a run.
-    #[command(name = "fluid-server", hide = true)]
+    /// Serve the fluid side of run RUN_ID. `couplet run` starts it itself; start it by
+    /// hand, with --detached, for `couplet run --external fluid-server` (another container).
+    #[command(name = "fluid-server")]
     FluidServer {
         run_id: String,
         scene: PathBuf,
         #[command(flatten)]
-        dirs: ServerDirs,
+        start: ServerStart,
     },
-    /// (internal) Serve the DEM side of a run.
-    #[command(name = "dem-server", hide = true)]
+    /// Serve the DEM side of run RUN_ID. `couplet run` starts it itself; start it by hand,
+    /// with --detached, for `couplet run --external dem-server` (another container).
+    #[command(name = "dem-server")]
     DemServer {
         run_id: String,
         scene: PathBuf,
         #[command(flatten)]
-        dirs: ServerDirs,
+        start: ServerStart,
     },
 }
 
-/// Where a server writes checkpoints and what it starts from
-/// ([`couplet_protocol::state::StateDirs`]).
-#[derive(Debug, clap::Args)]
-pub struct ServerDirs {
-    /// Root folder of the run's checkpoints.
+/// How a server role was started.
+#[derive(clap::Args, Clone)]
+struct ServerStart {
+    /// Started apart from the orchestrator (`couplet run --run-id RUN_ID --external ROLE`,
+    /// on the same machine or in a container sharing its /dev/shm and /tmp/iceoryx2): wait
+    /// up to 300 s for it, say hello until it listens, and exit when its iceoryx2 node
+    /// goes. SCENE must be the file the orchestrator runs, unchanged (it checks).
+    #[arg(long)]
+    detached: bool,
+    /// Root folder of the run's checkpoints (`Checkpoint` commands write under it; the
+    /// orchestrator passes `OUT/checkpoints`).
     #[arg(long)]
     checkpoints: Option<PathBuf>,
-    /// Start from this checkpoint folder (`ROOT/step-N`).
+    /// Start from this checkpoint folder (`ROOT/step-N`) instead of the scene's initial
+    /// state.
     #[arg(long)]
     restore: Option<PathBuf>,
 }
 
-impl ServerDirs {
-    fn state_dirs(self) -> couplet_protocol::state::StateDirs {
+impl ServerStart {
+    fn state_dirs(&self) -> couplet_protocol::state::StateDirs {
         couplet_protocol::state::StateDirs {
-            checkpoints: self.checkpoints,
-            restore: self.restore,
+            checkpoints: self.checkpoints.clone(),
+            restore: self.restore.clone(),
+        }
+    }
+
+    fn orchestrator(&self, run_id: &str) -> Orchestrator {
+        if self.detached {
+            Orchestrator::detached(run_id)
+        } else {
+            Orchestrator::parent()
         }
     }
 }
@@ -218,6 +268,8 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             out,
             overrides,
             windows,
+            run_id,
+            external,
         } => {
             let s = run(&RunOptions {
                 scene: scene.clone(),
@@ -226,6 +278,14 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                 max_windows: windows,
                 record: true,
                 progress: true,
+                run_id,
+                external: external
+                    .iter()
+                    .map(|r| match r.as_str() {
+                        "fluid-server" => Role::Fluid,
+                        _ => Role::Dem,
+                    })
+                    .collect(),
             })
             .with_context(|| format!("running {}", scene.display()))?;
             println!("{}", summary_text(&s));
@@ -261,6 +321,85 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             if !r.passed() {
                 std::process::exit(1);
             }
+        }
+        Cmd::Validate {
+            name,
+            sweep: true,
+            count,
+            list_points,
+            ..
+        } if count || list_points => {
+            let specs = validate::sweep_specs(&name.unwrap_or_default())?;
+            if count {
+                println!("{}", specs.len());
+            } else {
+                for p in specs {
+                    println!("{}\t{:e}\t{}", p.index, p.spacing, p.scheme);
+                }
+            }
+        }
+        Cmd::Validate {
+            name,
+            sweep: true,
+            gather: true,
+            out,
+            ..
+        } => {
+            let name = name.unwrap_or_default();
+            let g = validate::sweep_gather(&name, out)
+                .with_context(|| format!("gathering the sweep of {name}"))?;
+            println!("{}", g.markdown);
+            if !g.missing.is_empty() {
+                anyhow::bail!(
+                    "{name}: {} of the sweep's points have no row yet (the table above leaves them out): {}",
+                    g.missing.len(),
+                    g.missing
+                        .iter()
+                        .map(|(k, f)| format!("point {k} ({})", f.display()))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            }
+        }
+        Cmd::Validate {
+            name,
+            sweep: true,
+            point: Some(point),
+            variants,
+            out,
+            scenes,
+            overrides,
+            ..
+        } => {
+            let name = name.unwrap_or_default();
+            let (p, row) = validate::sweep_point(
+                &name,
+                point,
+                &variants,
+                out,
+                &overrides.list()?,
+                scenes.as_deref(),
+                true,
+            )
+            .with_context(|| format!("sweeping {name}, point {point}"))?;
+            match &p.failure {
+                Some(f) => println!(
+                    "point {point} ({}, δ = {:e} m): the run failed: {f}",
+                    p.scheme, p.spacing
+                ),
+                None => println!(
+                    "point {point} ({}, δ = {:e} m): {} fluid particles, {:.1} s, error {}, all rows pass: {}",
+                    p.scheme,
+                    p.spacing,
+                    p.particles,
+                    p.wall_s,
+                    p.headline
+                        .as_ref()
+                        .map_or("none".into(), |(m, e)| format!("{e:e} ({m})")),
+                    p.passed
+                ),
+            }
+            println!("row: {}", row.display());
         }
         Cmd::Validate {
             name,
@@ -348,19 +487,22 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
         Cmd::FluidServer {
             run_id,
             scene,
-            dirs,
+            start,
         } => {
-            let s = couplet_protocol::Scene::load(&scene)?;
-            couplet_fluid::server::serve(&run_id, &s, &dirs.state_dirs())
+            let orchestrator = start.orchestrator(&run_id);
+            let (s, digest) = couplet_protocol::Scene::load_with_digest(&scene)?;
+            couplet_fluid::server::serve(&run_id, &s, &orchestrator, digest, &start.state_dirs())
                 .context("fluid-server")?;
         }
         Cmd::DemServer {
             run_id,
             scene,
-            dirs,
+            start,
         } => {
-            let s = couplet_protocol::Scene::load(&scene)?;
-            couplet_dem::server::serve(&run_id, &s, &dirs.state_dirs()).context("dem-server")?;
+            let orchestrator = start.orchestrator(&run_id);
+            let (s, digest) = couplet_protocol::Scene::load_with_digest(&scene)?;
+            couplet_dem::server::serve(&run_id, &s, &orchestrator, digest, &start.state_dirs())
+                .context("dem-server")?;
         }
     }
     Ok(())

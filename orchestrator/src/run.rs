@@ -16,10 +16,12 @@ use couplet_protocol::state::{
 };
 use couplet_protocol::transport::{
     Endpoint, SliceReceiver, TransportError, ValueReceiver, ValueSender, WakeListener, Waker,
+    node_alive,
 };
 use couplet_protocol::{
     BodyLoad, BodyState, Command, CommandKind, HandshakeError, Hello, Motion, PROTOCOL_VERSION,
-    ParticleRecord, Role, Scene, SceneError, ServiceLeaf, SideReport, check_hello,
+    ParticleRecord, Role, Scene, SceneError, ServiceLeaf, SideReport, check_hello_for,
+    scene_digest,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -60,6 +62,15 @@ pub enum RunError {
         got: u32,
         expected: u32,
     },
+    #[error("--external {role}: this scene starts no {role} (it has {what})")]
+    ExternalUnused {
+        role: &'static str,
+        what: &'static str,
+    },
+    #[error(
+        "run id `{0}` is taken: a live orchestrator already runs it (give each run its own --run-id)"
+    )]
+    RunIdTaken(String),
 }
 
 /// What `couplet run` (and `bench`) is asked to do.
@@ -76,6 +87,10 @@ pub struct RunOptions {
     pub record: bool,
     /// Show a progress bar.
     pub progress: bool,
+    /// The run's id (iceoryx2 namespace); None: made up from the pid and the clock.
+    pub run_id: Option<String>,
+    /// Servers started apart (`couplet ROLE RUN_ID SCENE --detached`), not by this run.
+    pub external: Vec<Role>,
 }
 
 /// Measured over a run.
@@ -123,19 +138,51 @@ pub fn resolve_scene(
     Ok((scene, text))
 }
 
+/// A server of the run: a child process, or one started apart (`--external`).
+enum Peer {
+    Child(Server),
+    External {
+        role: Role,
+        run_id: String,
+        greeted: bool,
+    },
+}
+
+impl Peer {
+    fn check(&mut self) -> Result<(), TransportError> {
+        match self {
+            Peer::Child(s) => s
+                .check()
+                .map_err(|e| TransportError::PeerGone(e.to_string())),
+            // Before its hello the handshake's time-out bounds the wait; after it the
+            // server's iceoryx2 node is its pulse (it is no child to wait on).
+            Peer::External { greeted: false, .. } => Ok(()),
+            Peer::External { role, run_id, .. } => {
+                if node_alive(run_id, role.name())? {
+                    Ok(())
+                } else {
+                    Err(TransportError::PeerGone(format!(
+                        "the {} of run {run_id}, started apart, has exited (its iceoryx2 node is gone)",
+                        role.name()
+                    )))
+                }
+            }
+        }
+    }
+}
+
 struct Peers {
-    fluid: Option<Server>,
-    dem: Option<Server>,
+    fluid: Option<Peer>,
+    dem: Option<Peer>,
 }
 
 impl Peers {
     fn check(&mut self) -> Result<(), TransportError> {
-        for s in [self.fluid.as_mut(), self.dem.as_mut()]
+        for p in [self.fluid.as_mut(), self.dem.as_mut()]
             .into_iter()
             .flatten()
         {
-            s.check()
-                .map_err(|e| TransportError::PeerGone(e.to_string()))?;
+            p.check()?;
         }
         Ok(())
     }
@@ -160,6 +207,8 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
             max_windows: opts.max_windows,
             server_exe: None,
             restore: None,
+            run_id: opts.run_id.clone(),
+            external: opts.external.clone(),
         },
     )?;
     let bar = progress_bar(opts.progress, run.end_time());
@@ -197,6 +246,11 @@ pub struct LaunchOptions {
     /// written by [`CoupledRun::checkpoint`]) instead of the scene's initial state; the
     /// scene must be the checkpoint's own `scene.toml`.
     pub restore: Option<PathBuf>,
+    /// The run's id (iceoryx2 namespace); None: made up from the pid and the clock.
+    pub run_id: Option<String>,
+    /// Roles not to start: servers started apart (`couplet ROLE RUN_ID SCENE --detached`),
+    /// waited for by their hello and watched through their iceoryx2 nodes.
+    pub external: Vec<Role>,
 }
 
 /// The orchestrator's part of a checkpoint: where the run stands between windows.
@@ -271,6 +325,8 @@ pub struct CoupledRun {
     wake: WakeListener,
     wake_fluid: Waker,
     wake_dem: Waker,
+    /// [`scene_digest`] of the scene text the servers must have loaded.
+    scene_digest: u32,
     _endpoint: Endpoint,
 }
 
@@ -288,6 +344,17 @@ impl CoupledRun {
         if !has_fluid && !has_dem {
             return Err(RunError::Empty);
         }
+        for (role, has, what) in [
+            (Role::Fluid, has_fluid, "no [fluid]"),
+            (Role::Dem, has_dem, "no body that needs a DEM"),
+        ] {
+            if opts.external.contains(&role) && !has {
+                return Err(RunError::ExternalUnused {
+                    role: role.name(),
+                    what,
+                });
+            }
+        }
         std::fs::create_dir_all(out).map_err(|source| RunError::Io {
             what: format!("creating {}", out.display()),
             source,
@@ -298,12 +365,18 @@ impl CoupledRun {
             source,
         })?;
 
-        let run_id = format!(
-            "{}-{}",
-            std::process::id(),
-            couplet_protocol::monotonic_ns() % 1_000_000_000
-        );
-        let ep = Endpoint::new(&run_id)?;
+        let run_id = opts.run_id.clone().unwrap_or_else(|| {
+            format!(
+                "{}-{}",
+                std::process::id(),
+                couplet_protocol::monotonic_ns() % 1_000_000_000
+            )
+        });
+        // Two orchestrators in one namespace would take each other's reports.
+        if node_alive(&run_id, Role::Orchestrator.name())? {
+            return Err(RunError::RunIdTaken(run_id));
+        }
+        let ep = Endpoint::named(&run_id, Role::Orchestrator.name())?;
         let recorder = if opts.record {
             Some(Outputs::create(out, &scene, text)?)
         } else {
@@ -343,6 +416,7 @@ impl CoupledRun {
             wake: ep.wake_listener(ServiceLeaf::OrchestratorWake)?,
             wake_fluid: ep.waker(ServiceLeaf::FluidWake)?,
             wake_dem: ep.waker(ServiceLeaf::DemWake)?,
+            scene_digest: scene_digest(text),
             _endpoint: ep,
             scene,
             text: text.to_owned(),
@@ -354,10 +428,20 @@ impl CoupledRun {
             checkpoints: Some(run.checkpoints.clone()),
             restore: opts.restore.clone(),
         };
-        let spawn = |role| Server::spawn(role, &run_id, &scene_path, &dirs, exe);
+        let start = |role| -> Result<Peer, LaunchError> {
+            if opts.external.contains(&role) {
+                Ok(Peer::External {
+                    role,
+                    run_id: run_id.clone(),
+                    greeted: false,
+                })
+            } else {
+                Server::spawn(role, &run_id, &scene_path, &dirs, exe).map(Peer::Child)
+            }
+        };
         let started = (|| {
-            run.peers.fluid = has_fluid.then(|| spawn(Role::Fluid)).transpose()?;
-            run.peers.dem = has_dem.then(|| spawn(Role::Dem)).transpose()?;
+            run.peers.fluid = has_fluid.then(|| start(Role::Fluid)).transpose()?;
+            run.peers.dem = has_dem.then(|| start(Role::Dem)).transpose()?;
             run.handshake(opts.max_windows)?;
             match &opts.restore {
                 Some(dir) => run.resume(dir, opts.max_windows),
@@ -386,16 +470,46 @@ impl CoupledRun {
                 || {
                     peers.check()?;
                     if start.elapsed() > HELLO_TIMEOUT {
-                        return Err(TransportError::PeerGone(format!(
-                            "no hello within {HELLO_TIMEOUT:?}"
-                        )));
+                        let apart: Vec<String> = [&peers.fluid, &peers.dem]
+                            .into_iter()
+                            .flatten()
+                            .filter_map(|p| match p {
+                                Peer::External {
+                                    role,
+                                    run_id,
+                                    greeted: false,
+                                } => Some(format!(
+                                    "`couplet {} {run_id} SCENE --detached`",
+                                    role.name()
+                                )),
+                                _ => None,
+                            })
+                            .collect();
+                        return Err(TransportError::PeerGone(if apart.is_empty() {
+                            format!("no hello within {HELLO_TIMEOUT:?}")
+                        } else {
+                            format!(
+                                "no hello within {HELLO_TIMEOUT:?} from the servers started apart: {}",
+                                apart.join(", ")
+                            )
+                        }));
                     }
                     Ok(())
                 },
             )?;
-            match check_hello(&h)? {
-                Role::Dem => dem_hello = Some(h),
-                _ => fluid_hello = Some(h),
+            let role = check_hello_for(&h, self.scene_digest)?;
+            let peer = match role {
+                Role::Dem => {
+                    dem_hello = Some(h);
+                    self.peers.dem.as_mut()
+                }
+                _ => {
+                    fluid_hello = Some(h);
+                    self.peers.fluid.as_mut()
+                }
+            };
+            if let Some(Peer::External { greeted, .. }) = peer {
+                *greeted = true;
             }
         }
         self.plan = choose_window(
@@ -797,11 +911,15 @@ impl CoupledRun {
         });
         let _ = self.wake_fluid.wake();
         let _ = self.wake_dem.wake();
-        for s in [self.peers.fluid.as_mut(), self.peers.dem.as_mut()]
+        // A server started apart exits on the shutdown command, or within a second of
+        // this process's node going; it is no child to wait for or kill.
+        for p in [self.peers.fluid.as_mut(), self.peers.dem.as_mut()]
             .into_iter()
             .flatten()
         {
-            s.finish(grace);
+            if let Peer::Child(s) = p {
+                s.finish(grace);
+            }
         }
         if let Some(r) = self.recorder.as_mut() {
             r.close()?;

@@ -307,6 +307,8 @@ impl CoupletService {
                 max_windows: None,
                 server_exe: self.cfg.server_exe.clone(),
                 restore,
+                run_id: None,
+                external: Vec::new(),
             };
             let h = handle.clone();
             std::thread::Builder::new()

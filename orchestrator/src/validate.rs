@@ -37,6 +37,25 @@ pub enum ValidateError {
     },
     #[error("{0}")]
     Analysis(String),
+    #[error("case `{0}` has no sweep (no spacings or schemes to run)")]
+    NoSweep(String),
+    #[error("case `{case}`'s sweep has {count} points, 0 to {}: there is no point {point}", count - 1)]
+    PointOutOfRange {
+        case: String,
+        point: usize,
+        count: usize,
+    },
+    #[error("{}: not a row of this sweep: {why}", file.display())]
+    BadRow { file: PathBuf, why: String },
+    #[error(
+        "no row of case `{case}`'s sweep under {} (none of its {count} points has written its {SWEEP_ROW_FILE})",
+        out.display()
+    )]
+    NoRows {
+        case: String,
+        out: PathBuf,
+        count: usize,
+    },
 }
 
 /// A case's judgement of its variants' reports against each other.
@@ -864,6 +883,8 @@ fn run_one(
         max_windows: None,
         record: true,
         progress,
+        run_id: None,
+        external: Vec::new(),
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
     let rec = read_recording(&out.join("run.mcap")).map_err(ValidateError::Recording)?;
@@ -912,7 +933,7 @@ fn analysed(
 }
 
 /// One run of a sweep.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SweepPoint {
     pub scheme: String,
     pub spacing: f64,
@@ -924,9 +945,69 @@ pub struct SweepPoint {
     pub failure: Option<String>,
 }
 
+/// Where a point of a case's sweep sits in its order, and what it runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepSpec {
+    /// 0-based, in the sweep's order (`--point K`, the array index of a fan-out).
+    pub index: usize,
+    pub scheme: &'static str,
+    pub scheme_overrides: &'static [&'static str],
+    /// m.
+    pub spacing: f64,
+}
+
+impl SweepSpec {
+    /// The run's folder under the sweep's `OUT`.
+    pub fn dir(&self, out: &Path) -> PathBuf {
+        out.join(format!("{}-{:e}", slug(self.scheme), self.spacing))
+    }
+
+    /// The row a point leaves for `--gather`, beside its run.
+    pub fn row_file(&self, out: &Path) -> PathBuf {
+        self.dir(out).join(SWEEP_ROW_FILE)
+    }
+}
+
+/// The file name of a sweep point's row, in the point's run folder.
+pub const SWEEP_ROW_FILE: &str = "sweep-point.json";
+
+/// The points of case `name`'s sweep, in the order the sweep runs them: coarse first,
+/// every scheme at each spacing, so that an interrupted sweep still compares the schemes
+/// at the spacings it finished.
+pub fn sweep_specs(name: &str) -> Result<Vec<SweepSpec>, ValidateError> {
+    let case = find(name)?;
+    let specs: Vec<SweepSpec> = case
+        .sweep_spacings
+        .iter()
+        .flat_map(|&spacing| {
+            case.sweep_schemes
+                .iter()
+                .map(move |&(scheme, scheme_overrides)| (scheme, scheme_overrides, spacing))
+        })
+        .enumerate()
+        .map(|(index, (scheme, scheme_overrides, spacing))| SweepSpec {
+            index,
+            scheme,
+            scheme_overrides,
+            spacing,
+        })
+        .collect();
+    if specs.is_empty() {
+        return Err(ValidateError::NoSweep(name.to_owned()));
+    }
+    Ok(specs)
+}
+
+fn default_sweep_out(name: &str) -> PathBuf {
+    PathBuf::from("out")
+        .join("validate")
+        .join(format!("{name}-sweep"))
+}
+
 /// `couplet validate NAME --sweep`: the quick version at every spacing × scheme of the
-/// case, each into `OUT/<scheme>-<spacing>/`; the table (markdown and CSV) and a plot of
-/// the error against wall time go to `OUT`. Returns the markdown.
+/// case, each into `OUT/<scheme>-<spacing>/` with its row beside it; the table
+/// (markdown and CSV) and a plot of the error against wall time go to `OUT`. Returns the
+/// markdown.
 pub fn sweep(
     name: &str,
     only: &[String],
@@ -935,53 +1016,264 @@ pub fn sweep(
     scenes_dir: Option<&Path>,
     progress: bool,
 ) -> Result<String, ValidateError> {
-    let case = find(name)?;
-    let variants = chosen_variants(case, true, only)?;
-    let out = out.unwrap_or_else(|| {
-        PathBuf::from("out")
-            .join("validate")
-            .join(format!("{name}-sweep"))
-    });
+    let specs = sweep_specs(name)?;
+    let out = out.unwrap_or_else(|| default_sweep_out(name));
     let mut points = Vec::new();
     let mut md = String::new();
-    // Coarse first, every scheme at each spacing: an interrupted sweep still compares
-    // the schemes at the spacings it finished.
-    for &spacing in case.sweep_spacings {
-        for (label, scheme) in case.sweep_schemes {
-            let mut o = pairs(case.quick);
-            o.extend(pairs(scheme));
-            o.push(("fluid.spacing".into(), format!("{spacing:e}")));
-            let dir = out.join(format!("{}-{spacing:e}", slug(label)));
-            eprintln!("sweep {name}: {label}, δ = {spacing:e} m …");
-            let t0 = Instant::now();
-            // A run that fails (a blow-up, say) is a result of the sweep, not its end.
-            let point = match run_case(case, &variants, true, &o, extra, dir, scenes_dir, progress)
-            {
-                Ok(r) => SweepPoint {
-                    scheme: (*label).into(),
-                    spacing,
-                    particles: r.particles,
-                    wall_s: r.wall_s,
-                    headline: r.headline.clone(),
-                    passed: r.passed(),
-                    failure: None,
-                },
-                Err(e) => SweepPoint {
-                    scheme: (*label).into(),
-                    spacing,
-                    particles: 0,
-                    wall_s: t0.elapsed().as_secs_f64(),
-                    headline: None,
-                    passed: false,
-                    failure: Some(e.to_string()),
-                },
-            };
-            points.push(point);
-            // Written after every run, so an interrupted sweep keeps what it measured.
-            md = write_sweep(name, &out, &points)?;
-        }
+    for spec in &specs {
+        points.push(sweep_point_into(
+            name, spec, only, &out, extra, scenes_dir, progress,
+        )?);
+        // Written after every run, so an interrupted sweep keeps what it measured.
+        md = write_sweep(name, &out, &points)?;
     }
     Ok(md)
+}
+
+/// `couplet validate NAME --sweep --point K`: runs only the K-th point of the sweep
+/// (0-based, [`sweep_specs`] order) into `OUT/<scheme>-<spacing>/` and writes its row
+/// there for [`sweep_gather`]. Fanned out, one process per point, the points of a sweep
+/// share one `OUT` (a shared volume) and write disjoint folders. A run that fails is a
+/// row of the table, not an error: only what stops the row being written is.
+pub fn sweep_point(
+    name: &str,
+    point: usize,
+    only: &[String],
+    out: Option<PathBuf>,
+    extra: &[(String, String)],
+    scenes_dir: Option<&Path>,
+    progress: bool,
+) -> Result<(SweepPoint, PathBuf), ValidateError> {
+    let specs = sweep_specs(name)?;
+    let spec = specs
+        .get(point)
+        .ok_or_else(|| ValidateError::PointOutOfRange {
+            case: name.to_owned(),
+            point,
+            count: specs.len(),
+        })?;
+    let out = out.unwrap_or_else(|| default_sweep_out(name));
+    let p = sweep_point_into(name, spec, only, &out, extra, scenes_dir, progress)?;
+    Ok((p, spec.row_file(&out)))
+}
+
+/// Runs one point of the sweep and writes its row file.
+fn sweep_point_into(
+    name: &str,
+    spec: &SweepSpec,
+    only: &[String],
+    out: &Path,
+    extra: &[(String, String)],
+    scenes_dir: Option<&Path>,
+    progress: bool,
+) -> Result<SweepPoint, ValidateError> {
+    let case = find(name)?;
+    let variants = chosen_variants(case, true, only)?;
+    let mut o = pairs(case.quick);
+    o.extend(pairs(spec.scheme_overrides));
+    o.push(("fluid.spacing".into(), format!("{:e}", spec.spacing)));
+    eprintln!(
+        "sweep {name}: point {} ({}, δ = {:e} m) …",
+        spec.index, spec.scheme, spec.spacing
+    );
+    let t0 = Instant::now();
+    // A run that fails (a blow-up, say) is a result of the sweep, not its end.
+    let point = match run_case(
+        case,
+        &variants,
+        true,
+        &o,
+        extra,
+        spec.dir(out),
+        scenes_dir,
+        progress,
+    ) {
+        Ok(r) => SweepPoint {
+            scheme: spec.scheme.into(),
+            spacing: spec.spacing,
+            particles: r.particles,
+            wall_s: r.wall_s,
+            headline: r.headline.clone(),
+            passed: r.passed(),
+            failure: None,
+        },
+        Err(e) => SweepPoint {
+            scheme: spec.scheme.into(),
+            spacing: spec.spacing,
+            particles: 0,
+            wall_s: t0.elapsed().as_secs_f64(),
+            headline: None,
+            passed: false,
+            failure: Some(e.to_string()),
+        },
+    };
+    write_sweep_row(name, spec, out, &point)?;
+    Ok(point)
+}
+
+/// Writes `point`, the result of `spec`, as its row file under `out`.
+fn write_sweep_row(
+    name: &str,
+    spec: &SweepSpec,
+    out: &Path,
+    point: &SweepPoint,
+) -> Result<(), ValidateError> {
+    let dir = spec.dir(out);
+    std::fs::create_dir_all(&dir).map_err(|source| ValidateError::Io {
+        what: format!("creating {}", dir.display()),
+        source,
+    })?;
+    // The error as text: JSON has no NaN, and a headline may be one (a failed fit).
+    let headline = point
+        .headline
+        .as_ref()
+        .map(|(measure, e)| serde_json::json!({ "measure": measure, "error": format!("{e:e}") }));
+    let row = serde_json::json!({
+        "case": name,
+        "index": spec.index,
+        "scheme": point.scheme,
+        "spacing_m": point.spacing,
+        "fluid_particles": point.particles,
+        "wall_s": point.wall_s,
+        "headline": headline,
+        "passed": point.passed,
+        "failure": point.failure,
+    });
+    let path = spec.row_file(out);
+    // Written whole then renamed: a gather that runs while a point finishes never
+    // reads half a row.
+    let tmp = path.with_extension("json.part");
+    std::fs::write(&tmp, format!("{row:#}\n"))
+        .and_then(|()| std::fs::rename(&tmp, &path))
+        .map_err(|source| ValidateError::Io {
+            what: format!("writing {}", path.display()),
+            source,
+        })
+}
+
+/// Reads the row file `path` and checks that it is point `spec` of case `name`.
+fn read_sweep_row(name: &str, spec: &SweepSpec, path: &Path) -> Result<SweepPoint, ValidateError> {
+    let bad = |why: String| ValidateError::BadRow {
+        file: path.to_owned(),
+        why,
+    };
+    let text = std::fs::read_to_string(path).map_err(|source| ValidateError::Io {
+        what: format!("reading {}", path.display()),
+        source,
+    })?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
+    let field = |k: &str| v.get(k).ok_or_else(|| bad(format!("no field `{k}`")));
+    let string = |k: &str| {
+        field(k)?
+            .as_str()
+            .map(str::to_owned)
+            .ok_or_else(|| bad(format!("`{k}` is not a string")))
+    };
+    let number = |k: &str| {
+        field(k)?
+            .as_f64()
+            .ok_or_else(|| bad(format!("`{k}` is not a number")))
+    };
+    let integer = |k: &str| {
+        field(k)?
+            .as_u64()
+            .ok_or_else(|| bad(format!("`{k}` is not a whole number")))
+    };
+    let (case, index, scheme, spacing) = (
+        string("case")?,
+        integer("index")?,
+        string("scheme")?,
+        number("spacing_m")?,
+    );
+    // A row from another case, or from a build whose sweep lists differ, would put a
+    // number in the wrong line of the table.
+    if case != name
+        || index != spec.index as u64
+        || scheme != spec.scheme
+        || spacing != spec.spacing
+    {
+        return Err(bad(format!(
+            "it is point {index} of `{case}` ({scheme}, δ = {spacing:e} m); this folder of the sweep holds point {} of `{name}` ({}, δ = {:e} m)",
+            spec.index, spec.scheme, spec.spacing
+        )));
+    }
+    let headline = match field("headline")? {
+        serde_json::Value::Null => None,
+        h => {
+            let measure = h.get("measure").and_then(|m| m.as_str());
+            let error = h
+                .get("error")
+                .and_then(|e| e.as_str())
+                .and_then(|e| e.parse::<f64>().ok());
+            match (measure, error) {
+                (Some(m), Some(e)) => Some((m.to_owned(), e)),
+                _ => {
+                    return Err(bad(
+                        "`headline` must be null or {\"measure\": text, \"error\": a number as text}"
+                            .into(),
+                    ));
+                }
+            }
+        }
+    };
+    let failure = match field("failure")? {
+        serde_json::Value::Null => None,
+        f => Some(
+            f.as_str()
+                .ok_or_else(|| bad("`failure` must be null or text".into()))?
+                .to_owned(),
+        ),
+    };
+    Ok(SweepPoint {
+        scheme,
+        spacing,
+        particles: integer("fluid_particles")? as usize,
+        wall_s: number("wall_s")?,
+        headline,
+        passed: field("passed")?
+            .as_bool()
+            .ok_or_else(|| bad("`passed` is not true or false".into()))?,
+        failure,
+    })
+}
+
+/// What [`sweep_gather`] found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gathered {
+    /// The table of the rows found, as `--sweep` prints it.
+    pub markdown: String,
+    /// Points with no row yet, with the file each should have written.
+    pub missing: Vec<(usize, PathBuf)>,
+}
+
+/// `couplet validate NAME --sweep --gather`: reads the rows the points wrote under
+/// `OUT` and writes the sweep's table, CSV and plot there, exactly as `--sweep` run in
+/// one process would. Points without a row are left out of the table and listed.
+pub fn sweep_gather(name: &str, out: Option<PathBuf>) -> Result<Gathered, ValidateError> {
+    let specs = sweep_specs(name)?;
+    let out = out.unwrap_or_else(|| default_sweep_out(name));
+    let mut points = Vec::new();
+    let mut missing = Vec::new();
+    for spec in &specs {
+        let path = spec.row_file(&out);
+        if path.is_file() {
+            points.push(read_sweep_row(name, spec, &path)?);
+        } else {
+            missing.push((spec.index, path));
+        }
+    }
+    if points.is_empty() {
+        return Err(ValidateError::NoRows {
+            case: name.to_owned(),
+            out,
+            count: specs.len(),
+        });
+    }
+    Ok(Gathered {
+        markdown: write_sweep(name, &out, &points)?,
+        missing,
+    })
 }
 
 /// A folder name for a scheme label: "corrected + shifting" → "corrected-shifting".
@@ -3768,6 +4060,167 @@ pub fn joubert_terminal_velocity(radius: f64, rho_s: f64, rho_f: f64, nu: f64, g
 mod tests {
     use super::*;
     use crate::record::LoadSample;
+
+    /// A fresh folder under the system's temp dir, removed when dropped.
+    struct TempDir(PathBuf);
+    impl TempDir {
+        fn new(tag: &str) -> Self {
+            let d = std::env::temp_dir().join(format!(
+                "couplet-{tag}-{}-{}",
+                std::process::id(),
+                couplet_protocol::monotonic_ns()
+            ));
+            std::fs::create_dir_all(&d).unwrap();
+            Self(d)
+        }
+    }
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// Synthetic results for every point of the hydrostatic tank's sweep (3 spacings × 3
+    /// schemes): one failed run, one NaN headline (a fit that did not converge), the rest
+    /// with errors that shrink with the spacing.
+    fn synthetic_points(specs: &[SweepSpec]) -> Vec<SweepPoint> {
+        specs
+            .iter()
+            .map(|s| SweepPoint {
+                scheme: s.scheme.into(),
+                spacing: s.spacing,
+                particles: (0.4 / s.spacing).powi(2) as usize,
+                wall_s: 1.5 + s.index as f64,
+                headline: match s.index {
+                    4 => None,
+                    5 => Some(("pressure error".into(), f64::NAN)),
+                    k => Some(("pressure error".into(), 0.3 * s.spacing + 1e-4 * k as f64)),
+                },
+                passed: s.index % 3 != 0 && s.index != 4,
+                failure: (s.index == 4).then(|| "fluid blew up at t = 0.12 s | step 40".into()),
+            })
+            .collect()
+    }
+
+    /// The fan-out of a sweep: rows written by the points, each into its own folder,
+    /// gather into exactly the table (markdown, CSV) that one sweep over the same results
+    /// writes, every field surviving the round trip (a NaN headline and a failure message
+    /// with a `|` included).
+    #[test]
+    fn gathered_rows_make_the_sweeps_table() {
+        let specs = sweep_specs("hydrostatic-tank").unwrap();
+        assert_eq!(specs.len(), 9);
+        assert_eq!(
+            (specs[4].index, specs[4].scheme, specs[4].spacing),
+            (4, "δ-SPH 0.1", 0.02)
+        );
+        let points = synthetic_points(&specs);
+        let (fanned, single) = (TempDir::new("fanout"), TempDir::new("single"));
+        for (spec, p) in specs.iter().zip(&points) {
+            write_sweep_row("hydrostatic-tank", spec, &fanned.0, p).unwrap();
+        }
+        assert!(
+            fanned
+                .0
+                .join("δ-SPH-0.1-2e-2")
+                .join(SWEEP_ROW_FILE)
+                .is_file()
+        );
+        let g = sweep_gather("hydrostatic-tank", Some(fanned.0.clone())).unwrap();
+        assert!(g.missing.is_empty(), "{:?}", g.missing);
+        let md = write_sweep("hydrostatic-tank", &single.0, &points).unwrap();
+        assert_eq!(g.markdown, md);
+        let csv = |d: &Path| std::fs::read_to_string(d.join("sweep.csv")).unwrap();
+        assert_eq!(csv(&fanned.0), csv(&single.0));
+        for (spec, p) in specs.iter().zip(&points) {
+            let back = read_sweep_row("hydrostatic-tank", spec, &spec.row_file(&fanned.0)).unwrap();
+            let nan = |p: &SweepPoint| p.headline.as_ref().is_some_and(|h| h.1.is_nan());
+            if nan(p) {
+                assert!(nan(&back));
+            } else {
+                assert_eq!(&back, p);
+            }
+        }
+        assert_eq!(md.lines().count(), 4 + 9, "{md}");
+        assert!(
+            md.contains("run failed: fluid blew up at t = 0.12 s / step 40"),
+            "{md}"
+        );
+    }
+
+    /// A point that has not written its row is left out of the table and named; a row
+    /// that belongs to another point or case is refused, naming the file and both points.
+    #[test]
+    fn gather_names_missing_points_and_refuses_foreign_rows() {
+        let specs = sweep_specs("hydrostatic-tank").unwrap();
+        let points = synthetic_points(&specs);
+        let dir = TempDir::new("gather");
+        for (spec, p) in specs.iter().zip(&points).filter(|(s, _)| s.index != 7) {
+            write_sweep_row("hydrostatic-tank", spec, &dir.0, p).unwrap();
+        }
+        let g = sweep_gather("hydrostatic-tank", Some(dir.0.clone())).unwrap();
+        assert_eq!(g.missing, vec![(7, specs[7].row_file(&dir.0))]);
+        assert_eq!(g.markdown.lines().count(), 4 + 8);
+        assert_eq!(specs[7].scheme, "δ-SPH 0.1");
+        assert!(
+            !g.markdown.contains("| δ-SPH 0.1 | 1e-2 |"),
+            "{}",
+            g.markdown
+        );
+        assert!(
+            g.markdown.contains("| shifting 0.1 | 1e-2 |"),
+            "{}",
+            g.markdown
+        );
+
+        // Point 0's result written where point 7 belongs.
+        write_sweep_row(
+            "hydrostatic-tank",
+            &SweepSpec {
+                index: 0,
+                ..specs[7]
+            },
+            &dir.0,
+            &points[0],
+        )
+        .unwrap();
+        let e = sweep_gather("hydrostatic-tank", Some(dir.0.clone()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("δ-SPH-0.1-1e-2/sweep-point.json"), "{e}");
+        assert!(
+            e.contains("it is point 0 of `hydrostatic-tank` (standard, δ = 4e-2 m)"),
+            "{e}"
+        );
+        assert!(
+            e.contains("holds point 7 of `hydrostatic-tank` (δ-SPH 0.1, δ = 1e-2 m)"),
+            "{e}"
+        );
+
+        // The same folder read as another case's sweep.
+        let e = read_sweep_row("settling-sphere", &specs[1], &specs[1].row_file(&dir.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("of `hydrostatic-tank`"), "{e}");
+    }
+
+    /// `--point K` outside the sweep and a case without a sweep are refused with the
+    /// valid range, before anything runs.
+    #[test]
+    fn sweep_point_out_of_range_is_refused() {
+        let e = sweep_point("settling-sphere", 9, &[], None, &[], None, false)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "case `settling-sphere`'s sweep has 9 points, 0 to 8: there is no point 9"
+        );
+        let e = sweep_specs("constant-porosity-block")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("has no sweep"), "{e}");
+        assert!(sweep_specs("no-such-case").is_err());
+    }
 
     /// Every CPB variant, full and quick, resolves to a valid scene whose column tiles
     /// both lattices (a whole number of lattice spacings Δr(ε) and of fluid spacings δ

@@ -2,10 +2,10 @@
 //! iceoryx2 service names, protocol version and handshake, validation of received data,
 //! checkpoint state files, and the gRPC control API.
 
-pub use handshake::{HandshakeError, check_hello};
+pub use handshake::{HandshakeError, check_hello, check_hello_for};
 pub use payload::{
     BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION,
-    ParticleRecord, Role, SideReport, WindowHeader, monotonic_ns,
+    ParticleRecord, Role, SideReport, WindowHeader, monotonic_ns, scene_digest,
 };
 pub use scene::{
     BodySpec, ContactLaw, CouplingMode, CouplingScheme, DemSpec, Domain, DragLawName, EffectsSpec,

@@ -148,6 +148,14 @@ impl Role {
     }
 }
 
+/// FNV-1a (32 bit) of a scene's TOML text, as loaded: the same text gives the same
+/// digest on every machine; any edit, override included, changes it.
+pub fn scene_digest(text: &str) -> u32 {
+    text.bytes().fold(0x811c_9dc5_u32, |h, b| {
+        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    })
+}
+
 /// First message of each server: who it is, which protocol it speaks, and the
 /// time-step limits it will need (the orchestrator picks the window from them).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
@@ -157,7 +165,9 @@ pub struct Hello {
     /// [`Role`] as u32.
     pub role: u32,
     pub pid: u32,
-    pub _pad: u32,
+    /// [`scene_digest`] of the scene file this server loaded: the orchestrator refuses a
+    /// server that runs another scene (one started apart, on the wrong file).
+    pub scene_digest: u32,
     /// Largest stable step of this side, s (fluid: Joubert eq. 24; DEM: contact step).
     pub dt_limit: f64,
     /// Acoustic CFL limit, s (fluid only, else 0).

@@ -952,6 +952,19 @@ impl Scene {
         Self::parse(&text, path)
     }
 
+    /// [`Scene::load`], with [`crate::payload::scene_digest`] of the text read: what a
+    /// server says in its hello, so that the orchestrator knows it runs the same scene.
+    pub fn load_with_digest(path: &Path) -> Result<(Self, u32), SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            file: path.to_owned(),
+            source,
+        })?;
+        Ok((
+            Self::parse(&text, path)?,
+            crate::payload::scene_digest(&text),
+        ))
+    }
+
     /// Parses and checks scene text; `file` is only used in error messages.
     pub fn parse(text: &str, file: &Path) -> Result<Self, SceneError> {
         let scene: Scene = toml::from_str(text).map_err(|e| {

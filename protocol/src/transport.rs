@@ -11,6 +11,7 @@ use crate::payload::{Command, Hello, SideReport, WindowHeader};
 use crate::service::{ServiceLeaf, service_name};
 use crate::validate::{ValidationError, validate_header};
 use core::fmt::Debug;
+use iceoryx2::node::{NodeState, NodeView};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
@@ -77,12 +78,24 @@ pub struct Endpoint {
 
 impl Endpoint {
     pub fn new(run_id: &str) -> Result<Self, TransportError> {
-        // iceoryx2 warns that it runs on its default config; couplet means it to.
-        // `IOX2_LOG_LEVEL` still overrides this for debugging.
-        set_log_level_from_env_or(LogLevel::Error);
-        let node = NodeBuilder::new()
-            // The orchestrator supervises the children and handles their signals.
-            .signal_handling_mode(SignalHandlingMode::Disabled)
+        Self::create(run_id, None)
+    }
+
+    /// An endpoint whose iceoryx2 node is named [`node_name`]`(run_id, who)`, so that a
+    /// peer that did not start this process can tell whether it is alive ([`node_alive`]).
+    pub fn named(run_id: &str, who: &str) -> Result<Self, TransportError> {
+        Self::create(run_id, Some(&node_name(run_id, who)))
+    }
+
+    fn create(run_id: &str, name: Option<&str>) -> Result<Self, TransportError> {
+        quiet();
+        // The orchestrator supervises the children and handles their signals.
+        let mut builder = NodeBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled);
+        if let Some(name) = name {
+            let n = NodeName::new(name).map_err(ipc("node name", name))?;
+            builder = builder.name(&n);
+        }
+        let node = builder
             .create::<Svc>()
             .map_err(ipc("node creation", run_id))?;
         Ok(Self {
@@ -399,6 +412,107 @@ impl Control {
     }
     pub fn report_sender(ep: &Endpoint) -> Result<ValueSender<SideReport>, TransportError> {
         ep.value_sender(ServiceLeaf::Report)
+    }
+}
+
+/// iceoryx2 warns that it runs on its default config; couplet means it to.
+/// `IOX2_LOG_LEVEL` still overrides this for debugging.
+fn quiet() {
+    set_log_level_from_env_or(LogLevel::Error);
+}
+
+/// The iceoryx2 node name of process `who` (a [`Role`] name) of run `run_id`.
+pub fn node_name(run_id: &str, who: &str) -> String {
+    format!("couplet/{run_id}/{who}")
+}
+
+/// Whether process `who` of run `run_id` holds a live iceoryx2 node ([`Endpoint::named`]).
+/// iceoryx2 tells a live node from one whose process died by a lock that the process
+/// holds on the node's monitor file, so this needs no parent–child relation: only the
+/// same kernel and the same iceoryx2 directory (`/tmp/iceoryx2`).
+pub fn node_alive(run_id: &str, who: &str) -> Result<bool, TransportError> {
+    quiet();
+    let name = node_name(run_id, who);
+    let mut alive = false;
+    Node::<Svc>::list(Config::global_config(), |state| {
+        if let NodeState::Alive(view) = &state
+            && view
+                .details()
+                .as_ref()
+                .is_some_and(|d| d.name().as_str() == name)
+        {
+            alive = true;
+            return CallbackProgression::Stop;
+        }
+        CallbackProgression::Continue
+    })
+    .map_err(ipc("node list", &name))?;
+    Ok(alive)
+}
+
+/// How long a server started apart from its orchestrator waits for it to appear, and an
+/// orchestrator for such a server's hello (GPU set-up of a large scene takes minutes).
+pub const DETACHED_PATIENCE: Duration = Duration::from_secs(300);
+
+/// How a server knows that its orchestrator is still there.
+#[derive(Debug)]
+pub enum Orchestrator {
+    /// The orchestrator started this process: the parent pid changes when it exits.
+    Parent(u32),
+    /// Started apart (`--detached`: another container): the orchestrator's iceoryx2 node
+    /// of the run. It may appear up to [`DETACHED_PATIENCE`] after this server; once seen,
+    /// its disappearance ends the server.
+    Detached {
+        run_id: String,
+        since: Instant,
+        seen: core::cell::Cell<bool>,
+    },
+}
+
+impl Orchestrator {
+    /// This process's parent is its orchestrator.
+    pub fn parent() -> Self {
+        Self::Parent(std::os::unix::process::parent_id())
+    }
+
+    /// The orchestrator of `run_id` runs apart from this process.
+    pub fn detached(run_id: &str) -> Self {
+        Self::Detached {
+            run_id: run_id.to_owned(),
+            since: Instant::now(),
+            seen: core::cell::Cell::new(false),
+        }
+    }
+
+    pub fn is_detached(&self) -> bool {
+        matches!(self, Self::Detached { .. })
+    }
+
+    /// An error once the orchestrator has gone (or, detached, never came).
+    pub fn check(&self) -> Result<(), TransportError> {
+        match self {
+            Self::Parent(pid) => parent_alive(*pid),
+            Self::Detached {
+                run_id,
+                since,
+                seen,
+            } => {
+                if node_alive(run_id, crate::Role::Orchestrator.name())? {
+                    seen.set(true);
+                    Ok(())
+                } else if seen.get() {
+                    Err(TransportError::PeerGone(format!(
+                        "the orchestrator of run {run_id} has exited (its iceoryx2 node is gone)"
+                    )))
+                } else if since.elapsed() > DETACHED_PATIENCE {
+                    Err(TransportError::PeerGone(format!(
+                        "no orchestrator for run {run_id} within {DETACHED_PATIENCE:?}: start `couplet run SCENE --run-id {run_id} --external …`"
+                    )))
+                } else {
+                    Ok(())
+                }
+            }
+        }
     }
 }
 
