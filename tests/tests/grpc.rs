@@ -4,7 +4,7 @@
 //! promises is provoked; a restored run repeats the original; two runs at once each see
 //! only their own data.
 
-use couplet_orchestrator::serve::{CoupletService, ServeConfig, serve_on};
+use couplet_orchestrator::serve::{CoupletService, ServeConfig, TlsFiles, serve_on};
 use couplet_protocol::grpc::{
     CreateRunRequest, DeleteRunRequest, ListEnginesRequest, ListRunsRequest, Override,
     RestoreRunRequest, Run, RunRequest, RunState, SetParameterRequest, StepRunRequest, WindowFrame,
@@ -476,4 +476,92 @@ async fn two_runs_at_once_do_not_see_each_others_data() {
     }
     srv.shutdown.take().unwrap().send(()).unwrap();
     srv.task.await.unwrap().unwrap();
+}
+
+/// TLS and the bearer token over real gRPC: a server with a self-signed certificate for
+/// `localhost` (made by rcgen) and a token answers a client that trusts the certificate
+/// and sends `authorization: Bearer <token>`; the same client without the token gets
+/// UNAUTHENTICATED; the health service answers without it (probes); a plaintext client
+/// gets no answer at all.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tls_and_the_bearer_token_guard_the_api() {
+    use tonic::transport::{Certificate, ClientTlsConfig};
+    let dir = tempfile::tempdir().unwrap();
+    let key = rcgen::generate_simple_self_signed(vec!["localhost".to_owned()]).unwrap();
+    let tls = TlsFiles {
+        cert: dir.path().join("cert.pem"),
+        key: dir.path().join("key.pem"),
+    };
+    std::fs::write(&tls.cert, key.cert.pem()).unwrap();
+    std::fs::write(&tls.key, key.signing_key.serialize_pem()).unwrap();
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let service = CoupletService::new(ServeConfig {
+        data_dir: dir.path().join("runs"),
+        max_runs: 1,
+        server_exe: Some(CLI.into()),
+        token: Some("s3cret".into()),
+    });
+    let task = tokio::spawn(async move {
+        serve_on(listener, service, Some(&tls), async {
+            let _ = stopped.await;
+        })
+        .await
+    });
+    let channel = Channel::from_shared(format!("https://127.0.0.1:{port}"))
+        .unwrap()
+        .tls_config(
+            ClientTlsConfig::new()
+                .ca_certificate(Certificate::from_pem(key.cert.pem()))
+                .domain_name("localhost"),
+        )
+        .unwrap()
+        .connect()
+        .await
+        .unwrap();
+    let token: tonic::metadata::MetadataValue<_> = "Bearer s3cret".parse().unwrap();
+    let mut with_token =
+        CoupletClient::with_interceptor(channel.clone(), move |mut r: tonic::Request<()>| {
+            r.metadata_mut().insert("authorization", token.clone());
+            Ok(r)
+        });
+    let engines = with_token
+        .list_engines(ListEnginesRequest {})
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(engines.engines.len(), 2);
+    let (k, m) = code(
+        CoupletClient::new(channel.clone())
+            .list_engines(ListEnginesRequest {})
+            .await,
+    );
+    assert_eq!(k, Code::Unauthenticated, "{m}");
+    let health = tonic_health::pb::health_client::HealthClient::new(channel)
+        .check(tonic_health::pb::HealthCheckRequest {
+            service: "couplet.v1.Couplet".into(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(
+        health.status(),
+        tonic_health::pb::health_check_response::ServingStatus::Serving
+    );
+    // Plaintext HTTP/2 to the TLS port: the handshake fails, no call gets through.
+    let plain = async {
+        let mut c = CoupletClient::connect(format!("http://127.0.0.1:{port}")).await?;
+        c.list_engines(ListEnginesRequest {})
+            .await
+            .map_err(anyhow::Error::from)
+    };
+    assert!(
+        tokio::time::timeout(std::time::Duration::from_secs(10), plain)
+            .await
+            .map_or(true, |r| r.is_err()),
+        "a plaintext client was answered"
+    );
+    stop.send(()).unwrap();
+    task.await.unwrap().unwrap();
 }
