@@ -40,6 +40,8 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     let pr_i = press[i];
     let c_i = cell_coord(p_i);
     let b_i = b_matrix(i);
+    // The free-surface zone takes the standard forms (effects.free_surface).
+    let corrected_i = !near_free_surface(i);
     let grad_rho_i = grad_rho(i);
     var drho_i = 0.0;
     var acc = vec3<f32>(0.0);
@@ -65,12 +67,12 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 let u_ij = u_i - vel[j].xyz;
                 let rho_j = rho[j];
                 let m_j = pos[j].w;
-                if CORRECTED_CONTINUITY {
+                if CORRECTED_CONTINUITY && corrected_i {
                     drho_i += corrected_continuity_term(m_j, rho_i, rho_j, u_ij, b_i * grad_w);
                 } else {
                     drho_i += continuity_term(m_j, u_ij, grad_w);
                 }
-                if GRADIENT_CORRECTION {
+                if GRADIENT_CORRECTION && corrected_i {
                     acc += corrected_pressure_term(m_j, pr_i, rho_i, press[j], rho_j, b_i * grad_w);
                 } else {
                     acc += pressure_term(m_j, pr_i, rho_i, press[j], rho_j, grad_w);

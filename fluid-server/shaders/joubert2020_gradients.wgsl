@@ -283,7 +283,8 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     if singular {
         atomicAdd(&diag[1], 1u);
     }
-    bmat[3u * i] = vec4<f32>(b[0], 0.0);
+    // w of the first column: 1 in the free-surface zone (the rates take the standard forms).
+    bmat[3u * i] = vec4<f32>(b[0], select(0.0, 1.0, FREE_SURFACE_SWITCH && det < FREE_SURFACE_DET));
     bmat[3u * i + 1u] = vec4<f32>(b[1], 0.0);
     bmat[3u * i + 2u] = vec4<f32>(b[2], 0.0);
     grads[6u * i] = vec4<f32>(b * gux, 0.0);

@@ -66,6 +66,11 @@ pub struct SphConstants {
     /// was 40 % of continuity's and the block fell 16 % fast. With the standard form the
     /// floor pressure only takes up the block's weight (+11 Pa).
     pub corrected_continuity: bool,
+    /// The gradient correction's free-surface switch (`effects.free_surface`,
+    /// [`couplet_protocol::Scene::free_surface_switch`]): a particle whose truncation
+    /// matrix has det M < [`crate::joubert2020_gradients::free_surface_det`] takes the
+    /// standard continuity and pressure terms instead of the corrected ones.
+    pub free_surface: bool,
     /// Corrected Laplacian (Joubert eqs. 11, 13) in the viscous term: the gradient pass
     /// solves B̂_i, the rates use it (only with laminar viscosity).
     pub laplacian_correction: bool,
@@ -125,6 +130,7 @@ impl SphConstants {
             joubert_walls,
             gradient_correction: scene.effects.gradient_correction,
             corrected_continuity: scene.effects.gradient_correction && scene.grains().is_empty(),
+            free_surface: scene.free_surface_switch(),
             laplacian_correction: scene.effects.laplacian_correction
                 && scene.effects.viscosity == ViscosityModel::Laminar
                 && f.kinematic_viscosity > 0.0,
@@ -206,6 +212,7 @@ impl SphConstants {
              const VISCOUS_ETA2: f32 = {eta2:e};\n\
              const GRADIENT_CORRECTION: bool = {correction};\n\
              const CORRECTED_CONTINUITY: bool = {corrected_continuity};\n\
+             const FREE_SURFACE_SWITCH: bool = {free_surface};\n\
              const LAPLACIAN_CORRECTION: bool = {laplacian};\n\
              const MASS_CORRECTION: bool = {mass_correction};\n\
              const B_HAT_SOLVE: bool = {b_hat};\n\
@@ -234,6 +241,7 @@ impl SphConstants {
             eta2 = VISCOUS_ETA2_H2 * k.h * k.h,
             correction = self.gradient_correction,
             corrected_continuity = self.corrected_continuity,
+            free_surface = self.free_surface,
             laplacian = self.laplacian_correction,
             mass_correction = self.mass_correction > 0.0,
             b_hat = self.uses_b_hat(),

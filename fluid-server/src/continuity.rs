@@ -27,7 +27,9 @@
 //! the predictor–corrector: the term is O(Δt) already, so the lag is O(Δt²)).
 
 use crate::constants::SphConstants;
-use crate::joubert2020_gradients::{Gradients, b_matrix_cpu, laplacian_b_hat_cpu, mat_vec};
+use crate::joubert2020_gradients::{
+    Gradients, b_matrix_cpu, laplacian_b_hat_cpu, mat_vec, near_free_surface_cpu,
+};
 use crate::particles::{Kind, ParticleSet, dot, sub};
 
 pub const CONTINUITY_WGSL: &str = include_str!("../shaders/continuity.wgsl");
@@ -42,7 +44,8 @@ pub fn continuity_cpu(
     grads: &[Option<Gradients>],
     dt: f64,
 ) -> f64 {
-    let b = c.corrected_continuity.then(|| b_matrix_cpu(c, set, i).0);
+    let b = (c.corrected_continuity && !near_free_surface_cpu(c, set, i))
+        .then(|| b_matrix_cpu(c, set, i).0);
     let grad_rho = |k: usize| grads[k].map_or([0.0; 3], |g| g.grad_rho);
     // Mass correction (eqs. 14–16): g = ⟨∇p⟩ᶜ/ρ, B̂_i, and the sums of eqs. (15)–(16).
     let mc = (c.mass_correction > 0.0).then(|| {

@@ -48,11 +48,18 @@ const B_MATRIX_WGSL: &str = "@group(0) @binding(9) var<storage, read> bmat: arra
 fn b_matrix(i: u32) -> mat3x3<f32> {
     return mat3x3<f32>(bmat[3u * i].xyz, bmat[3u * i + 1u].xyz, bmat[3u * i + 2u].xyz);
 }
+// The gradient pass's free-surface flag (joubert2020_gradients.rs, FREE_SURFACE_DET).
+fn near_free_surface(i: u32) -> bool {
+    return bmat[3u * i].w > 0.5;
+}
 ";
 /// Without the correction no B buffer exists; the identity keeps the shader's one
 /// code path valid (the corrected branch is compiled out by `GRADIENT_CORRECTION`).
 const NO_B_MATRIX_WGSL: &str = "fn b_matrix(i: u32) -> mat3x3<f32> {
     return mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+}
+fn near_free_surface(i: u32) -> bool {
+    return false;
 }
 ";
 

@@ -16,7 +16,9 @@
 
 use crate::adami2012_boundary_pressure::wall_velocity_cpu;
 use crate::constants::SphConstants;
-use crate::joubert2020_gradients::{b_matrix_cpu, laplacian_b_hat_cpu, mat_vec};
+use crate::joubert2020_gradients::{
+    b_matrix_cpu, laplacian_b_hat_cpu, mat_vec, near_free_surface_cpu,
+};
 use crate::particles::{Kind, ParticleSet, dot, sub};
 
 pub const MOMENTUM_WGSL: &str = include_str!("../shaders/momentum.wgsl");
@@ -26,7 +28,8 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
     let mut acc = [0.0; 3];
     let (rho_i, p_i) = (set.rho[i], set.press[i]);
     let eta2 = crate::constants::VISCOUS_ETA2_H2 * c.kernel.h * c.kernel.h;
-    let b = c.gradient_correction.then(|| b_matrix_cpu(c, set, i).0);
+    let b = (c.gradient_correction && !near_free_surface_cpu(c, set, i))
+        .then(|| b_matrix_cpu(c, set, i).0);
     // Corrected Laplacian (Joubert eq. 13): A = Σ V s (u_i − u_j)/r, Q = Σ V s e,
     // D[k][b] = Σ V (u_j − u_i)_k ∇W_b, term 2ν (A − D Bᵀ Q) (see fluid_rates.wgsl).
     let lap = c.laplacian_correction.then(|| {

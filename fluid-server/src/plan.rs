@@ -94,8 +94,13 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(
             GRADIENTS,
             format!(
-                "{}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p, ∇ρ once per step after the sort",
-                users.join(", ")
+                "{}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p, ∇ρ once per step after the sort{}",
+                users.join(", "),
+                if scene.free_surface_switch() {
+                    "; effects.free_surface: where det M < 0.95 of a complete support's (the rows whose support reaches past the fluid's edge) continuity and pressure keep the standard forms"
+                } else {
+                    ""
+                }
             ),
         );
     }

@@ -717,6 +717,7 @@ impl SphData {
             fields: (0..n as usize)
                 .map(|i| std::array::from_fn(|k| v3(f[6 * i + k])))
                 .collect(),
+            near_free_surface: (0..n as usize).map(|i| b[3 * i][3] > 0.5).collect(),
             diag: self.read_diag(gpu)?.unwrap_or_default(),
         }))
     }
@@ -748,6 +749,9 @@ impl SphData {
 pub struct GradientReadback {
     /// `B_i`, row-major.
     pub b: Vec<[[f64; 3]; 3]>,
+    /// In the free-surface zone (`effects.free_surface`, `det M_i` below
+    /// [`crate::joubert2020_gradients::free_surface_det`]).
+    pub near_free_surface: Vec<bool>,
     /// `[∇u_x, ∇u_y, ∇u_z, ∇p, s, ∇ρ]` per particle.
     pub fields: Vec<[[f64; 3]; 6]>,
     /// [max fluid speed (f32 bits), near-singular count, 0, 0].

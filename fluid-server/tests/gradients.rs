@@ -552,3 +552,61 @@ fn mass_correction_vanishes_for_linear_pressure_and_damps_checkerboard_noise() {
     );
     assert!(interior > 0);
 }
+
+/// The free-surface zone (`effects.free_surface`, on by default in an open domain): on
+/// the open hydrostatic tank's lattice (Wendland C2, support 3δ, Adami walls) exactly
+/// the two rows below the surface are flagged (det M = 0.28–0.58 and 0.83–0.91 there
+/// against 1.0017 in the interior: `FREE_SURFACE_FRACTION`'s measurement), none beside
+/// the walls or the floor (Adami's layers complete their support), and the GPU's flag
+/// equals the CPU twin's for every particle. With `free_surface = false` nothing is.
+#[test]
+fn free_surface_zone_is_the_rows_whose_support_reaches_past_the_surface() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/hydrostatic-tank.toml");
+    let mut text = std::fs::read_to_string(&path).unwrap();
+    for (k, v) in [
+        ("fluid.spacing", "0.02"),
+        ("effects.gradient_correction", "true"),
+    ] {
+        text = couplet_protocol::scene::override_field(&text, &path, k, v).unwrap();
+    }
+    let flags = |text: &str| {
+        let s = couplet_protocol::Scene::parse(text, &path).unwrap();
+        let c = SphConstants::from_scene(&s).unwrap();
+        let mut solver = FluidSolver::new(&gpu, &s).unwrap();
+        solver
+            .run_ops(&gpu, &[Op::Sort, Op::Gradients], 1e-4, 1.0)
+            .unwrap();
+        let set = solver.data().read(&gpu).unwrap();
+        let g = solver.data().read_gradients(&gpu).unwrap().unwrap();
+        let fluid: Vec<usize> = (0..set.len())
+            .filter(|&k| set.kinds.kind(set.id[k]) == Kind::Fluid)
+            .collect();
+        for &k in &fluid {
+            assert_eq!(
+                g.near_free_surface[k],
+                couplet_fluid::joubert2020_gradients::near_free_surface_cpu(&c, &set, k),
+                "particle {} at {:?}: GPU and CPU twin disagree",
+                set.id[k],
+                set.pos[k]
+            );
+        }
+        // `read` gives positions relative to the solver's origin.
+        fluid
+            .iter()
+            .map(|&k| (set.pos[k][1] + solver.origin()[1], g.near_free_surface[k]))
+            .collect::<Vec<(f64, bool)>>()
+    };
+    let on = flags(&text);
+    let (top, dx) = (0.3, 0.02);
+    for (y, flagged) in &on {
+        let in_top_two_rows = *y > top - 2.0 * dx;
+        assert_eq!(*flagged, in_top_two_rows, "particle at y = {y}");
+    }
+    assert_eq!(on.iter().filter(|(_, f)| *f).count(), 2 * 10 * 10);
+    let off =
+        couplet_protocol::scene::override_field(&text, &path, "effects.free_surface", "false")
+            .unwrap();
+    assert!(flags(&off).iter().all(|(_, f)| !f));
+}

@@ -451,13 +451,9 @@ pub struct EffectsSpec {
     /// matrix is near-singular (det < `couplet_fluid` `B_DET_MIN`: isolated or nearly so)
     /// keeps the uncorrected gradient and is counted in the run log. Default false: the
     /// standard scheme is the cheaper one and the foundation's tests are written for it.
-    /// Known limit (measured 2026-11-23): with a free surface under gravity (the open
-    /// hydrostatic tank, the dam break) the corrected scheme blows up at the surface,
-    /// with Adami or Joubert walls: the difference-form pressure term's p_i B S feedback
-    /// makes a surface particle unstable. The mass correction does not cure it.
-    /// Joubert runs no free surface. Closed, full tanks under gravity (0.48 % with either
-    /// wall model) and enclosed flows (the settling sphere, the channels, the cavity)
-    /// run; the blow-up check names the particle.
+    /// Under a free surface the difference forms blow up (the open tank in 0.024 s):
+    /// `free_surface` below switches them off where the support reaches past the
+    /// fluid's edge, and is on by default in a domain with an open top.
     #[serde(default)]
     pub gradient_correction: bool,
     /// Corrected Laplacian of Joubert eqs. (11) and (13) (Fatehi & Manzari) for the
@@ -494,6 +490,23 @@ pub struct EffectsSpec {
     /// free-surface stabiliser a scene picks instead of, or with, the correction.
     #[serde(default)]
     pub density_diffusion: f64,
+    /// The gradient correction's free-surface switch: where a particle's support reaches
+    /// past the fluid's edge (its truncation matrix has det M below 0.95 of a complete
+    /// support's, `couplet_fluid` `FREE_SURFACE_FRACTION`: the two rows below a flat
+    /// surface at support 3δ, the one at 2δ), the continuity and pressure terms take the standard,
+    /// symmetric forms instead of Joubert's corrected difference forms (eqs. 12–13); the
+    /// correction stays on wherever the support is complete. Joubert runs no free
+    /// surface; with the difference forms there the open hydrostatic tank blew up in
+    /// 0.024 s and the dam break in 0.01 s (the surface particle's p_i B S feedback grows
+    /// at the acoustic rate, ARCHITECTURE.md "The free-surface switch"). Adami's wall
+    /// layers fill a particle's support, so walls do not trip it; Joubert's one-layer
+    /// walls and the markers of resolved bodies leave the support truncated, so near
+    /// them it trips too. Default (unset): on with `gradient_correction` when the domain's
+    /// top is open (`domain.closed_top = false`, y not periodic), the domains that can
+    /// hold a free surface, and off otherwise, so closed boxes keep the full correction.
+    /// `true` needs `gradient_correction`.
+    #[serde(default)]
+    pub free_surface: Option<bool>,
 }
 
 fn default_viscosity() -> ViscosityModel {
@@ -510,6 +523,7 @@ impl Default for EffectsSpec {
             mass_correction: 0.0,
             particle_shifting: 0.0,
             density_diffusion: 0.0,
+            free_surface: None,
         }
     }
 }
@@ -1086,6 +1100,14 @@ impl Scene {
         self.fluid.is_some() && body.coupling == CouplingMode::Unresolved
     }
 
+    /// Whether the gradient correction's free-surface switch is on: `effects.free_surface`
+    /// when given, else on with the correction when the domain's top is open (see
+    /// [`EffectsSpec::free_surface`]).
+    pub fn free_surface_switch(&self) -> bool {
+        let open_top = !self.domain.closed_top && !self.domain.periodic[1];
+        self.effects.gradient_correction && self.effects.free_surface.unwrap_or(open_top)
+    }
+
     /// Indices of the unresolved grains, in body order.
     pub fn grains(&self) -> Vec<usize> {
         (0..self.bodies.len())
@@ -1500,6 +1522,13 @@ impl Scene {
                 "effects.mass_correction".into(),
                 gamma_mc.to_string(),
                 "must be 0 (off) or a finite Γ ≥ 1 (Joubert §2.3.2)",
+            );
+        }
+        if self.effects.free_surface == Some(true) && !self.effects.gradient_correction {
+            return bad(
+                "effects.free_surface".into(),
+                "true".into(),
+                "switches the gradient correction's difference forms off at a free surface: needs effects.gradient_correction = true",
             );
         }
         if gamma_mc != 0.0 && !self.effects.gradient_correction {
@@ -1994,6 +2023,34 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
             field(with("periodic = [true, false, false]", tg)),
             "fluid.initial_flow"
         );
+    }
+
+    /// The free-surface switch follows the domain's top unless the scene says, and is
+    /// refused without the correction it switches off.
+    #[test]
+    fn free_surface_switch_follows_the_open_top() {
+        let parse = |extra: &str| {
+            let text = format!("{MINIMAL}\n{extra}");
+            Scene::parse(&text, Path::new("t.toml"))
+        };
+        let open = parse("[effects]\ngradient_correction = true").unwrap();
+        assert!(!open.domain.closed_top && open.free_surface_switch());
+        let closed = override_field(
+            &format!("{MINIMAL}\n[effects]\ngradient_correction = true"),
+            Path::new("t.toml"),
+            "domain.closed_top",
+            "true",
+        )
+        .unwrap();
+        let closed = Scene::parse(&closed, Path::new("t.toml")).unwrap();
+        assert!(!closed.free_surface_switch());
+        let off = parse("[effects]\ngradient_correction = true\nfree_surface = false").unwrap();
+        assert!(!off.free_surface_switch());
+        assert!(!parse("").unwrap().free_surface_switch());
+        match parse("[effects]\nfree_surface = true") {
+            Err(SceneError::Invalid { field, .. }) => assert_eq!(field, "effects.free_surface"),
+            other => panic!("expected effects.free_surface refused, got {other:?}"),
+        }
     }
 
     /// The mass correction's Γ is refused below Joubert's 1 and without the gradient

@@ -50,7 +50,8 @@ fn hydrostatic_tank_quick_validation_passes() {
 
 /// Joubert's scheme with his one-layer walls (`domain.wall_model = "joubert"`, pressure by
 /// the Neumann condition of eq. 25) on the same tank closed and filled to the lid: no
-/// free surface, which the corrected scheme does not survive yet (ARCHITECTURE.md). The
+/// free surface, so the correction acts everywhere, beside the one-layer walls too (an
+/// open top would switch it off there, ARCHITECTURE.md "The free-surface switch"). The
 /// case then holds the corrected scheme to 1 %. Regression: with eq. (24)'s δ rather than
 /// its smallest spacing δ/2 this run blew up at t = 0.08 s. Measured 2026-11-23: 0.48 %
 /// (the same as Adami's walls with the correction).
