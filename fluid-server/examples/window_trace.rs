@@ -1,10 +1,10 @@
 //! Diagnostic: a scene's fluid advanced in process, window by window, printing every
-//! fifth window's kinetic energy, largest speed, near-singular count and the fluid
-//! particles of lowest and highest density with where they are: where an instability
-//! starts, long before the blow-up check stops the run.
+//! fifth window's kinetic energy, largest speed, near-singular count, the fluid
+//! particles of lowest and highest density with where they are, and the fastest one:
+//! where an instability starts, long before the blow-up check stops the run.
 //!
 //! `cargo run --release -p couplet-fluid --example window_trace -- SCENE [PATH=VALUE…]
-//! [window=S] [end=S]`, e.g. the open tank that showed the corrected scheme's
+//! [window=S] [end=S] [every=N]` (N: print every Nth window, default 5), e.g. the open tank that showed the corrected scheme's
 //! free-surface blow-up: `… scenes/hydrostatic-tank.toml effects.gradient_correction=true
 //! effects.free_surface=false fluid.spacing=0.02 window=0.001 end=0.05`.
 use couplet_fluid::FluidSolver;
@@ -15,17 +15,19 @@ use std::path::Path;
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let Some(path) = args.get(1).map(Path::new) else {
-        eprintln!("usage: window_trace SCENE [PATH=VALUE…] [window=S] [end=S]");
+        eprintln!("usage: window_trace SCENE [PATH=VALUE…] [window=S] [end=S] [every=N]");
         std::process::exit(2);
     };
     let mut text = std::fs::read_to_string(path).unwrap();
     let mut window: f64 = 1e-3;
     let mut end: f64 = 0.1;
+    let mut every: usize = 5;
     for kv in &args[2..] {
         let (k, v) = kv.split_once('=').unwrap();
         match k {
             "window" => window = v.parse().unwrap(),
             "end" => end = v.parse().unwrap(),
+            "every" => every = v.parse().unwrap(),
             _ => text = couplet_protocol::scene::override_field(&text, path, k, v).unwrap(),
         }
     }
@@ -48,10 +50,17 @@ fn main() {
             .iter()
             .max_by(|a, b| set.rho[**a].total_cmp(&set.rho[**b]))
             .unwrap();
+        let fast = *fluid
+            .iter()
+            .max_by(|a, b| {
+                let sp = |k: usize| set.vel[k].iter().map(|v| v * v).sum::<f64>();
+                sp(**a).total_cmp(&sp(**b))
+            })
+            .unwrap();
         let st = s.stats();
-        if w % 5 == 0 || r.is_err() {
+        if w % every == 0 || r.is_err() {
             println!(
-                "t={:.4} KE={:.3e} umax={:.3} ns={} lo ρ={:.1} at {:?} id {} | hi ρ={:.1} at {:?}",
+                "t={:.4} KE={:.3e} umax={:.3} ns={} lo ρ={:.1} at {:?} id {} | hi ρ={:.1} at {:?} | fastest id {} at {:?} u {:?}",
                 s.time(),
                 st.kinetic_energy,
                 st.max_speed,
@@ -60,7 +69,10 @@ fn main() {
                 set.pos[lo].map(|x| (x * 1000.0).round() / 1000.0),
                 set.id[lo],
                 set.rho[hi],
-                set.pos[hi].map(|x| (x * 1000.0).round() / 1000.0)
+                set.pos[hi].map(|x| (x * 1000.0).round() / 1000.0),
+                set.id[fast],
+                set.pos[fast].map(|x| (x * 1000.0).round() / 1000.0),
+                set.vel[fast].map(|x| (x * 1000.0).round() / 1000.0)
             );
         }
         if let Err(e) = r {

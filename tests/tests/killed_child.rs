@@ -34,13 +34,19 @@ fn kill_one_child_and_time_exit(victim: &str) {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Wait until both servers run and windows are being recorded.
+    // Wait until both servers run and the recording has grown past its header: its
+    // first chunk, closed only once it holds a megabyte of windows, is on disk. (Waiting
+    // a fixed 3 s instead failed on a loaded machine, with no window done by then.)
     let start = Instant::now();
+    let mut header = None;
     let children = loop {
         let c = children_of(cli.id());
         let mcap = out.path().join("run.mcap");
         let recording = std::fs::metadata(&mcap).map(|m| m.len()).unwrap_or(0);
-        if c.len() == 2 && recording > 0 && start.elapsed() > Duration::from_secs(3) {
+        if recording > 0 && header.is_none() {
+            header = Some(recording);
+        }
+        if c.len() == 2 && header.is_some_and(|h| recording > h) {
             break c;
         }
         assert!(
