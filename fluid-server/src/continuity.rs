@@ -27,9 +27,7 @@
 //! the predictor–corrector: the term is O(Δt) already, so the lag is O(Δt²)).
 
 use crate::constants::SphConstants;
-use crate::joubert2020_gradients::{
-    Gradients, b_matrix_cpu, laplacian_b_hat_cpu, mat_vec, near_free_surface_cpu,
-};
+use crate::joubert2020_gradients::{Gradients, laplacian_b_hat_cpu, mat_vec, truncation_cpu};
 use crate::particles::{Kind, ParticleSet, dot, sub};
 
 pub const CONTINUITY_WGSL: &str = include_str!("../shaders/continuity.wgsl");
@@ -44,15 +42,15 @@ pub fn continuity_cpu(
     grads: &[Option<Gradients>],
     dt: f64,
 ) -> f64 {
-    let b = (c.corrected_continuity && !near_free_surface_cpu(c, set, i))
-        .then(|| b_matrix_cpu(c, set, i).0);
+    let t = c.uses_b_matrix().then(|| truncation_cpu(c, set, i));
+    let b = t
+        .filter(|t| c.corrected_continuity && !t.near_free_surface)
+        .map(|t| t.b);
     let grad_rho = |k: usize| grads[k].map_or([0.0; 3], |g| g.grad_rho);
     // Mass correction (eqs. 14–16): g = ⟨∇p⟩ᶜ/ρ, B̂_i, and the sums of eqs. (15)–(16).
-    let mc = (c.mass_correction > 0.0).then(|| {
-        let (bm, singular) = b_matrix_cpu(c, set, i);
-        let bhat = laplacian_b_hat_cpu(c, set, i, &bm, singular).0;
-        (bm, bhat)
-    });
+    let mc = t
+        .filter(|_| c.mass_correction > 0.0)
+        .map(|t| (t.b, laplacian_b_hat_cpu(c, set, i, &t.b, t.singular).0));
     let g_p = |k: usize| {
         grads
             .get(k)

@@ -69,13 +69,7 @@ pub fn lattice_det(c: &SphConstants) -> f64 {
                     continue;
                 }
                 // r_ij = x_i − x_j with x_i at the origin.
-                let r_ij = r.map(|x| -x);
-                let g = c.kernel.grad(r_ij);
-                for (a, row) in m.iter_mut().enumerate() {
-                    for (b, x) in row.iter_mut().enumerate() {
-                        *x -= v * g[a] * r_ij[b];
-                    }
-                }
+                add_to_truncation(&mut m, c, v, r.map(|x| -x));
             }
         }
     }
@@ -193,36 +187,57 @@ pub fn inverse(m: &Mat3) -> Mat3 {
     ]
 }
 
-/// The truncation matrix `M_i = −Σ_j V_j ∇W_ij ⊗ r_ij` and `B_i` (see the module doc).
-pub fn b_matrix_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> (Mat3, bool) {
-    let m = truncation_matrix_cpu(c, set, i);
-    if determinant(&m) >= B_DET_MIN {
-        (inverse(&m), false)
-    } else {
-        ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], true)
-    }
+/// Particle `i`'s truncation matrix read the two ways the CPU twins use it, from one
+/// pass over its neighbours.
+#[derive(Debug, Clone, Copy)]
+pub struct Truncation {
+    /// `B_i = M_i⁻¹`, or I where `M_i` is near-singular.
+    pub b: Mat3,
+    /// `M_i` was near-singular (`det < B_DET_MIN`): `b` is I.
+    pub singular: bool,
+    /// In the free-surface zone: the switch is on and `det M_i <` [`free_surface_det`]
+    /// (the gradient pass's flag).
+    pub near_free_surface: bool,
 }
 
-/// Whether particle `i` is in the free-surface zone: the switch is on and
-/// `det M_i <` [`free_surface_det`] (CPU twin of the gradient pass's flag).
-pub fn near_free_surface_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> bool {
-    c.free_surface && determinant(&truncation_matrix_cpu(c, set, i)) < free_surface_det(c)
-}
-
-/// `M_i = −Σ_j V_j ∇W_ij ⊗ r_ij` over every neighbour (Joubert eq. 10).
-pub fn truncation_matrix_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> Mat3 {
+/// CPU twin of the gradient pass's `B_i`, fallback and free-surface flag.
+pub fn truncation_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> Truncation {
     let mut m = [[0.0; 3]; 3];
     for j in set.neighbours(i, c.support_radius()) {
-        let r_ij = sub(set.pos[i], set.pos[j]);
-        let g = c.kernel.grad(r_ij);
-        let v = set.mass[j] / set.rho[j];
-        for (a, row) in m.iter_mut().enumerate() {
-            for (b, x) in row.iter_mut().enumerate() {
-                *x -= v * g[a] * r_ij[b];
-            }
+        add_to_truncation(
+            &mut m,
+            c,
+            set.mass[j] / set.rho[j],
+            sub(set.pos[i], set.pos[j]),
+        );
+    }
+    let det = determinant(&m);
+    let singular = det < B_DET_MIN;
+    Truncation {
+        b: if singular {
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        } else {
+            inverse(&m)
+        },
+        singular,
+        near_free_surface: c.free_surface && det < free_surface_det(c),
+    }
+}
+
+/// The truncation matrix `M_i = −Σ_j V_j ∇W_ij ⊗ r_ij` and `B_i` (see the module doc).
+pub fn b_matrix_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> (Mat3, bool) {
+    let t = truncation_cpu(c, set, i);
+    (t.b, t.singular)
+}
+
+/// Adds neighbour j's term `−V_j ∇W_ij ⊗ r_ij` to `M_i` (Joubert eq. 10).
+fn add_to_truncation(m: &mut Mat3, c: &SphConstants, v_j: f64, r_ij: [f64; 3]) {
+    let g = c.kernel.grad(r_ij);
+    for (a, row) in m.iter_mut().enumerate() {
+        for (b, x) in row.iter_mut().enumerate() {
+            *x -= v_j * g[a] * r_ij[b];
         }
     }
-    m
 }
 
 /// CPU twin of the gradient pass for every entry (`None` for non-fluid entries).

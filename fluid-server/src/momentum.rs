@@ -16,9 +16,7 @@
 
 use crate::adami2012_boundary_pressure::wall_velocity_cpu;
 use crate::constants::SphConstants;
-use crate::joubert2020_gradients::{
-    b_matrix_cpu, laplacian_b_hat_cpu, mat_vec, near_free_surface_cpu,
-};
+use crate::joubert2020_gradients::{laplacian_b_hat_cpu, mat_vec, truncation_cpu};
 use crate::particles::{Kind, ParticleSet, dot, sub};
 
 pub const MOMENTUM_WGSL: &str = include_str!("../shaders/momentum.wgsl");
@@ -28,14 +26,15 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
     let mut acc = [0.0; 3];
     let (rho_i, p_i) = (set.rho[i], set.press[i]);
     let eta2 = crate::constants::VISCOUS_ETA2_H2 * c.kernel.h * c.kernel.h;
-    let b = (c.gradient_correction && !near_free_surface_cpu(c, set, i))
-        .then(|| b_matrix_cpu(c, set, i).0);
+    let t = c.uses_b_matrix().then(|| truncation_cpu(c, set, i));
+    let b = t
+        .filter(|t| c.gradient_correction && !t.near_free_surface)
+        .map(|t| t.b);
     // Corrected Laplacian (Joubert eq. 13): A = Σ V s (u_i − u_j)/r, Q = Σ V s e,
     // D[k][b] = Σ V (u_j − u_i)_k ∇W_b, term 2ν (A − D Bᵀ Q) (see fluid_rates.wgsl).
-    let lap = c.laplacian_correction.then(|| {
-        let (bm, singular) = b_matrix_cpu(c, set, i);
-        (bm, laplacian_b_hat_cpu(c, set, i, &bm, singular).0)
-    });
+    let lap = t
+        .filter(|_| c.laplacian_correction)
+        .map(|t| (t.b, laplacian_b_hat_cpu(c, set, i, &t.b, t.singular).0));
     let (mut lap_a, mut lap_q, mut lap_d) = ([0.0; 3], [0.0; 3], [[0.0; 3]; 3]);
     for j in set.neighbours(i, c.support_radius()) {
         let r_ij = sub(set.pos[i], set.pos[j]);

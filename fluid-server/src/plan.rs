@@ -97,9 +97,12 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
                 "{}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p, ∇ρ once per step after the sort{}",
                 users.join(", "),
                 if scene.free_surface_switch() {
-                    "; effects.free_surface: where det M < 0.95 of a complete support's (the rows whose support reaches past the fluid's edge) continuity and pressure keep the standard forms"
+                    format!(
+                        "; effects.free_surface: where det M < {} of a complete support's (the rows whose support reaches past the fluid's edge) continuity and pressure keep the standard forms",
+                        crate::joubert2020_gradients::FREE_SURFACE_FRACTION
+                    )
                 } else {
-                    ""
+                    String::new()
                 }
             ),
         );

@@ -586,7 +586,7 @@ fn free_surface_zone_is_the_rows_whose_support_reaches_past_the_surface() {
         for &k in &fluid {
             assert_eq!(
                 g.near_free_surface[k],
-                couplet_fluid::joubert2020_gradients::near_free_surface_cpu(&c, &set, k),
+                couplet_fluid::joubert2020_gradients::truncation_cpu(&c, &set, k).near_free_surface,
                 "particle {} at {:?}: GPU and CPU twin disagree",
                 set.id[k],
                 set.pos[k]
