@@ -1,11 +1,12 @@
 // ---- blowup_check.wgsl (CPU side: blowup_check.rs) ----
 // Once per window: find the smallest id of a fluid particle whose position, velocity or
 // density is not finite, whose density left [ρ0 (1 − BLOWUP_DENSITY_DEVIATION),
-// ρ0 (1 + BLOWUP_DENSITY_DEVIATION)] or whose speed exceeds c_s; then copy that
-// particle's values out. Atomics are fine here: this is not a pair loop and it runs
+// ρ0 (1 + BLOWUP_DENSITY_DEVIATION)], whose speed exceeds c_s or, with variable h, whose
+// smoothing length (Robinson eq. 19) exceeds MAX_H, the largest the grid was built for;
+// then copy that particle's values out. Atomics are fine here: this is not a pair loop and it runs
 // once per window.
-// Needs: prelude, SPH constants, StepParams; BLOWUP_DENSITY_DEVIATION (blowup_check.rs),
-// porosity (porosity.rs).
+// Needs: prelude, SPH constants, StepParams, kernel; BLOWUP_DENSITY_DEVIATION
+// (blowup_check.rs), porosity (porosity.rs).
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
@@ -15,8 +16,8 @@
 @group(0) @binding(4) var<storage, read> id: array<u32>;
 // [0] smallest bad id (0xffffffff: none).
 @group(3) @binding(1) var<storage, read_write> status: array<atomic<u32>, 4>;
-// The bad particle: (pos, ρ), (vel, p).
-@group(3) @binding(2) var<storage, read_write> bad_values: array<vec4<f32>, 2>;
+// The bad particle: (pos, ρ), (vel, p), (mass, 0, 0, 0).
+@group(3) @binding(2) var<storage, read_write> bad_values: array<vec4<f32>, 3>;
 
 const NONE: u32 = 0xffffffffu;
 const EXPONENT_MASK: u32 = 0x7f800000u;
@@ -35,6 +36,9 @@ fn bad(i: u32) -> bool {
         return true;
     }
     // Among grains ρ is superficial: the intrinsic density is ρ/ε (Robinson eq. 15).
+    if VARIABLE_H && variable_h_of(pos[i].w, r) > MAX_H {
+        return true;
+    }
     return abs(r / (RHO0 * porosity(i)) - 1.0) > BLOWUP_DENSITY_DEVIATION || dot(u, u) > SOUND_SPEED * SOUND_SPEED;
 }
 
@@ -61,4 +65,5 @@ fn capture_bad(@builtin(workgroup_id) wid: vec3<u32>,
     }
     bad_values[0] = vec4<f32>(pos[i].xyz, rho[i]);
     bad_values[1] = vec4<f32>(vel[i].xyz, press[i]);
+    bad_values[2] = vec4<f32>(pos[i].w, 0.0, 0.0, 0.0);
 }

@@ -15,6 +15,13 @@
 // same factoring: L15 = 2 (Σ V s w (p_i − p_j)/r − (Σ V s w e)·⟨∇p⟩ᶜ_i), w = 2/(ρ_i + ρ_j),
 // over every neighbour, L16 = Σ V (g_j − g_i)·B_i ∇W, g = ⟨∇p⟩ᶜ/ρ from the gradient pass (walls
 // and markers: g_j = g_i). See continuity.rs for the twin and the choices.
+// With VARIABLE_H (Robinson eqs. 10–12, 19; robinson_variable_h.rs) each particle has its
+// own h from the step's smoothing pass: a pair counts when it lies in either support;
+// ∇W_ij below is ∇W(h_i), the one the corrected forms and continuity take (eq. 10 with
+// 1/Ω_i); the standard pressure term is eq. (12), P_i/(Ω_i ρ_i²) ∇W(h_i) +
+// P_j/(Ω_j ρ_j²) ∇W(h_j); the viscous terms take the mean of ∇W(h_i) and ∇W(h_j).
+// Without it smoothing_length() is H, omega() 1, and all of this compiles to the fixed-h
+// code.
 // One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
@@ -53,6 +60,9 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     var mc_a = 0.0;
     var mc_q = vec3<f32>(0.0);
     var mc_div = 0.0;
+    let h_i = smoothing_length(i);
+    let omega_i = omega(i);
+    let reach2_i = support2_at(h_i);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c_i, dy, dz);
@@ -60,20 +70,31 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 let j = row_slot(rs, k);
                 let r_ij = pair_vec(p_i, pos[j].xyz);
                 let r2 = dot(r_ij, r_ij);
-                if r2 >= SUPPORT_RADIUS2 || j == i {
+                let h_j = smoothing_length(j);
+                if (r2 >= reach2_i && r2 >= support2_at(h_j)) || j == i {
                     continue;
                 }
-                let grad_w = kernel_grad_factor(sqrt(r2)) * r_ij;
+                let r_abs = sqrt(r2);
+                let grad_w = grad_factor_at(r_abs, h_i) * r_ij;
+                // ∇W(h_j), and the mean the viscous terms take (both ∇W with one h).
+                var grad_w_j = grad_w;
+                var grad_visc = grad_w;
+                if VARIABLE_H {
+                    grad_w_j = grad_factor_at(r_abs, h_j) * r_ij;
+                    grad_visc = 0.5 * (grad_w + grad_w_j);
+                }
                 let u_ij = u_i - vel[j].xyz;
                 let rho_j = rho[j];
                 let m_j = pos[j].w;
                 if CORRECTED_CONTINUITY && corrected_i {
                     drho_i += corrected_continuity_term(m_j, rho_i, rho_j, u_ij, b_i * grad_w);
                 } else {
-                    drho_i += continuity_term(m_j, u_ij, grad_w);
+                    drho_i += continuity_term(m_j, u_ij, grad_w) / omega_i;
                 }
                 if GRADIENT_CORRECTION && corrected_i {
                     acc += corrected_pressure_term(m_j, pr_i, rho_i, press[j], rho_j, b_i * grad_w);
+                } else if VARIABLE_H {
+                    acc += robinson_pressure_term(m_j, pr_i / omega_i, rho_i, press[j] / omega(j), rho_j, grad_w, grad_w_j);
                 } else {
                     acc += pressure_term(m_j, pr_i, rho_i, press[j], rho_j, grad_w);
                 }
@@ -105,10 +126,10 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                     let vgw = v_j * grad_w;
                     lap_d -= mat3x3<f32>(u_visc * vgw.x, u_visc * vgw.y, u_visc * vgw.z);
                 } else if LAMINAR_VISCOSITY && viscous {
-                    acc += morris1997_viscous_term(m_j, rho_i, rho_j, r_ij, r2, u_visc, grad_w);
+                    acc += morris1997_viscous_term(m_j, rho_i, rho_j, r_ij, r2, u_visc, grad_visc);
                 }
                 if ARTIFICIAL_VISCOSITY && viscous {
-                    acc += monaghan1992_artificial_viscous_term(m_j, rho_i, rho_j, r_ij, r2, u_visc, grad_w);
+                    acc += monaghan1992_artificial_viscous_term(m_j, rho_i, rho_j, r_ij, r2, u_visc, grad_visc);
                 }
             }
         }

@@ -20,7 +20,9 @@
 // pivoting. Near-singular (B_i fell back to I, or a pivot below LAP_PIVOT_MIN of the
 // largest entry): B̂ = I (Morris's operator with the gradient term) and counted in
 // diag[1] with the B fallbacks; `store_bhat` writes it (joubert2020_gradients.rs).
-// Needs: prelude, SPH constants, StepParams, grid_common, kernel, store_bhat.
+// With variable h (robinson_variable_h.rs) every sum takes particle i's own h_i.
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel, store_bhat,
+// smoothing_length.
 
 // Exponents (of e_x, e_y, e_z) of the symmetric pairs xx, yy, zz, xy, xz, yz: the
 // order of B̂'s entries and of the system's rows and columns.
@@ -193,6 +195,9 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     var r3a = vec4<f32>(0.0);
     var r3b = vec4<f32>(0.0);
     var r3c = vec4<f32>(0.0);
+    // Variable h: B_i from particle i's own kernel, the one its rates take.
+    let h_i = smoothing_length(i);
+    let reach2 = support2_at(h_i);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c_i, dy, dz);
@@ -200,12 +205,12 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 let j = row_slot(rs, k);
                 let r_ij = pair_vec(p_i, pos[j].xyz);
                 let r2 = dot(r_ij, r_ij);
-                if r2 >= SUPPORT_RADIUS2 || j == i {
+                if r2 >= reach2 || j == i {
                     continue;
                 }
                 let r = sqrt(r2);
                 let rho_j = rho[j];
-                let vgw = (pos[j].w / rho_j) * kernel_grad_factor(r) * r_ij;
+                let vgw = (pos[j].w / rho_j) * grad_factor_at(r, h_i) * r_ij;
                 // −V_j ∇W ⊗ r_ij: column c is −V_j ∇W r_ij[c].
                 m -= mat3x3<f32>(vgw * r_ij.x, vgw * r_ij.y, vgw * r_ij.z);
                 let du = vel[j].xyz - u_i;
@@ -219,7 +224,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 s += r_ij / (r2 * r);
                 if B_HAT_SOLVE {
                     let e = r_ij / r;
-                    let vf = (pos[j].w / rho_j) * kernel_grad_factor(r);
+                    let vf = (pos[j].w / rho_j) * grad_factor_at(r, h_i);
                     let w1 = vf * r2;
                     q4a += w1 * quartic_a(e);
                     q4b += w1 * quartic_b(e);

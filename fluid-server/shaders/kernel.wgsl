@@ -55,6 +55,49 @@ fn kernel_grad_factor(r: f32) -> f32 {
     }
     return wendland_c2_grad_factor(q);
 }
+
+// With a smoothing length h of its own (Robinson eq. 19): σ ∝ 1/h³, so with s = H/h,
+// W(r, h) = s³ σ f(r/h) and F(r, h) = s⁵ (σ/H²) F̂(r/h), the fixed-h functions at q = r/h.
+fn kernel_w_h(r: f32, h: f32) -> f32 {
+    let s = H / h;
+    let q = r / h;
+    if KERNEL_QUINTIC {
+        return s * s * s * quintic_w(q);
+    }
+    return s * s * s * wendland_c2_w(q);
+}
+
+fn kernel_grad_factor_h(r: f32, h: f32) -> f32 {
+    let s = H / h;
+    let s2 = s * s;
+    let q = r / h;
+    if KERNEL_QUINTIC {
+        return s2 * s2 * s * quintic_grad_factor(q);
+    }
+    return s2 * s2 * s * wendland_c2_grad_factor(q);
+}
+
+// Robinson eq. (19): h = H (V/δ³)^(1/3), V = m/ρ (σ of eq. 19 is H/δ).
+fn variable_h_of(m: f32, rho: f32) -> f32 {
+    return H * pow(m / (rho * SPACING * SPACING * SPACING), 1.0 / 3.0);
+}
+
+// F(r) at the smoothing length `h` with variable h, at H otherwise (compiled out).
+fn grad_factor_at(r: f32, h: f32) -> f32 {
+    if VARIABLE_H {
+        return kernel_grad_factor_h(r, h);
+    }
+    return kernel_grad_factor(r);
+}
+
+// The squared support radius of smoothing length `h` (SUPPORT_RADIUS2 at H).
+fn support2_at(h: f32) -> f32 {
+    if VARIABLE_H {
+        let s = h / H;
+        return SUPPORT_RADIUS2 * s * s;
+    }
+    return SUPPORT_RADIUS2;
+}
 // ---- end of kernel.wgsl ----
 
 // ---- kernels ----

@@ -9,6 +9,12 @@ fn pressure_term(m_j: f32, p_i: f32, rho_i: f32, p_j: f32, rho_j: f32, grad_w: v
     return -m_j * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j)) * grad_w;
 }
 
+// Pressure part of Robinson eq. (12) (variable h): −m_j (P_i/(Ω_i ρ_i²) ∇W(h_i) +
+// P_j/(Ω_j ρ_j²) ∇W(h_j)); `q_i` = P_i/Ω_i and `q_j` = P_j/Ω_j.
+fn robinson_pressure_term(m_j: f32, q_i: f32, rho_i: f32, q_j: f32, rho_j: f32, grad_w_i: vec3<f32>, grad_w_j: vec3<f32>) -> vec3<f32> {
+    return -m_j * ((q_i / (rho_i * rho_i)) * grad_w_i + (q_j / (rho_j * rho_j)) * grad_w_j);
+}
+
 // Pressure part of Joubert eq. (13), gradient-corrected: −(1/ρ_i) Σ_j V_j (p_j − p_i) B_i ∇W_ij,
 // V_j = m/ρ_j; `grad_w_c` = B_i ∇W_ij.
 fn corrected_pressure_term(m_j: f32, p_i: f32, rho_i: f32, p_j: f32, rho_j: f32, grad_w_c: vec3<f32>) -> vec3<f32> {

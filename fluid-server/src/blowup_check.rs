@@ -1,11 +1,14 @@
 //! End-of-window blow-up check (DESIGN.md, "Failure model"): the smallest fluid id whose
 //! position, velocity or density is non-finite, whose intrinsic density (ρ/ε among
-//! grains) deviates from ρ0 by more than [`BLOWUP_DENSITY_DEVIATION`], or whose speed exceeds c_s, and that particle's
-//! values. Two small passes and a 48-byte readback per window.
+//! grains) deviates from ρ0 by more than [`BLOWUP_DENSITY_DEVIATION`], whose speed exceeds
+//! c_s, or (variable h) whose smoothing length exceeds the largest the neighbour grid was
+//! built for, and that particle's values. Two small passes and a 64-byte readback per
+//! window.
 //! WGSL: `shaders/blowup_check.wgsl` (`find_bad`, `capture_bad`).
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
+use crate::kernel::kernel_library;
 use crate::porosity::porosity_wgsl;
 use crate::sph_kernel::{
     Access, PARAMS, PARTICLES, SphKernel, param_binding as qb, particle_binding as pb,
@@ -41,6 +44,7 @@ fn build(gpu: &Gpu, c: &SphConstants, label: &'static str, entry: &str) -> SphKe
             &consts,
             &limit,
             STEP_PARAMS_WGSL,
+            kernel_library(),
             porosity,
             BLOWUP_CHECK_WGSL,
         ],

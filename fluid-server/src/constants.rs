@@ -87,6 +87,9 @@ pub struct SphConstants {
     /// Unresolved grains push back on the fluid (`coupling.two_way`, Robinson eqs.
     /// 26–27): the reaction buffer and its kernels exist.
     pub grain_reaction: bool,
+    /// `effects.variable_smoothing_length`: `Some(largest h / h)` (Robinson eq. 19,
+    /// `fluid.max_smoothing_ratio`), `None` for one h. See [`crate::robinson_variable_h`].
+    pub variable_h: Option<f64>,
 }
 
 /// `η² = 0.01 h²` in the Morris (1997) and Monaghan (1992) denominators `r² + η²`: keeps
@@ -139,6 +142,10 @@ impl SphConstants {
             density_diffusion: scene.effects.density_diffusion,
             grains: !scene.grains().is_empty(),
             grain_reaction: scene.coupling.two_way && !scene.grains().is_empty(),
+            variable_h: scene
+                .effects
+                .variable_smoothing_length
+                .then(|| f.max_smoothing_ratio()),
         })
     }
 
@@ -186,6 +193,12 @@ impl SphConstants {
         self.kernel.radius()
     }
 
+    /// The neighbour grid's reach, m: the support radius, or with variable h that of
+    /// the largest h allowed.
+    pub fn grid_radius(&self) -> f64 {
+        self.support_radius() * self.variable_h.unwrap_or(1.0)
+    }
+
     /// The WGSL constant block every SPH module starts with (after the prelude).
     pub fn wgsl(&self) -> String {
         let k = &self.kernel;
@@ -220,6 +233,8 @@ impl SphConstants {
              const SHIFTING_BETA: f32 = {beta:e};\n\
              const DENSITY_DIFFUSION: bool = {diffusion};\n\
              const DIFFUSION_DELTA: f32 = {delta:e};\n\
+             const VARIABLE_H: bool = {variable_h};\n\
+             const MAX_H: f32 = {max_h:e};\n\
              // ---- end of SPH constants ----\n",
             quintic = k.kind == KernelKind::Quintic,
             h = k.h,
@@ -249,6 +264,8 @@ impl SphConstants {
             beta = self.shifting_beta,
             diffusion = self.density_diffusion > 0.0,
             delta = self.density_diffusion,
+            variable_h = self.variable_h.is_some(),
+            max_h = k.h * self.variable_h.unwrap_or(1.0),
         )
     }
 }

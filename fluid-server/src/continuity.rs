@@ -7,6 +7,9 @@
 //! [`crate::joubert2020_gradients`] — except among unresolved grains, where the
 //! standard form stays (Robinson eq. 10; why: [`SphConstants::corrected_continuity`]).
 //!
+//! With `effects.variable_smoothing_length`, Robinson eq. (10): the standard form takes
+//! particle i's own kernel and 1/Ω_i ([`crate::robinson_variable_h`]).
+//!
 //! With `effects.density_diffusion` = δ > 0, δ-SPH (Antuono, Colagrossi, Marrone &
 //! Molteni 2010, eq. 5) adds over fluid neighbours `δ h c_s Σ_j V_j ψ_ij·∇W_ij`,
 //! `ψ_ij = 2(ρ_j − ρ_i) r_ji/r_ij² − (⟨∇ρ⟩ᶜ_i + ⟨∇ρ⟩ᶜ_j)`, with the renormalised density
@@ -29,6 +32,7 @@
 use crate::constants::SphConstants;
 use crate::joubert2020_gradients::{Gradients, laplacian_b_hat_cpu, mat_vec, truncation_cpu};
 use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::robinson_variable_h::{kernel_at, omega_cpu, pair_neighbours};
 
 pub const CONTINUITY_WGSL: &str = include_str!("../shaders/continuity.wgsl");
 
@@ -66,12 +70,15 @@ pub fn continuity_cpu(
     let g_i = g_p(i).unwrap_or([0.0; 3]);
     let (mut mc_a, mut mc_q, mut mc_div) = (0.0, [0.0; 3], 0.0);
     let mut d = 0.0;
-    for j in set.neighbours(i, c.support_radius()) {
-        let grad_w = c.kernel.grad(sub(set.pos[i], set.pos[j]));
+    // Variable h (Robinson eq. 10): ∇W(h_i) and 1/Ω_i; with one h, c.kernel and 1.
+    let k_i = kernel_at(c, set, i);
+    let omega_i = omega_cpu(c, set, i);
+    for j in pair_neighbours(c, set, i) {
+        let grad_w = k_i.grad(sub(set.pos[i], set.pos[j]));
         let u_ij = sub(set.vel[i], set.vel[j]);
         d += match &b {
             Some(b) => set.rho[i] * (set.mass[j] / set.rho[j]) * dot(u_ij, mat_vec(b, grad_w)),
-            None => set.mass[j] * dot(u_ij, grad_w),
+            None => set.mass[j] * dot(u_ij, grad_w) / omega_i,
         };
         if let Some((bm, bhat)) = &mc {
             let r_ij = sub(set.pos[i], set.pos[j]);

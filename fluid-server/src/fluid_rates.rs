@@ -11,6 +11,7 @@ use crate::kernel::kernel_library;
 use crate::momentum::{MOMENTUM_WGSL, momentum_cpu};
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet};
+use crate::robinson_variable_h::smoothing_wgsl;
 use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 
 pub const FLUID_RATES_WGSL: &str = include_str!("../shaders/fluid_rates.wgsl");
@@ -119,6 +120,8 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
         NO_B_HAT_WGSL
     };
     let g = if grads { GRADS_WGSL } else { NO_GRADS_WGSL };
+    let (smoothing, smoothing_binding) = smoothing_wgsl(c);
+    bindings.extend(smoothing_binding);
     SphKernel::new(
         gpu,
         "sph: fluid_rates",
@@ -133,6 +136,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             b_hat,
             g,
             wall_velocity,
+            smoothing,
             FLUID_RATES_WGSL,
         ],
         "fluid_rates",

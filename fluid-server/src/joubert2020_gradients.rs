@@ -21,9 +21,10 @@
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
-use crate::kernel::kernel_library;
+use crate::kernel::{SmoothingKernel, kernel_library};
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::robinson_variable_h::{kernel_at, smoothing_wgsl};
 use crate::sph_kernel::{
     Access, PARAMS, PARTICLES, SphKernel, param_binding as qb, particle_binding as pb,
 };
@@ -69,7 +70,7 @@ pub fn lattice_det(c: &SphConstants) -> f64 {
                     continue;
                 }
                 // r_ij = x_i − x_j with x_i at the origin.
-                add_to_truncation(&mut m, c, v, r.map(|x| -x));
+                add_to_truncation(&mut m, &c.kernel, v, r.map(|x| -x));
             }
         }
     }
@@ -121,6 +122,8 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     } else {
         NO_BHAT_WGSL
     };
+    let (smoothing, smoothing_binding) = smoothing_wgsl(c);
+    particles.extend(smoothing_binding);
     SphKernel::new(
         gpu,
         "sph: joubert2020_gradients",
@@ -131,6 +134,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             GRID_COMMON_WGSL,
             kernel_library(),
             store,
+            smoothing,
             GRADIENTS_WGSL,
         ],
         "gradients",
@@ -203,10 +207,11 @@ pub struct Truncation {
 /// CPU twin of the gradient pass's `B_i`, fallback and free-surface flag.
 pub fn truncation_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> Truncation {
     let mut m = [[0.0; 3]; 3];
-    for j in set.neighbours(i, c.support_radius()) {
+    let k = kernel_at(c, set, i);
+    for j in set.neighbours(i, k.radius()) {
         add_to_truncation(
             &mut m,
-            c,
+            &k,
             set.mass[j] / set.rho[j],
             sub(set.pos[i], set.pos[j]),
         );
@@ -231,8 +236,8 @@ pub fn b_matrix_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> (Mat3, boo
 }
 
 /// Adds neighbour j's term `−V_j ∇W_ij ⊗ r_ij` to `M_i` (Joubert eq. 10).
-fn add_to_truncation(m: &mut Mat3, c: &SphConstants, v_j: f64, r_ij: [f64; 3]) {
-    let g = c.kernel.grad(r_ij);
+fn add_to_truncation(m: &mut Mat3, k: &SmoothingKernel, v_j: f64, r_ij: [f64; 3]) {
+    let g = k.grad(r_ij);
     for (a, row) in m.iter_mut().enumerate() {
         for (b, x) in row.iter_mut().enumerate() {
             *x -= v_j * g[a] * r_ij[b];
@@ -250,10 +255,11 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
             let (b, singular) = b_matrix_cpu(c, set, i);
             let mut raw = [[0.0; 3]; 5];
             let (mut r_sum, mut count, mut s) = (0.0, 0.0, [0.0; 3]);
-            for j in set.neighbours(i, c.support_radius()) {
+            let k_i = kernel_at(c, set, i);
+            for j in set.neighbours(i, k_i.radius()) {
                 let r_ij = sub(set.pos[i], set.pos[j]);
                 let r2 = dot(r_ij, r_ij);
-                let g = c.kernel.grad(r_ij);
+                let g = k_i.grad(r_ij);
                 let v = set.mass[j] / set.rho[j];
                 let df = [
                     set.vel[j][0] - set.vel[i][0],

@@ -39,6 +39,7 @@ pub mod particle_shifting;
 pub mod particles;
 pub mod plan;
 pub mod porosity;
+pub mod robinson_variable_h;
 pub mod solver;
 pub mod sph_kernel;
 pub mod tait_eos;

@@ -8,6 +8,11 @@
 //! With `effects.gradient_correction` the pressure part is Joubert eq. (13)'s
 //! `−(1/ρ_i) Σ_j V_j (p_j − p_i) B_i ∇W_ij` (`V_j = m/ρ_j`); the viscous terms stay Morris's.
 //!
+//! With `effects.variable_smoothing_length` the standard pressure part is Robinson eq.
+//! (12), `−Σ_j m_j (p_i/(Ω_i ρ_i²) ∇W(h_i) + p_j/(Ω_j ρ_j²) ∇W(h_j))`, the corrected one
+//! takes `∇W(h_i)`, and the viscous terms the mean `(∇W(h_i) + ∇W(h_j))/2`
+//! ([`crate::robinson_variable_h`]).
+//!
 //! Free-slip walls do not enter the viscous sums; no-slip walls enter them with the
 //! velocity 2 v_w − ṽ_w of Adami et al. (2012) (see
 //! [`crate::adami2012_boundary_pressure`]); markers (body surfaces) always enter them
@@ -18,6 +23,7 @@ use crate::adami2012_boundary_pressure::wall_velocity_cpu;
 use crate::constants::SphConstants;
 use crate::joubert2020_gradients::{laplacian_b_hat_cpu, mat_vec, truncation_cpu};
 use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::robinson_variable_h::{kernel_at, omega_cpu, pair_neighbours};
 
 pub const MOMENTUM_WGSL: &str = include_str!("../shaders/momentum.wgsl");
 
@@ -36,15 +42,24 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
         .filter(|_| c.laplacian_correction)
         .map(|t| (t.b, laplacian_b_hat_cpu(c, set, i, &t.b, t.singular).0));
     let (mut lap_a, mut lap_q, mut lap_d) = ([0.0; 3], [0.0; 3], [[0.0; 3]; 3]);
-    for j in set.neighbours(i, c.support_radius()) {
+    // Variable h (Robinson eq. 12): each side's own kernel and Ω; the viscous terms take
+    // the mean gradient. With one h all three gradients are c.kernel's and Ω = 1.
+    let k_i = kernel_at(c, set, i);
+    let q_i = p_i / omega_cpu(c, set, i);
+    for j in pair_neighbours(c, set, i) {
         let r_ij = sub(set.pos[i], set.pos[j]);
         let r2 = dot(r_ij, r_ij);
-        let g = c.kernel.grad(r_ij);
+        let g = k_i.grad(r_ij);
+        let g_j = kernel_at(c, set, j).grad(r_ij);
+        let g_visc: [f64; 3] = std::array::from_fn(|k| 0.5 * (g[k] + g_j[k]));
         let (rho_j, p_j) = (set.rho[j], set.press[j]);
+        let q_j = p_j / omega_cpu(c, set, j);
         let u_ij = sub(set.vel[i], set.vel[j]);
-        let mut add = match &b {
+        let mut add: [f64; 3] = match &b {
             Some(b) => mat_vec(b, g).map(|x| -set.mass[j] / (rho_i * rho_j) * (p_j - p_i) * x),
-            None => g.map(|x| -set.mass[j] * (p_i / (rho_i * rho_i) + p_j / (rho_j * rho_j)) * x),
+            None => std::array::from_fn(|k| {
+                -set.mass[j] * (q_i / (rho_i * rho_i) * g[k] + q_j / (rho_j * rho_j) * g_j[k])
+            }),
         };
         let wall = set.kinds.kind(set.id[j]) == Kind::Wall;
         let viscous = c.no_slip_walls || !wall;
@@ -67,8 +82,8 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
             }
         } else if c.laminar && viscous {
             // Morris, Fox & Zhu (1997) eq. (8).
-            let f =
-                set.mass[j] * c.nu * (rho_i + rho_j) * dot(r_ij, g) / (rho_i * rho_j * (r2 + eta2));
+            let f = set.mass[j] * c.nu * (rho_i + rho_j) * dot(r_ij, g_visc)
+                / (rho_i * rho_j * (r2 + eta2));
             for k in 0..3 {
                 add[k] += f * u_visc[k];
             }
@@ -80,7 +95,7 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
                 let mu_ij = c.kernel.h * vr / (r2 + eta2);
                 let pi_ij = -c.alpha * c.sound_speed * mu_ij / (0.5 * (rho_i + rho_j));
                 for k in 0..3 {
-                    add[k] += -set.mass[j] * pi_ij * g[k];
+                    add[k] += -set.mass[j] * pi_ij * g_visc[k];
                 }
             }
         }

@@ -111,10 +111,15 @@ pub fn wall_layers(scene: &Scene) -> usize {
     if scene.domain.wall_model == WallModel::Joubert {
         return 1;
     }
-    scene
-        .fluid
-        .as_ref()
-        .map_or(0, |f| (f.support - 0.5).ceil().max(1.0) as usize)
+    // With variable h the layers fill the largest support allowed (Robinson eq. 19).
+    scene.fluid.as_ref().map_or(0, |f| {
+        let reach = if scene.effects.variable_smoothing_length {
+            f.support * f.max_smoothing_ratio()
+        } else {
+            f.support
+        };
+        (reach - 0.5).ceil().max(1.0) as usize
+    })
 }
 
 /// Lattice coordinates along one axis of `[min, max]`, cell-centred: min + δ/2 + iδ.
@@ -273,7 +278,7 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
             }
         }
     }
-    let support = c.support_radius();
+    let support = c.grid_radius();
     if !obstacles.is_empty() {
         let (xs, ys, zs) = (
             lattice(dom.min[0], dom.max[0], delta),

@@ -31,6 +31,7 @@ pub const DENSITY_DIFFUSION: &str = "antuono2010_density_diffusion";
 pub const MASS_CORRECTION: &str = "joubert2020_mass_correction";
 pub const SAMPLE_GRAINS: &str = "robinson_sample_grains";
 pub const GRAIN_REACTION: &str = "robinson_grain_reaction";
+pub const VARIABLE_H: &str = "robinson_variable_h";
 
 /// Names of the axes `k` (x, y, z) for which `pick(k)` holds.
 fn axis_names(pick: impl Fn(usize) -> bool) -> Vec<&'static str> {
@@ -51,12 +52,21 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         return out;
     };
     let mut push = |name: &'static str, reason: String| out.push(Stage { name, reason });
+    let variable_h = scene
+        .effects
+        .variable_smoothing_length
+        .then(|| f.max_smoothing_ratio());
     let periodic = axis_names(|k| scene.domain.periodic[k]);
     push(
         NEIGHBOUR_GRID,
         format!(
-            "cell size ≥ support/{reach} = {:.3e} m; stable counting sort by cell once per step{}",
-            f.support_radius() / f64::from(crate::neighbour_grid::GRID_REACH),
+            "cell size ≥ support/{reach} = {:.3e} m{}; stable counting sort by cell once per step{}",
+            f.support_radius() * variable_h.unwrap_or(1.0)
+                / f64::from(crate::neighbour_grid::GRID_REACH),
+            match variable_h {
+                Some(r) => format!(" (the support of the largest h, {r} h: variable h)"),
+                None => String::new(),
+            },
             if periodic.is_empty() {
                 String::new()
             } else {
@@ -74,6 +84,17 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     let beta = scene.effects.particle_shifting;
     let delta = scene.effects.density_diffusion;
     let gamma_mc = scene.effects.mass_correction;
+    if let Some(r) = variable_h {
+        push(
+            VARIABLE_H,
+            format!(
+                "effects.variable_smoothing_length: h_i = h (V_i/δ³)^(1/3) (Robinson eq. 19) and the grad-h factor Ω_i (eq. 11) of every fluid particle once per step after the sort; h_i ≤ {r} h (fluid.max_smoothing_ratio); on a uniform lattice Ω = {:.4} (the kernel sum's error at support {}δ)",
+                crate::SphConstants::from_scene(scene)
+                    .map_or(f64::NAN, |c| crate::robinson_variable_h::lattice_omega(&c)),
+                f.support
+            ),
+        );
+    }
     if correction || laplacian || beta > 0.0 || delta > 0.0 {
         let users: Vec<&str> = [
             (correction, "effects.gradient_correction"),
@@ -177,6 +198,8 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
             CONTINUITY,
             if scene.grains().is_empty() {
                 "Joubert eq. (12): −ρ_i Σ V_j (u_j − u_i)·B_i∇W_ij".into()
+            } else if variable_h.is_some() {
+                "superficial density, Robinson eq. (10): (1/Ω_i) Σ m_j u_ij·∇W_ij(h_i) (not Joubert's corrected eq. 12: among grains only this form is the time derivative of the summation density)".into()
             } else {
                 "superficial density, Robinson eq. (10) at fixed h: Σ m_j u_ij·∇W_ij (not Joubert's corrected eq. 12: among grains only this form is the time derivative of the summation density)".into()
             },
@@ -184,6 +207,15 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(
             MOMENTUM_PRESSURE,
             "Joubert eq. (13): −(1/ρ_i) Σ V_j (p_j − p_i) B_i∇W_ij".into(),
+        );
+    } else if variable_h.is_some() {
+        push(
+            CONTINUITY,
+            "Robinson eq. (10): (1/Ω_i) Σ m_j u_ij·∇W_ij(h_i)".into(),
+        );
+        push(
+            MOMENTUM_PRESSURE,
+            "Robinson eq. (12): −Σ m_j (p_i/(Ω_i ρ_i²) ∇W(h_i) + p_j/(Ω_j ρ_j²) ∇W(h_j))".into(),
         );
     } else {
         push(

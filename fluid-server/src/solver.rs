@@ -6,9 +6,9 @@
 //! passes:
 //!
 //! ```text
-//! marker_update?  grid sort  gradients? │ boundary pressure  fluid_rates  marker_loads?  predict
-//!                                       │ boundary pressure  fluid_rates  marker_loads?  correct
-//!                                       │ shift?  advance_clock?
+//! marker_update?  grid sort  smoothing_lengths?  gradients? │ boundary pressure  fluid_rates  marker_loads?  predict
+//!                                                           │ boundary pressure  fluid_rates  marker_loads?  correct
+//!                                                           │ shift?  advance_clock?
 //! ```
 //!
 //! and, once per window, `reduce_body_loads?` and the blow-up check. Stages switched off
@@ -44,7 +44,7 @@ use crate::window_stats::WindowStats;
 use crate::{
     adami2012_boundary_pressure, blowup_check, body_load_reduce, fluid_rates, integrate,
     joubert2020_body_loads, joubert2020_boundary_values, joubert2020_gradients, marker_update,
-    neighbour_count, particle_shifting, plan, tait_eos, window_stats,
+    neighbour_count, particle_shifting, plan, robinson_variable_h, tait_eos, window_stats,
 };
 use couplet_protocol::{BodyLoad, BodyState, CouplingPoint, ParticleRecord, Scene};
 use wgpu::util::DeviceExt;
@@ -82,6 +82,8 @@ pub enum Op {
     Shift,
     /// The grains' reaction joins du/dt (absent without two-way grains).
     GrainReaction,
+    /// Robinson's (h, Ω) per particle (absent without variable h).
+    SmoothingLengths,
 }
 
 /// Kernels of the marker coupling (compiled only for scenes with resolved bodies, or at
@@ -106,6 +108,7 @@ pub struct SphPipelines {
     neighbour_count: SphKernel,
     gradients: Option<SphKernel>,
     shift: Option<SphKernel>,
+    smoothing_lengths: Option<SphKernel>,
     grain_reaction: Option<SphKernel>,
     markers: Option<MarkerPipelines>,
 }
@@ -135,6 +138,10 @@ impl SphPipelines {
                 .gradient_pass()
                 .then(|| joubert2020_gradients::kernel(gpu, c, grid_layout)),
             shift: (c.shifting_beta > 0.0).then(|| particle_shifting::kernel(gpu, c)),
+            smoothing_lengths: c
+                .variable_h
+                .is_some()
+                .then(|| robinson_variable_h::kernel(gpu, c, grid_layout)),
             grain_reaction: c
                 .grain_reaction
                 .then(|| crate::unresolved_coupling::add_kernel(gpu, c)),
@@ -185,6 +192,7 @@ struct Bound {
     window_stats: BoundKernel,
     gradients: Option<BoundKernel>,
     shift: Option<BoundKernel>,
+    smoothing_lengths: Option<BoundKernel>,
     grain_reaction: Option<BoundKernel>,
     markers: Option<BoundMarkers>,
 }
@@ -232,6 +240,9 @@ pub struct SphData {
     pub solid: Option<wgpu::Buffer>,
     /// The grains' reaction per particle (permuted), with two-way grains.
     pub reaction: Option<crate::unresolved_coupling::ReactionBuffers>,
+    /// (h_i, Ω_i) of Robinson's variable smoothing length, one vec2 per particle
+    /// (written after every sort, not permuted), with variable h.
+    pub smoothing: Option<wgpu::Buffer>,
     bound: Bound,
 }
 
@@ -360,14 +371,14 @@ impl SphData {
             "sph: blow-up status",
             bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]),
         );
-        let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 32]);
+        let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 48]);
         let stats_partials = storage_init(
             gpu,
             "sph: window stats partials",
             &vec![0u8; window_stats::partials_bytes(n as u32) as usize],
         );
 
-        let mut grid = NeighbourGrid::new(gpu, bounds, c.support_radius(), n as u32)?;
+        let mut grid = NeighbourGrid::new(gpu, bounds, c.grid_radius(), n as u32)?;
         grid.register(gpu, &pos, 16)?;
         grid.register(gpu, &vel, 16)?;
         grid.register(gpu, &rho, 4)?;
@@ -401,6 +412,10 @@ impl SphData {
                 .then(|| storage_init(gpu, "sph: Laplacian truncation", &vec![0u8; n * 32])),
             diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16]),
         });
+        let smoothing = c
+            .variable_h
+            .is_some()
+            .then(|| storage_init(gpu, "sph: smoothing lengths", &vec![0u8; n * 8]));
         let wall_vel = c
             .wall_velocity_extrapolation
             .then(|| storage_init(gpu, "sph: wall velocity", &vec![0u8; n * 16]));
@@ -450,6 +465,7 @@ impl SphData {
                     pb::BOUNDARY_FRAME => boundary_frame.as_ref()?,
                     pb::BHAT => gradients.as_ref()?.bhat.as_ref()?,
                     pb::SOLID => solid.as_ref()?,
+                    pb::SMOOTHING => smoothing.as_ref()?,
                     pb::REACTION_LO => &reaction.as_ref()?.lo,
                     pb::REACTION_HI => &reaction.as_ref()?.hi,
                     _ => return None,
@@ -552,6 +568,13 @@ impl SphData {
                     ),
                     None => None,
                 },
+                smoothing_lengths: match &p.smoothing_lengths {
+                    Some(k) => Some(
+                        k.bind(gpu, resolve, g)
+                            .ok_or_else(|| missing("smoothing_lengths"))?,
+                    ),
+                    None => None,
+                },
                 grain_reaction: match &p.grain_reaction {
                     Some(k) => Some(
                         k.bind(gpu, resolve, None)
@@ -585,6 +608,7 @@ impl SphData {
             boundary_frame,
             solid,
             reaction,
+            smoothing,
             bound,
         })
     }
@@ -627,6 +651,10 @@ impl SphData {
             },
             Op::Shift => match &b.shift {
                 Some(k) => (k, "sph: particle_shifting"),
+                None => return,
+            },
+            Op::SmoothingLengths => match &b.smoothing_lengths {
+                Some(k) => (k, "sph: robinson_variable_h"),
                 None => return,
             },
             Op::GrainReaction => match &b.grain_reaction {
@@ -838,7 +866,7 @@ impl FluidSolver {
         };
         // Only a throwaway grid gives the layout the pipelines are built with; wgpu
         // deduplicates identical bind group layouts, so later grids' bind groups fit.
-        let probe = NeighbourGrid::new(gpu, bounds, consts.support_radius(), 1)?;
+        let probe = NeighbourGrid::new(gpu, bounds, consts.grid_radius(), 1)?;
         let pipelines = SphPipelines::new(
             gpu,
             &consts,
@@ -1233,7 +1261,7 @@ impl FluidSolver {
         set.kinds.n_markers = points.len();
         if self.pipelines.markers.is_none() {
             // A scene without resolved bodies that still receives markers (tests).
-            let probe = NeighbourGrid::new(gpu, self.bounds, self.consts.support_radius(), 1)?;
+            let probe = NeighbourGrid::new(gpu, self.bounds, self.consts.grid_radius(), 1)?;
             self.pipelines.markers = Some(MarkerPipelines::new(
                 gpu,
                 &self.consts,
@@ -1271,6 +1299,7 @@ impl FluidSolver {
         if let Some(g) = &self.grains {
             g.queue_solid_fraction(gpu, encoder, d, tau)?;
         }
+        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::SmoothingLengths);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Gradients);
         for update in [Op::Predict, Op::Correct] {
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::BoundaryPressure);
@@ -1411,8 +1440,8 @@ impl FluidSolver {
         if let Some(&id) = status.first()
             && id != blowup_check::NO_BAD_ID
         {
-            let v: Vec<[f32; 4]> = gpu.read_buffer(&d.bad_values, 0, 2)?;
-            let (pos, rho, vel) = (v[0], v[0][3], v[1]);
+            let v: Vec<[f32; 4]> = gpu.read_buffer(&d.bad_values, 0, 3)?;
+            let (pos, rho, vel, mass) = (v[0], v[0][3], v[1], v[2][0]);
             let finite = |x: &[f32]| x.iter().all(|a| a.is_finite());
             let c = &self.consts;
             let speed = (vel[..3].iter().map(|x| f64::from(*x).powi(2)).sum::<f64>()).sqrt();
@@ -1421,6 +1450,23 @@ impl FluidSolver {
                 ("position", format!("{:?}", &pos[..3]))
             } else if !finite(&vel[..3]) {
                 ("velocity", format!("{:?} at {world:?}", &vel[..3]))
+            } else if let Some(ratio) = c.variable_h
+                && rho > 0.0
+                && (f64::from(mass) / (f64::from(rho) * c.spacing.powi(3))).cbrt() > ratio
+            {
+                // Robinson eq. (19): V/δ³ = (h/h0)³; among grains V/δ³ ≈ 1/ε.
+                let volume = f64::from(mass) / (f64::from(rho) * c.spacing.powi(3));
+                (
+                    "smoothing length",
+                    format!(
+                        "{:.4e} m at {world:?}, above the largest the neighbour grid holds, \
+                         fluid.max_smoothing_ratio = {ratio} times {:.4e} m (its volume is {volume:.3} δ³: \
+                         a porosity near {:.3}); raise fluid.max_smoothing_ratio",
+                        c.kernel.h * volume.cbrt(),
+                        c.kernel.h,
+                        1.0 / volume
+                    ),
+                )
             } else if !rho.is_finite()
                 || (f64::from(rho) / c.rho0 - 1.0).abs() > blowup_check::BLOWUP_DENSITY_DEVIATION
             {

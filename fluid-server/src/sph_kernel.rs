@@ -60,6 +60,9 @@ pub mod particle_binding {
     /// The grains' solid fraction at each particle (Robinson eq. 9), u32 counts of
     /// 2^-31, permuted by the sort (`grain_porosity.wgsl`); only in scenes with grains.
     pub const SOLID: u32 = 16;
+    /// (h_i, Ω_i) of Robinson's variable smoothing length (eqs. 11, 19), one vec2 per
+    /// particle, written after every sort (not permuted); only with variable h.
+    pub const SMOOTHING: u32 = 17;
 }
 
 /// Bodies and markers, group 2.

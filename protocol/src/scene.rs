@@ -240,6 +240,16 @@ pub struct FluidSpec {
     /// with. Default none: at rest (hydrostatic under gravity).
     #[serde(default)]
     pub initial_flow: Option<InitialFlow>,
+    /// With `effects.variable_smoothing_length`: the largest smoothing length a fluid
+    /// particle may take, in units of the scene's h. The neighbour grid is built for it
+    /// (every pair loop's cells are this much wider, so the fixed-h passes visit up to
+    /// its cube more candidates), and a particle whose h would exceed it stops the run
+    /// with an error naming it. Among grains h = h0 ε^(−1/3) (Robinson eq. 19 with
+    /// ρ = ε ρ_f), so the ratio sets the lowest porosity the fluid can enter: 1.4 (the
+    /// default) reaches ε = 0.36, random close packing of equal spheres. Unset without
+    /// variable h (setting it then is an error: it would do nothing).
+    #[serde(default)]
+    pub max_smoothing_ratio: Option<f64>,
 }
 
 /// `[fluid.initial_flow]`: an analytic initial state, selected by `kind`.
@@ -271,6 +281,10 @@ fn default_gamma() -> f64 {
     7.0
 }
 
+/// Default of `fluid.max_smoothing_ratio`: ε^(−1/3) at ε = 0.364, random close packing
+/// of equal spheres (Robinson eq. 19 with ρ = ε ρ_f), rounded up.
+pub const DEFAULT_MAX_SMOOTHING_RATIO: f64 = 1.4;
+
 impl FluidSpec {
     /// Smoothing length h, m.
     pub fn smoothing_length(&self) -> f64 {
@@ -279,6 +293,11 @@ impl FluidSpec {
     /// Kernel support radius, m.
     pub fn support_radius(&self) -> f64 {
         self.support * self.spacing
+    }
+    /// `fluid.max_smoothing_ratio` with its default, for a scene with variable h.
+    pub fn max_smoothing_ratio(&self) -> f64 {
+        self.max_smoothing_ratio
+            .unwrap_or(DEFAULT_MAX_SMOOTHING_RATIO)
     }
 }
 
@@ -507,6 +526,21 @@ pub struct EffectsSpec {
     /// `true` needs `gradient_correction`.
     #[serde(default)]
     pub free_surface: Option<bool>,
+    /// Robinson's variable smoothing length (eqs. 10–12, 19, after Price 2012): every
+    /// fluid particle takes h_i = h (V_i/δ³)^(1/3), V_i = m_i/ρ_i, so that among grains,
+    /// where the superficial density is ε ρ_f, it keeps about the same number of
+    /// neighbours as in clear fluid (with a fixed h it has ε of them). Continuity and the
+    /// standard pressure term carry the grad-h factor Ω_i of eq. (11) and the pressure
+    /// term takes each side's own kernel (eq. 12); the corrected forms (eqs. 12–13 of
+    /// Joubert) take ∇W(h_i), with B_i built from the same kernel; the viscous terms take
+    /// the mean of ∇W(h_i) and ∇W(h_j). Walls and markers keep h (their volume is δ³ by
+    /// construction). The boundary pass, the grains' porosity and sampling keep h too:
+    /// they are interpolations at the coupling length. `fluid.max_smoothing_ratio`
+    /// bounds h_i. Not built together with the corrected Laplacian, the mass
+    /// correction, particle shifting, δ-SPH or Joubert's walls (each assumes one h; the
+    /// scene is refused). Default false: it costs a pass per step and a wider grid.
+    #[serde(default)]
+    pub variable_smoothing_length: bool,
 }
 
 fn default_viscosity() -> ViscosityModel {
@@ -524,6 +558,7 @@ impl Default for EffectsSpec {
             particle_shifting: 0.0,
             density_diffusion: 0.0,
             free_surface: None,
+            variable_smoothing_length: false,
         }
     }
 }
@@ -1125,12 +1160,25 @@ impl Scene {
     pub fn warnings(&self) -> Vec<String> {
         let mut w = Vec::new();
         if self.bodies.iter().any(|b| self.is_grain(b)) {
-            w.push(
-                "unresolved grains: the fluid's smoothing length is fixed (Robinson's variable h, \
-                 eq. 19, is not implemented), so where the porosity is ε a fluid particle has \
-                 about ε times its neighbours"
-                    .into(),
-            );
+            if !self.effects.variable_smoothing_length {
+                w.push(
+                    "unresolved grains with a fixed smoothing length: where the porosity is ε a \
+                     fluid particle has about ε times its neighbours (Robinson's variable h, \
+                     eq. 19: effects.variable_smoothing_length = true)"
+                        .into(),
+                );
+            }
+            if self.effects.variable_smoothing_length
+                && self.fluid.as_ref().is_some_and(|f| f.support < 3.0)
+            {
+                w.push(
+                    "variable h with a support under 3 spacings: the grad-h factor Ω of \
+                     Robinson eq. (11) carries the kernel sum's lattice error, 1 − Ω = 3.2 % at \
+                     2.4δ and 5.2 % at 2δ (Wendland C2; 0.25 % at 3δ), and scales every \
+                     pressure term by 1/Ω (`couplet plan` prints the scene's)"
+                        .into(),
+                );
+            }
             if !self.coupling.two_way {
                 w.push(
                     "coupling.two_way = false: the grains feel the fluid, the fluid does not \
@@ -1150,6 +1198,61 @@ impl Scene {
             );
         }
         w
+    }
+
+    /// `effects.variable_smoothing_length` and `fluid.max_smoothing_ratio`: the ratio is
+    /// set only with variable h and is a finite number ≥ 1; variable h is refused with
+    /// the stages built for one h.
+    fn check_variable_h(&self, f: &FluidSpec, file: &Path) -> Result<(), SceneError> {
+        let bad = |field: &str, value: String, why: String| {
+            Err(SceneError::Invalid {
+                file: file.to_owned(),
+                field: field.into(),
+                value,
+                why,
+            })
+        };
+        let e = &self.effects;
+        if !e.variable_smoothing_length {
+            return match f.max_smoothing_ratio {
+                Some(r) => bad(
+                    "fluid.max_smoothing_ratio",
+                    r.to_string(),
+                    "bounds the variable smoothing length: needs effects.variable_smoothing_length = true".into(),
+                ),
+                None => Ok(()),
+            };
+        }
+        if let Some(r) = f.max_smoothing_ratio
+            && !(r.is_finite() && r >= 1.0)
+        {
+            return bad(
+                "fluid.max_smoothing_ratio",
+                r.to_string(),
+                "must be a finite ratio ≥ 1 (the largest h over the scene's h)".into(),
+            );
+        }
+        let one_h = [
+            ("effects.laplacian_correction", e.laplacian_correction),
+            ("effects.mass_correction", e.mass_correction != 0.0),
+            ("effects.particle_shifting", e.particle_shifting != 0.0),
+            ("effects.density_diffusion", e.density_diffusion != 0.0),
+            (
+                "domain.wall_model",
+                self.domain.wall_model == WallModel::Joubert,
+            ),
+        ];
+        match one_h.iter().find(|(_, on)| *on) {
+            Some((field, _)) => bad(
+                "effects.variable_smoothing_length",
+                "true".into(),
+                format!(
+                    "is built for the standard and the gradient-corrected scheme with Adami's walls; \
+                     {field} assumes one smoothing length: switch one of them off"
+                ),
+            ),
+            None => Ok(()),
+        }
     }
 
     /// `[dem.soft_sphere]` is present exactly when the engine is `soft-sphere`, names
@@ -1538,6 +1641,9 @@ impl Scene {
                 "corrects Joubert eq. (12)'s corrected continuity: needs effects.gradient_correction = true",
             );
         }
+        if let Some(f) = &self.fluid {
+            self.check_variable_h(f, file)?;
+        }
         let beta = self.effects.particle_shifting;
         if beta != 0.0 && !(0.001..=0.1).contains(&beta) {
             return bad(
@@ -1647,6 +1753,58 @@ sound_speed = 20.0
 spacing = 0.05
 blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
 "#;
+
+    /// Variable h: the ratio needs it and is ≥ 1; the one-h stages refuse it; the
+    /// default ratio is RCP's ε^(−1/3).
+    #[test]
+    fn variable_smoothing_length_is_checked() {
+        let parse = |fluid: &str, effects: &str| {
+            let text = MINIMAL.replace(
+                "spacing = 0.05\n",
+                &format!("spacing = 0.05\n{fluid}\n"),
+            );
+            Scene::parse(&format!("{text}[effects]\n{effects}\n"), Path::new("t.toml"))
+        };
+        let field = |r: Result<Scene, SceneError>| match r {
+            Err(SceneError::Invalid { field, .. }) => field,
+            other => panic!("expected an invalid field, got {other:?}"),
+        };
+        let on = "variable_smoothing_length = true";
+        let s = parse("", on).unwrap();
+        let f = s.fluid.as_ref().unwrap();
+        assert_eq!(f.max_smoothing_ratio(), DEFAULT_MAX_SMOOTHING_RATIO);
+        // ε^(−1/3) = 1.4 at ε = 0.364 (random close packing ≈ 0.36).
+        assert!((1.4f64.powi(-3) - 0.364).abs() < 1e-3);
+        assert_eq!(
+            parse("max_smoothing_ratio = 1.2", on)
+                .unwrap()
+                .fluid
+                .unwrap()
+                .max_smoothing_ratio(),
+            1.2
+        );
+        assert_eq!(
+            field(parse("max_smoothing_ratio = 1.2", "")),
+            "fluid.max_smoothing_ratio"
+        );
+        assert_eq!(
+            field(parse("max_smoothing_ratio = 0.9", on)),
+            "fluid.max_smoothing_ratio"
+        );
+        for one_h in [
+            "laplacian_correction = true",
+            "gradient_correction = true\nmass_correction = 2.0",
+            "particle_shifting = 0.01",
+            "density_diffusion = 0.1",
+        ] {
+            assert_eq!(
+                field(parse("", &format!("{on}\n{one_h}"))),
+                "effects.variable_smoothing_length",
+                "{one_h}"
+            );
+        }
+        assert!(parse("", &format!("{on}\ngradient_correction = true")).is_ok());
+    }
 
     #[test]
     fn minimal_scene_parses_with_documented_defaults() {
