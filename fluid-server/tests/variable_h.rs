@@ -6,14 +6,12 @@ mod common;
 
 use common::{max_err, random_set, scene};
 use couplet_fluid::fluid_rates::fluid_rates_cpu;
-use couplet_fluid::momentum::momentum_cpu;
 use couplet_fluid::gpu::shared_test_gpu;
+use couplet_fluid::momentum::momentum_cpu;
 use couplet_fluid::robinson_variable_h::{
     kernel_at, lattice_omega, omega_cpu, pair_neighbours, smoothing_cpu, smoothing_length_cpu,
 };
-use couplet_fluid::{
-    FluidError, FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConstants,
-};
+use couplet_fluid::{FluidError, FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConstants};
 
 /// Relative parity bound for the pair kernels (f32 sums of O(100) terms), as in
 /// `operators.rs`.
@@ -79,12 +77,18 @@ fn eq19_keeps_the_neighbours_and_omega_is_one() {
             n_dense,
             omega - 1.0
         );
-        assert!((omega - 1.0 + 2.8210e-3).abs() < 1e-7, "ε = {eps}: Ω = {omega}");
+        assert!(
+            (omega - 1.0 + 2.8210e-3).abs() < 1e-7,
+            "ε = {eps}: Ω = {omega}"
+        );
         assert!((lattice_omega(&c) - omega).abs() < 1e-9);
         // With one h the same particle keeps about ε of them.
         let fixed = loose.neighbours(centre, c.support_radius()).count() as f64;
         // The lattice's shells make it 0.63, 0.55, 0.38 of them at ε = 0.8, 0.6, 0.4.
-        assert!((fixed / n_dense as f64 - eps).abs() < 0.2, "ε = {eps}: {fixed}");
+        assert!(
+            (fixed / n_dense as f64 - eps).abs() < 0.2,
+            "ε = {eps}: {fixed}"
+        );
     }
     assert!((omega_cpu(&c, &dense, centre) - 1.0 + 2.8210e-3).abs() < 1e-7);
 }
@@ -138,12 +142,8 @@ fn variable_h_matches_cpu_twin() {
         let fluid: Vec<usize> = (0..got.len())
             .filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid)
             .collect();
-        let (eh, mh) = max_err(
-            (0..got.len()).map(|i| (f64::from(h_omega[i][0]), want[i].0)),
-        );
-        let (eo, _) = max_err(
-            (0..got.len()).map(|i| (f64::from(h_omega[i][1]), want[i].1)),
-        );
+        let (eh, mh) = max_err((0..got.len()).map(|i| (f64::from(h_omega[i][0]), want[i].0)));
+        let (eo, _) = max_err((0..got.len()).map(|i| (f64::from(h_omega[i][1]), want[i].1)));
         let spread = fluid
             .iter()
             .map(|&i| want[i].0 / c.kernel.h)
@@ -185,7 +185,10 @@ fn variable_h_matches_cpu_twin() {
 #[test]
 fn uniform_lattice_rates_match_fixed_h() {
     let no_g = "[gravity]\non_fluid = false";
-    let fixed = scene("", &format!("[effects]\nartificial_viscosity = 0.1\n{no_g}"));
+    let fixed = scene(
+        "",
+        &format!("[effects]\nartificial_viscosity = 0.1\n{no_g}"),
+    );
     let variable = scene("", &format!("{VARIABLE_H}\n{no_g}"));
     let (cf, cv) = (
         SphConstants::from_scene(&fixed).unwrap(),
@@ -208,7 +211,11 @@ fn uniform_lattice_rates_match_fixed_h() {
         assert!((kernel_at(&cv, &set, i).h / cv.kernel.h - 1.0).abs() < 1e-12);
         let (a, b) = (momentum_cpu(&cf, &set, i), momentum_cpu(&cv, &set, i));
         let scale = a.iter().map(|x| x.abs()).fold(0.0, f64::max);
-        worst = worst.max((0..3).map(|k| (a[k] - b[k]).abs() / scale).fold(0.0, f64::max));
+        worst = worst.max(
+            (0..3)
+                .map(|k| (a[k] - b[k]).abs() / scale)
+                .fold(0.0, f64::max),
+        );
     }
     println!("interior: worst relative difference of du/dt {worst:e}");
     assert!(worst < 3e-3, "{worst:e}");

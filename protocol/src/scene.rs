@@ -1759,11 +1759,11 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
     #[test]
     fn variable_smoothing_length_is_checked() {
         let parse = |fluid: &str, effects: &str| {
-            let text = MINIMAL.replace(
-                "spacing = 0.05\n",
-                &format!("spacing = 0.05\n{fluid}\n"),
-            );
-            Scene::parse(&format!("{text}[effects]\n{effects}\n"), Path::new("t.toml"))
+            let text = MINIMAL.replace("spacing = 0.05\n", &format!("spacing = 0.05\n{fluid}\n"));
+            Scene::parse(
+                &format!("{text}[effects]\n{effects}\n"),
+                Path::new("t.toml"),
+            )
         };
         let field = |r: Result<Scene, SceneError>| match r {
             Err(SceneError::Invalid { field, .. }) => field,
