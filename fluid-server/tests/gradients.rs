@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{max_err, random_set, scene};
+use common::{fluid_lattice, max_err, random_set, scene};
 use couplet_fluid::gpu::shared_test_gpu;
 use couplet_fluid::joubert2020_gradients::{B_DET_MIN, Gradients, gradients_cpu};
 use couplet_fluid::particle_shifting::{Shifted, shift_cpu};
@@ -271,22 +271,7 @@ fn near_singular_count_is_reported_per_window() {
         "[gravity]\non_fluid = false\n[effects]\nviscosity = \"none\"\ngradient_correction = true",
     );
     let c = SphConstants::from_scene(&s).unwrap();
-    let n = 8;
-    let mut set = ParticleSet::default();
-    for k in 0..n * n * n {
-        let x = [k % n, (k / n) % n, k / (n * n)].map(|v| 0.06 + (v as f64 + 0.5) * c.spacing);
-        set.pos.push(x);
-        set.vel.push([0.0; 3]);
-        set.rho.push(c.rho0);
-        set.mass.push(c.mass);
-        set.press.push(0.0);
-        set.id.push(k as u32);
-    }
-    set.kinds = ParticleKinds {
-        n_fluid: n * n * n,
-        n_wall: 0,
-        n_markers: 0,
-    };
+    let set = fluid_lattice(8, c.spacing, 0.06, c.mass, c.rho0);
     let want = gradients_cpu(&c, &set)
         .iter()
         .flatten()

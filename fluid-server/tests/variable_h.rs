@@ -4,41 +4,20 @@
 
 mod common;
 
-use common::{max_err, random_set, scene};
+use common::{fluid_lattice, max_err, random_set, scene};
 use couplet_fluid::fluid_rates::fluid_rates_cpu;
 use couplet_fluid::gpu::shared_test_gpu;
 use couplet_fluid::momentum::momentum_cpu;
 use couplet_fluid::robinson_variable_h::{
     kernel_at, lattice_omega, omega_cpu, pair_neighbours, smoothing_cpu, smoothing_length_cpu,
 };
-use couplet_fluid::{FluidError, FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConstants};
+use couplet_fluid::{FluidError, FluidSolver, Kind, Op, ParticleSet, SphConstants};
 
 /// Relative parity bound for the pair kernels (f32 sums of O(100) terms), as in
 /// `operators.rs`.
 const PAIR_RTOL: f64 = 1e-4;
 
 const VARIABLE_H: &str = "[effects]\nvariable_smoothing_length = true\nartificial_viscosity = 0.1";
-
-/// A fluid-only cubic lattice of `n³` particles at spacing `s`, each of mass `m` and
-/// density `rho`.
-fn lattice(n: usize, s: f64, m: f64, rho: f64) -> ParticleSet {
-    let mut set = ParticleSet::default();
-    for k in 0..n * n * n {
-        set.pos
-            .push([k % n, (k / n) % n, k / (n * n)].map(|x| (x as f64 + 0.5) * s));
-        set.vel.push([0.0; 3]);
-        set.rho.push(rho);
-        set.mass.push(m);
-        set.press.push(0.0);
-        set.id.push(k as u32);
-    }
-    set.kinds = ParticleKinds {
-        n_fluid: n * n * n,
-        n_wall: 0,
-        n_markers: 0,
-    };
-    set
-}
 
 /// Eq. (19) keeps the neighbours: particles of full mass m0 at the superficial density
 /// ε ρ0 (a lattice stretched to spacing δ ε^(−1/3), the fluid among grains of porosity
@@ -57,12 +36,12 @@ fn eq19_keeps_the_neighbours_and_omega_is_one() {
     let n = 13;
     let centre = n * n * n / 2;
     let count = |set: &ParticleSet| pair_neighbours(&c, set, centre).count();
-    let dense = lattice(n, c.spacing, c.mass, c.rho0);
+    let dense = fluid_lattice(n, c.spacing, 0.0, c.mass, c.rho0);
     assert!((smoothing_length_cpu(&c, &dense, centre) / c.kernel.h - 1.0).abs() < 1e-12);
     let n_dense = count(&dense);
     for eps in [0.8f64, 0.6, 0.4] {
         let stretch = eps.powf(-1.0 / 3.0);
-        let loose = lattice(n, c.spacing * stretch, c.mass, eps * c.rho0);
+        let loose = fluid_lattice(n, c.spacing * stretch, 0.0, c.mass, eps * c.rho0);
         let h = smoothing_length_cpu(&c, &loose, centre);
         assert!(
             (h / c.kernel.h - stretch).abs() < 1e-12,
@@ -195,7 +174,7 @@ fn uniform_lattice_rates_match_fixed_h() {
         SphConstants::from_scene(&variable).unwrap(),
     );
     let n = 16;
-    let mut set = lattice(n, cf.spacing, cf.mass, cf.rho0);
+    let mut set = fluid_lattice(n, cf.spacing, 0.0, cf.mass, cf.rho0);
     for i in 0..set.len() {
         let x = set.pos[i];
         set.vel[i] = [0.3 * x[1] / 0.1, -0.2 * x[2] / 0.1, 0.1];

@@ -90,6 +90,28 @@ pub fn random_set(
     set
 }
 
+/// A fluid-only cubic lattice of `n³` particles at spacing `s` from `origin` (cell
+/// centres), at rest, each of mass `m`, density `rho` and pressure 0.
+#[allow(dead_code)] // not every test binary that includes `common` builds lattices
+pub fn fluid_lattice(n: usize, s: f64, origin: f64, m: f64, rho: f64) -> ParticleSet {
+    let mut set = ParticleSet::default();
+    for k in 0..n * n * n {
+        set.pos
+            .push([k % n, (k / n) % n, k / (n * n)].map(|x| origin + (x as f64 + 0.5) * s));
+        set.vel.push([0.0; 3]);
+        set.rho.push(rho);
+        set.mass.push(m);
+        set.press.push(0.0);
+        set.id.push(k as u32);
+    }
+    set.kinds = ParticleKinds {
+        n_fluid: n * n * n,
+        n_wall: 0,
+        n_markers: 0,
+    };
+    set
+}
+
 /// Largest |a − b| and largest |b| over pairs of scalars.
 pub fn max_err(pairs: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
     pairs.fold((0.0, 0.0), |(e, m), (a, b)| {
