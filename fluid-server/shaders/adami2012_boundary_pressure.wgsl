@@ -33,6 +33,10 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     var sum_rho_r_w = vec3<f32>(0.0);
     var sum_w = 0.0;
     var sum_vw = vec3<f32>(0.0);
+    // With variable h the extrapolation kernel is the largest h's, so that every wall
+    // layer a fluid particle can reach has fluid within its support (constants.rs,
+    // wall_kernel); otherwise H.
+    let reach2 = support2_at(MAX_H);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c_i, dy, dz);
@@ -40,10 +44,10 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
                 let j = row_slot(rs, k);
                 let r_wf = pair_vec(p_i, pos[j].xyz);
                 let r2 = dot(r_wf, r_wf);
-                if r2 >= SUPPORT_RADIUS2 || !is_fluid(id[j]) {
+                if r2 >= reach2 || !is_fluid(id[j]) {
                     continue;
                 }
-                let w = kernel_w(sqrt(r2));
+                let w = w_at(sqrt(r2), MAX_H);
                 sum_pw += press[j] * w;
                 sum_rho_r_w += rho[j] * w * r_wf;
                 sum_w += w;

@@ -82,6 +82,14 @@ fn variable_h_of(m: f32, rho: f32) -> f32 {
     return H * pow(m / (rho * SPACING * SPACING * SPACING), 1.0 / 3.0);
 }
 
+// W(r) at the smoothing length `h` with variable h, at H otherwise (compiled out).
+fn w_at(r: f32, h: f32) -> f32 {
+    if VARIABLE_H {
+        return kernel_w_h(r, h);
+    }
+    return kernel_w(r);
+}
+
 // F(r) at the smoothing length `h` with variable h, at H otherwise (compiled out).
 fn grad_factor_at(r: f32, h: f32) -> f32 {
     if VARIABLE_H {

@@ -8,7 +8,8 @@
 //! are treated as moving walls without acceleration (the DEM does not send body
 //! accelerations yet). ρ_w from the inverted Tait equation (among unresolved grains times
 //! the wall's porosity, with its mass: [`crate::porosity::boundary_state_wgsl`]); no fluid
-//! neighbour: p = 0, ρ = ρ0. WGSL: `shaders/adami2012_boundary_pressure.wgsl`.
+//! neighbour: p = 0, ρ = ρ0. W is [`SphConstants::wall_kernel`]: the scene's kernel, or
+//! with variable h that of the largest h. WGSL: `shaders/adami2012_boundary_pressure.wgsl`.
 //!
 //! With [`SphConstants::wall_velocity_extrapolation`] the same loop gives each wall
 //! particle its velocity in the viscous sums, `2 v_w − Σ_f v_f W_wf / Σ_f W_wf`
@@ -97,12 +98,13 @@ pub fn extrapolate_cpu(
     a_w: [f64; 3],
 ) -> Option<(f64, [f64; 3])> {
     let (mut sum_pw, mut sum_rrw, mut sum_vw, mut sum_w) = (0.0, [0.0; 3], [0.0; 3], 0.0);
-    for j in set.neighbours(i, c.support_radius()) {
+    let k = c.wall_kernel();
+    for j in set.neighbours(i, k.radius()) {
         if set.kinds.kind(set.id[j]) != Kind::Fluid {
             continue;
         }
         let r_wf = sub(set.pos[i], set.pos[j]);
-        let w = c.kernel.w(dot(r_wf, r_wf).sqrt());
+        let w = k.w(dot(r_wf, r_wf).sqrt());
         sum_pw += set.press[j] * w;
         for k in 0..3 {
             sum_rrw[k] += set.rho[j] * r_wf[k] * w;

@@ -193,6 +193,17 @@ impl SphConstants {
         self.kernel.radius()
     }
 
+    /// The kernel of Adami's wall extrapolation: the scene's, or with variable h that of
+    /// the largest h allowed. The wall layers are as thick as the largest support
+    /// ([`crate::particles::wall_layers`]); at the scene's h the outer ones would have no
+    /// fluid within reach and keep p = 0, which a fluid particle with a larger h sees.
+    pub fn wall_kernel(&self) -> SmoothingKernel {
+        match self.variable_h {
+            Some(ratio) => SmoothingKernel::new(self.kernel.kind, self.kernel.h * ratio),
+            None => self.kernel,
+        }
+    }
+
     /// The neighbour grid's reach, m: the support radius, or with variable h that of
     /// the largest h allowed.
     pub fn grid_radius(&self) -> f64 {

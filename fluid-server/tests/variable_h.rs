@@ -5,6 +5,7 @@
 mod common;
 
 use common::{fluid_lattice, max_err, random_set, scene};
+use couplet_fluid::adami2012_boundary_pressure::boundary_pressure_cpu;
 use couplet_fluid::fluid_rates::fluid_rates_cpu;
 use couplet_fluid::gpu::shared_test_gpu;
 use couplet_fluid::momentum::momentum_cpu;
@@ -75,8 +76,9 @@ fn eq19_keeps_the_neighbours_and_omega_is_one() {
 /// The (h, Ω) pass and the rates on a jittered set (30 % walls) where the fluid takes
 /// three volumes: 0.7 δ³ (mass 0.7 m0 at ρ0), δ³ and 1.33 δ³ (full mass at 0.75 ρ0),
 /// so that pairs mix smoothing lengths 0.89–1.10 h0. Standard and gradient-corrected
-/// schemes, artificial and laminar viscosity: h, Ω within 1e-5 relative; dρ/dt and
-/// du/dt within 1e-4 of their largest magnitude.
+/// schemes, artificial and laminar viscosity: h, Ω within 1e-5 relative; the walls'
+/// pressure (Adami's extrapolation at the largest h), dρ/dt and du/dt within 1e-4 of
+/// their largest magnitude.
 #[test]
 fn variable_h_matches_cpu_twin() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
@@ -133,6 +135,16 @@ fn variable_h_matches_cpu_twin() {
         );
         assert!(spread.0 < 0.9 && spread.1 > 1.09, "{spread:?}");
         assert!(eh <= 1e-5 * mh && eo <= 1e-5, "h {eh:e}, Ω {eo:e}");
+
+        // Adami's walls extrapolate with the largest h's kernel (SphConstants::wall_kernel).
+        let walls = boundary_pressure_cpu(&c, &got);
+        let (ep, mp) =
+            max_err((0..got.len()).filter_map(|i| walls[i].map(|w| (got.press[i], w.0))));
+        println!("{name}: wall pressure {ep:e} of {mp:e}");
+        assert!(
+            mp > 0.0 && ep <= PAIR_RTOL * mp,
+            "wall pressure {ep:e} of {mp:e}"
+        );
 
         let (drho, dvel) = solver.data().read_rates(&gpu).unwrap();
         let rates = fluid_rates_cpu(&c, &got, 1e-4);
