@@ -3529,11 +3529,11 @@ fn surge_front_deviation(front: &[(f64, f64)], delay: f64) -> Result<(f64, f64, 
 /// beside it: the same with the measurements' clock shifted by the best-fitting release
 /// delay ΔT, and the front speed over T ≥ 2 against the measured one. Measured
 /// (2026-11-25, `--quick --spacing D`): the plain deviation grows with refinement, 9.7 %
-/// (a/5, front behind), 16.2 % (a/10), 23.6 % (a/20, both ahead, worst at T = 1.21),
-/// while the front speed converges to the measured one (−15.2, +3.7, +1.3 %) and with
-/// ΔT = 0.21 and 0.275 (11–15 ms at a = 2.25 in) the deviation is 3.5 and 4.0 %: the
-/// simulated front leads by a near-constant ΔZ, as a measured column released late
-/// would.
+/// (a/5, front behind), 16.2 % (a/10), 23.6 % (a/20), 24.5 % (a/30; all three ahead,
+/// worst at T = 1.21), while the front speed converges to the measured one (−15.2,
+/// +3.7, +1.3, −0.6 %) and with ΔT = 0.21, 0.275 and 0.295 (11–16 ms at a = 2.25 in)
+/// the deviation is 3.5, 4.0 and 3.8 %: the simulated front leads by a near-constant
+/// ΔZ, as a measured column released late would.
 fn dam_break(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), String> {
     let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
     let block = f.blocks.first().ok_or("the scene has no fluid block")?;
