@@ -86,9 +86,9 @@ fn closed_tank_with_joubert_walls_quick_validation_passes() {
 /// and 19) end to end on the open tank: the (h, Ω) pass, eq. (12)'s pressure term with
 /// Ω, the grid and Adami's wall layers built for 1.4 h. At support 3δ the grad-h factor
 /// carries the lattice's 0.25 % bias (`robinson_variable_h::lattice_omega`), so the case
-/// holds it to the standard scheme's 2 %. Measured 2026-11-25: 0.72 % (0.66 % with one
+/// holds it to the standard scheme's 2 %. Measured 2026-11-25: 0.89 % (0.66 % with one
 /// h at the same support); at the quick case's own support 2δ, where the bias is 5.2 %,
-/// 4.36 % (the scene warns there).
+/// 4.28 % (the scene warns there).
 #[test]
 fn tank_with_variable_smoothing_length_quick_validation_passes() {
     let out = tempfile::tempdir().unwrap();
