@@ -57,29 +57,12 @@ fn hydrostatic_tank_quick_validation_passes() {
 /// (the same as Adami's walls with the correction).
 #[test]
 fn closed_tank_with_joubert_walls_quick_validation_passes() {
-    let out = tempfile::tempdir().unwrap();
-    let o = couplet_validate(
-        CLI,
-        "hydrostatic-tank",
-        out.path(),
-        &[
-            "--set",
-            "effects.gradient_correction=true",
-            "--set",
-            "domain.closed_top=true",
-            "--set",
-            "fluid.blocks.0.max=[0.2, 0.4, 0.2]",
-            "--set",
-            "domain.wall_model=\"joubert\"",
-        ],
-    );
-    let rows = report_rows(out.path());
-    assert!(
-        rows.iter()
-            .any(|(q, r)| q.contains("ρ0 g (H − y)") && r == "PASS"),
-        "pressure row: {rows:?}"
-    );
-    assert!(o.status.success(), "a judged row failed: {rows:?}");
+    quick_tank_pressure_passes(&[
+        "effects.gradient_correction=true",
+        "domain.closed_top=true",
+        "fluid.blocks.0.max=[0.2, 0.4, 0.2]",
+        "domain.wall_model=\"joubert\"",
+    ]);
 }
 
 /// Robinson's variable smoothing length (`effects.variable_smoothing_length`, eqs. 10–12
@@ -91,18 +74,18 @@ fn closed_tank_with_joubert_walls_quick_validation_passes() {
 /// 4.28 % (the scene warns there).
 #[test]
 fn tank_with_variable_smoothing_length_quick_validation_passes() {
+    quick_tank_pressure_passes(&[
+        "fluid.support=3.0",
+        "effects.variable_smoothing_length=true",
+    ]);
+}
+
+/// The quick tank with the scene overrides `sets` (`PATH=VALUE`): its pressure row
+/// passes, and so does every other judged row.
+fn quick_tank_pressure_passes(sets: &[&str]) {
     let out = tempfile::tempdir().unwrap();
-    let o = couplet_validate(
-        CLI,
-        "hydrostatic-tank",
-        out.path(),
-        &[
-            "--set",
-            "fluid.support=3.0",
-            "--set",
-            "effects.variable_smoothing_length=true",
-        ],
-    );
+    let args: Vec<&str> = sets.iter().flat_map(|kv| ["--set", kv]).collect();
+    let o = couplet_validate(CLI, "hydrostatic-tank", out.path(), &args);
     let rows = report_rows(out.path());
     assert!(
         rows.iter()
