@@ -2,7 +2,7 @@
 
 pub use engine::{ContactModel, DemEngine, DemError};
 pub use geometry::BodyGeometry;
-pub use markers::{LocalMarker, MarkerSet, generate_markers};
+pub use markers::{LocalMarker, MarkerSet, fill_points, generate_markers};
 pub use rapier_engine::RapierEngine;
 pub use registry::{create_engine, engine_names};
 pub use soft_sphere_engine::SoftSphereEngine;

@@ -4,8 +4,8 @@
 
 mod common;
 
-use common::{WATER, scene, sphere};
-use couplet_dem::{DemError, LocalMarker, MarkerSet, generate_markers};
+use common::{WATER, cuboid, scene, sphere};
+use couplet_dem::{BodyGeometry, DemError, LocalMarker, MarkerSet, fill_points, generate_markers};
 use couplet_protocol::{BodyState, Shape};
 use std::f64::consts::PI;
 
@@ -355,7 +355,9 @@ fn a_body_spanning_the_domain_has_no_markers_on_the_faces_it_presses() {
         side_area
     );
     assert!(
-        m.iter().all(|k| k.normal[1].abs() < 1e-9),
+        m.iter()
+            .filter(|k| k.area > 0.0)
+            .all(|k| k.normal[1].abs() < 1e-9),
         "a cap marker is left"
     );
     // On a periodic z the spanning body is its own periodic image; a shorter one is
@@ -588,11 +590,144 @@ fn marker_set_world_points() {
             assert!((p.velocity[k] as f64 - v[k]).abs() < 1e-6);
         }
         assert_eq!(p.body, 0);
-        assert!((p.measure as f64 - m.area).abs() < 1e-6 * m.area);
+        assert!((p.measure as f64 - m.area).abs() <= 1e-6 * m.area);
     }
     assert!(pts[ranges[1].1.clone()].iter().all(|p| p.body == 2));
 
     // Without fluid there is nothing to couple to.
     let dry = scene(&bodies);
     assert_eq!(MarkerSet::from_scene(&dry).unwrap().len(), 0);
+}
+
+/// Fill points (Adami's wall model): a box of half-extents 10δ holds the body-frame
+/// lattice (i + ½)δ, 20 points a side, at depths ½δ, 1½δ, …; with reach 2.8δ those less
+/// than reach − δ/2 = 2.3δ deep are the 20³ − 16³ = 3904 outside the inner cube of 16³
+/// (exact count, by hand). Each has area 0 and the unit normal of its nearest face.
+#[test]
+fn fill_points_of_a_box_are_its_lattice_shell_within_the_reach() {
+    let d = 0.01;
+    let g = BodyGeometry::from_shape(&Shape::Box {
+        half_extents: [10.0 * d; 3],
+    })
+    .unwrap();
+    let fill = fill_points(&g, d, 2.8 * d).unwrap();
+    assert_eq!(fill.len(), 20 * 20 * 20 - 16 * 16 * 16);
+    for f in &fill {
+        assert_eq!(f.area, 0.0);
+        let depth = |k: usize| 10.0 * d - f.position[k].abs();
+        let k = (0..3)
+            .min_by(|a, b| depth(*a).total_cmp(&depth(*b)))
+            .unwrap();
+        assert!(
+            depth(k) >= 0.5 * d * (1.0 - 1e-9) && depth(k) < 2.3 * d,
+            "{f:?}"
+        );
+        let mut n = [0.0; 3];
+        n[k] = f.position[k].signum();
+        assert_eq!(f.normal, n, "{f:?}");
+    }
+}
+
+/// Fill points of Joubert's 12-face cylinder, ring and cross (Table 3) at his δ = 0.25 mm,
+/// reach 2.4δ: inside the body, never closer than δ/2 to a surface marker (markers lie on
+/// the surface, so that holds exactly), and the same set as an independent depth — the
+/// distance to the nearest of the surface markers at δ/16, which overestimates the true
+/// depth by under a fine patch's half-diagonal — picks, except within δ/8 of the two
+/// bounds.
+#[test]
+fn fill_points_of_joubert_shapes_keep_half_a_spacing_inside_their_surface() {
+    let d = 2.5e-4;
+    let reach = 2.4 * d;
+    for shape in [
+        Shape::Prism {
+            sides: 12,
+            radius: 1.25e-3,
+            half_height: 8.75e-4,
+        },
+        Shape::Ring {
+            sides: 12,
+            inner_radius: 7.25e-4,
+            outer_radius: 1.45e-3,
+            half_height: 8.75e-4,
+        },
+        Shape::Cross {
+            base: 2.25e-3,
+            width: 7.5e-4,
+            height: 1e-3,
+        },
+    ] {
+        let g = BodyGeometry::from_shape(&shape).unwrap();
+        let fill = fill_points(&g, d, reach).unwrap();
+        assert!(!fill.is_empty(), "{shape:?}");
+        let surface = generate_markers(&shape, d).unwrap();
+        let fine = generate_markers(&shape, d / 16.0).unwrap();
+        let dist =
+            |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+        let nearest = |p: [f64; 3], m: &[LocalMarker]| {
+            m.iter()
+                .map(|x| dist(p, x.position))
+                .fold(f64::INFINITY, f64::min)
+        };
+        for f in &fill {
+            assert!(
+                nearest(f.position, &surface) >= 0.5 * d * (1.0 - 1e-9),
+                "{shape:?}: {f:?} crowds a marker"
+            );
+        }
+        // Every lattice point of the bounding box against the fine-marker depth.
+        let BodyGeometry::Polyhedra(parts) = &g else {
+            panic!("{shape:?} is polyhedral")
+        };
+        let inside = |p: [f64; 3]| parts.iter().any(|q| q.outside_distance(p) < 0.0);
+        let in_fill = |p: [f64; 3]| fill.iter().any(|f| dist(f.position, p) < 1e-3 * d);
+        let (eps, mut checked) = (d / 8.0, 0);
+        for i in -12..12 {
+            for j in -12..12 {
+                for k in -12..12 {
+                    let p = [i, j, k].map(|n| (n as f64 + 0.5) * d);
+                    if !inside(p) {
+                        assert!(!in_fill(p), "{shape:?}: {p:?} is outside");
+                        continue;
+                    }
+                    let depth = nearest(p, &fine);
+                    if depth > 0.5 * d + eps && depth < reach - 0.5 * d - eps {
+                        assert!(in_fill(p), "{shape:?}: {p:?} at depth {depth:e} missing");
+                        checked += 1;
+                    } else if depth < 0.5 * d - eps || depth > reach - 0.5 * d + eps {
+                        assert!(!in_fill(p), "{shape:?}: {p:?} at depth {depth:e} kept");
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 0, "{shape:?}");
+    }
+}
+
+/// The fill comes with Adami's wall model only, after each body's surface markers and in
+/// its range; Joubert's one-layer model (§2.5) keeps the surface alone. The box of
+/// half-extent 5.5δ at δ = 0.02 (the default support 3δ) holds the lattice ±4.5δ … ±0.5δ,
+/// 10 a side, at depths 1δ to 5δ: those under 2.5δ deep are the 10³ lattice less its 6³
+/// core (by hand).
+#[test]
+fn fill_points_follow_the_wall_model() {
+    let body = cuboid("b", [0.11, 0.11, 0.11], 1200.0, [0.5, 0.25, 0.5], "");
+    let adami = MarkerSet::from_scene(&scene(&format!("{WATER}\n{body}"))).unwrap();
+    let m = adami.local();
+    let first_fill = m.iter().position(|k| k.area == 0.0).expect("fill points");
+    assert!(first_fill > 0 && m[first_fill..].iter().all(|k| k.area == 0.0));
+    assert_eq!(adami.body_ranges()[0].1, 0..m.len());
+    assert_eq!(m.len() - first_fill, 10 * 10 * 10 - 6 * 6 * 6);
+    let text = format!(
+        "{}\n{WATER}\n{body}\n[effects]\ngradient_correction = true\n",
+        common::BASE
+    )
+    .replace(
+        "max = [1, 1, 1]\n",
+        "max = [1, 1, 1]\nwall_model = \"joubert\"\n",
+    );
+    let joubert = couplet_protocol::Scene::parse(&text, std::path::Path::new("t.toml")).unwrap();
+    let one_layer = MarkerSet::from_scene(&joubert).unwrap();
+    assert_eq!(one_layer.len(), first_fill);
+    assert!(one_layer.local().iter().all(|k| k.area > 0.0));
 }

@@ -1,5 +1,5 @@
 // ---- joubert2020_body_loads.wgsl (CPU twin: joubert2020_body_loads.rs) ----
-// Joubert eqs. (31)–(32): per marker i
+// Joubert eqs. (31)–(32): per surface marker i (fill points, of area 0, carry none)
 //   t_i = (−p_i n_i + μ (∇u + ∇uᵀ)_i · n_i) ΔS_i,   ∇u_i = Σ_f V_f (u_f − u_i) ⊗ B_i ∇W_if
 // over fluid neighbours f (V_f = m/ρ_f, μ = ρ0 ν), moment (r_i − r_cg) × t_i about the
 // body's centre of mass extrapolated like the markers (r_cg + v_cg τ).
@@ -48,6 +48,11 @@ fn marker_loads(@builtin(workgroup_id) wid: vec3<u32>,
     }
     let k = marker_index(id[i]);
     let m = markers_in[k];
+    // A fill point (area 0, inside the body) has no surface: its slot stays at the
+    // window's cleared zero, and no one-sided B is formed or counted for it.
+    if m.pos_area.w == 0.0 {
+        return;
+    }
     let n = m.normal.xyz;
     let p_i = pos[i].xyz;
     let u_i = vel[i].xyz;

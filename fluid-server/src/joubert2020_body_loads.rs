@@ -115,6 +115,14 @@ pub fn marker_load_cpu(
     i: usize,
     m: &MarkerGeometry,
 ) -> MarkerLoad {
+    if m.area == 0.0 {
+        // A fill point: no surface, no load, no one-sided B (as the WGSL).
+        return MarkerLoad {
+            traction: [0.0; 3],
+            moment: [0.0; 3],
+            fallback: false,
+        };
+    }
     let n = m.normal;
     let mut t = n.map(|x| -set.press[i] * x);
     let mut fallback = false;

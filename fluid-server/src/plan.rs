@@ -184,7 +184,11 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
                 } else {
                     String::new()
                 },
-                if resolved { ", body markers" } else { "" },
+                if resolved {
+                    ", body markers and the fill points behind them (inside the bodies, as wall layers behind a face)"
+                } else {
+                    ""
+                },
                 if walls == "no-slip" && (laminar || scene.effects.artificial_viscosity > 0.0) {
                     "; no-slip walls' viscous velocity 2 v_w − ṽ_w"
                 } else {

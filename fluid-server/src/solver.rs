@@ -1631,9 +1631,10 @@ impl FluidSolver {
 /// Removes the fluid particles that lie inside a resolved body, or less than half a
 /// spacing outside its surface (the gap a wall keeps to the fluid lattice), and renumbers
 /// the ids so that kinds stay contiguous id ranges. Inside-ness comes from the body's own
-/// markers: a point is inside when it lies behind the outward normal of its nearest
-/// marker, `(x − m)·n < δ/2`; this needs no shape code here and holds for any surface
-/// whose markers are denser than its curvature radius (Joubert §2.6 meshes them at δ).
+/// surface markers (fill points, of area 0, are not the surface): a point is inside when
+/// it lies behind the outward normal of its nearest marker, `(x − m)·n < δ/2`; this
+/// needs no shape code here and holds for any surface whose markers are denser than its
+/// curvature radius (Joubert §2.6 meshes them at δ).
 /// `set` is in buffer order with GPU-relative positions; the result is in id order.
 /// Cost: every fluid particle within a body's bounding sphere against that body's
 /// markers, done once when the markers first arrive.
@@ -1645,7 +1646,7 @@ fn carve_out_bodies(
 ) -> ParticleSet {
     // Markers per body in GPU-relative coordinates, with each body's bounding sphere.
     let mut bodies: Vec<(u32, [f64; 3], f64, Vec<([f64; 3], [f64; 3])>)> = Vec::new();
-    for p in points {
+    for p in points.iter().filter(|p| p.measure > 0.0) {
         let m = std::array::from_fn(|k| f64::from(p.position[k]) - origin[k]);
         let n = p.normal.map(f64::from);
         match bodies.last_mut() {

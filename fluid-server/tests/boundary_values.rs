@@ -421,6 +421,15 @@ fn corrected_marker_traction_is_exact_for_a_linear_field() {
         normal: [0.0, -1.0, 0.0],
         ..Default::default()
     });
+    // And a fill point (area 0) beside it: no surface, so no load and no one-sided B,
+    // hence no second fallback.
+    let fill = points.len();
+    points.push(CouplingPoint {
+        position: [0.1 + d as f32, y_stray as f32, 0.1],
+        measure: 0.0,
+        normal: [0.0, -1.0, 0.0],
+        ..Default::default()
+    });
     let state = BodyState {
         position: [0.1, 0.05, 0.1],
         orientation: [0.0, 0.0, 0.0, 1.0],
@@ -464,6 +473,21 @@ fn corrected_marker_traction_is_exact_for_a_linear_field() {
         cg: [0.0, -0.05, 0.0],
     };
     assert!(marker_load_cpu(&c, &exact_set, index[base + stray], &stray_geom).fallback);
+    let fill_twin = marker_load_cpu(
+        &c,
+        &exact_set,
+        index[base + fill],
+        &MarkerGeometry {
+            area: 0.0,
+            ..stray_geom
+        },
+    );
+    assert!(!fill_twin.fallback && fill_twin.traction == [0.0; 3] && fill_twin.moment == [0.0; 3]);
+    assert_eq!(
+        (loads[fill].0, loads[fill].1),
+        ([0.0; 3], [0.0; 3]),
+        "fill point load"
+    );
     for (k, p) in points[..stray].iter().enumerate() {
         let i = index[base + k];
         let geom = MarkerGeometry {
@@ -485,7 +509,10 @@ fn corrected_marker_traction_is_exact_for_a_linear_field() {
     println!(
         "viscous traction μ(A+Aᵀ)n = {exact:?} Pa: twin {e_twin:e}, GPU {e_gpu:e}, uncorrected (smallest) {e_plain:e}; marker fallbacks {marker_fallbacks}"
     );
-    assert_eq!(marker_fallbacks, 1, "only the stray marker falls back");
+    assert_eq!(
+        marker_fallbacks, 1,
+        "only the stray marker falls back, not the fill point"
+    );
     assert!(e_twin <= 1e-9 * scale, "twin {e_twin:e} of {scale:e}");
     assert!(e_gpu <= 1e-3 * scale, "GPU {e_gpu:e} of {scale:e}");
     assert!(

@@ -72,12 +72,12 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
             couplet_fluid::constants::SphConstants::from_scene(&scene).map_err(fluid_err)?;
         let set =
             couplet_fluid::particles::initial_particles(&scene, &consts).map_err(fluid_err)?;
-        let markers = couplet_dem::markers::MarkerSet::from_scene(&scene)
-            .map_err(|e| RunError::Io {
+        let markers =
+            couplet_dem::markers::MarkerSet::from_scene(&scene).map_err(|e| RunError::Io {
                 what: "generating markers".into(),
                 source: std::io::Error::other(e.to_string()),
-            })?
-            .len();
+            })?;
+        let fill = markers.local().iter().filter(|m| m.area == 0.0).count();
         let _ = writeln!(
             w,
             "\nfluid: δ = {} m, kernel {:?}, support {} δ (h = {:.3e} m), c_s = {} m/s, ν = {} m²/s",
@@ -90,8 +90,11 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
         );
         let _ = writeln!(
             w,
-            "  particles: {} fluid, {} wall, {} body markers",
-            set.kinds.n_fluid, set.kinds.n_wall, markers
+            "  particles: {} fluid, {} wall, {} body markers ({} on surfaces, {fill} fill points inside)",
+            set.kinds.n_fluid,
+            set.kinds.n_wall,
+            markers.len(),
+            markers.len() - fill
         );
         let _ = writeln!(w, "\nGPU stages (in dispatch order):");
         let stages = couplet_fluid::plan::stages(&scene);

@@ -76,20 +76,23 @@ pub struct BodyState {
     pub volume: f64,
 }
 
-/// One world-frame coupling point (a surface marker of a resolved body, Joubert §2.6).
-/// 48 bytes: three `vec4<f32>` on the GPU.
+/// One world-frame coupling point: a surface marker of a resolved body (Joubert §2.6),
+/// a fill point behind its surface (Adami's wall model: `measure` = 0), or an
+/// unresolved grain. 48 bytes: three `vec4<f32>` on the GPU.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[repr(C)]
 pub struct CouplingPoint {
     /// Position, m.
     pub position: [f32; 3],
-    /// Surface area the marker stands for (resolved), m², or particle volume (unresolved), m³.
+    /// Surface area the marker stands for (resolved), m²; 0 for a fill point, which
+    /// completes the fluid's support inside the body and carries no surface (no load);
+    /// or particle volume (unresolved), m³.
     pub measure: f32,
     /// Rigid-body velocity at the point (Joubert eq. 33), m/s.
     pub velocity: [f32; 3],
     /// Index of the owning body.
     pub body: u32,
-    /// Outward unit normal.
+    /// Outward unit normal (of the nearest surface, for a fill point).
     pub normal: [f32; 3],
     pub _pad: u32,
 }

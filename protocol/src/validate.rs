@@ -31,8 +31,8 @@ pub enum ValidationError {
         body: u32,
         bodies: usize,
     },
-    #[error("{what}[{index}].{field} = {value} must be positive")]
-    NotPositive {
+    #[error("{what}[{index}].{field} = {value} must not be negative")]
+    Negative {
         what: &'static str,
         index: usize,
         field: &'static str,
@@ -108,8 +108,9 @@ pub fn validate_points(points: &[CouplingPoint], bodies: usize) -> Result<(), Va
         finite(W, i, "velocity", p.velocity)?;
         finite(W, i, "normal", p.normal)?;
         finite(W, i, "measure", [p.measure])?;
-        if p.measure <= 0.0 {
-            return Err(ValidationError::NotPositive {
+        // 0 is a fill point of a resolved body (no surface: CouplingPoint::measure).
+        if p.measure < 0.0 {
+            return Err(ValidationError::Negative {
                 what: W,
                 index: i,
                 field: "measure",
@@ -171,6 +172,27 @@ mod tests {
             "{e}"
         );
         assert!(e.to_string().contains("coupling_point[2].velocity"));
+    }
+
+    /// A fill point (measure 0, resolved bodies under Adami's wall model) passes; a
+    /// negative measure is refused, naming the field.
+    #[test]
+    fn zero_measure_passes_and_a_negative_one_is_refused() {
+        let mut p = vec![CouplingPoint::default(); 2];
+        validate_points(&p, 1).unwrap();
+        p[1].measure = -1e-6;
+        let e = validate_points(&p, 1).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ValidationError::Negative {
+                    index: 1,
+                    field: "measure",
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 
     #[test]
