@@ -20,6 +20,7 @@ pub mod timing;
 pub mod adami2012_boundary_pressure;
 pub mod blowup_check;
 pub mod body_load_reduce;
+pub mod body_non_penetration;
 pub mod checkpoint;
 pub mod constants;
 pub mod continuity;

@@ -24,6 +24,7 @@ pub const MONAGHAN1992_ARTIFICIAL_VISCOSITY: &str = "monaghan1992_artificial_vis
 pub const GRAVITY: &str = "gravity";
 pub const INTEGRATE: &str = "joubert2020_predictor_corrector";
 pub const BODY_LOADS: &str = "joubert2020_body_loads";
+pub const BODY_NON_PENETRATION: &str = "body_non_penetration";
 pub const BLOWUP_CHECK: &str = "blowup_check";
 pub const GRADIENTS: &str = "joubert2020_gradients";
 pub const PARTICLE_SHIFTING: &str = "particle_shifting";
@@ -296,6 +297,10 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         );
     }
     if resolved {
+        push(
+            BODY_NON_PENETRATION,
+            "resolved bodies: a fluid particle behind the tangent plane of its nearest surface marker after the step is mirrored back and its inward relative velocity removed; counted per window (not in Joubert)".into(),
+        );
         push(
             BODY_LOADS,
             format!(

@@ -240,6 +240,7 @@ pub fn serve(
             exchange_us,
             dt_limit: limits.dt,
             near_singular: solver.near_singular(),
+            reflected: solver.reflected(),
             kind: CommandKind::Advance as u32,
             kinetic_energy: solver.stats().kinetic_energy,
             max_speed: solver.stats().max_speed,

@@ -8,7 +8,7 @@
 //! ```text
 //! marker_update?  grid sort  smoothing_lengths?  gradients? │ boundary pressure  fluid_rates  marker_loads?  predict
 //!                                                           │ boundary pressure  fluid_rates  marker_loads?  correct
-//!                                                           │ shift?  advance_clock?
+//!                                                           │ shift?  body_non_penetration?  advance_clock?
 //! ```
 //!
 //! and, once per window, `reduce_body_loads?` and the blow-up check. Stages switched off
@@ -23,7 +23,9 @@
 //! Adami's extrapolation, or with `domain.wall_model = "joubert"` Joubert's Neumann
 //! values (eqs. 25, 27; [`crate::joubert2020_boundary_values`]) at walls and markers.
 //! With the gradient correction the marker loads' velocity gradient takes a one-sided
-//! B ([`crate::joubert2020_body_loads`]).
+//! B ([`crate::joubert2020_body_loads`]). With markers, a fluid particle that ends a step
+//! behind a body's surface is mirrored back and counted
+//! ([`crate::body_non_penetration`]).
 
 use crate::checkpoint::{self, FluidState};
 use crate::constants::{SphConstants, StepParams};
@@ -42,9 +44,10 @@ use crate::sph_kernel::{
 use crate::timing::{self, StageTimer};
 use crate::window_stats::WindowStats;
 use crate::{
-    adami2012_boundary_pressure, blowup_check, body_load_reduce, fluid_rates, integrate,
-    joubert2020_body_loads, joubert2020_boundary_values, joubert2020_gradients, marker_update,
-    neighbour_count, particle_shifting, plan, robinson_variable_h, tait_eos, window_stats,
+    adami2012_boundary_pressure, blowup_check, body_load_reduce, body_non_penetration, fluid_rates,
+    integrate, joubert2020_body_loads, joubert2020_boundary_values, joubert2020_gradients,
+    marker_update, neighbour_count, particle_shifting, plan, robinson_variable_h, tait_eos,
+    window_stats,
 };
 use couplet_protocol::{BodyLoad, BodyState, CouplingPoint, ParticleRecord, Scene};
 use wgpu::util::DeviceExt;
@@ -84,6 +87,8 @@ pub enum Op {
     GrainReaction,
     /// Robinson's (h, Ω) per particle (absent without variable h).
     SmoothingLengths,
+    /// Fluid behind a body's surface mirrored back (absent without markers).
+    NonPenetration,
 }
 
 /// Kernels of the marker coupling (compiled only for scenes with resolved bodies, or at
@@ -93,6 +98,7 @@ pub struct MarkerPipelines {
     advance_clock: SphKernel,
     marker_loads: SphKernel,
     reduce: SphKernel,
+    non_penetration: SphKernel,
 }
 
 /// The compiled kernels of a scene (no data).
@@ -157,6 +163,7 @@ impl MarkerPipelines {
             advance_clock: marker_update::advance_clock_kernel(gpu, c),
             marker_loads: joubert2020_body_loads::kernel(gpu, c, grid_layout),
             reduce: body_load_reduce::kernel(gpu, c),
+            non_penetration: body_non_penetration::kernel(gpu, c, grid_layout),
         }
     }
 }
@@ -179,6 +186,7 @@ struct BoundMarkers {
     advance_clock: BoundKernel,
     marker_loads: BoundKernel,
     reduce: BoundKernel,
+    non_penetration: BoundKernel,
 }
 
 struct Bound {
@@ -369,7 +377,13 @@ impl SphData {
         let status = storage_init(
             gpu,
             "sph: blow-up status",
-            bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]),
+            // [bad id, near-singular counts ×2, particles kept out of bodies].
+            bytemuck::cast_slice(&[
+                blowup_check::NO_BAD_ID,
+                blowup_check::NO_BAD_ID,
+                blowup_check::NO_BAD_ID,
+                0,
+            ]),
         );
         let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 48]);
         let stats_partials = storage_init(
@@ -518,6 +532,10 @@ impl SphData {
                         .reduce
                         .bind(gpu, resolve, None)
                         .ok_or_else(|| missing("reduce_body_loads"))?,
+                    non_penetration: m
+                        .non_penetration
+                        .bind(gpu, resolve, g)
+                        .ok_or_else(|| missing("body_non_penetration"))?,
                 }),
                 _ => None,
             };
@@ -670,6 +688,10 @@ impl SphData {
                 Some(m) => (&m.marker_loads, "sph: joubert2020_marker_loads"),
                 None => return,
             },
+            Op::NonPenetration => match m {
+                Some(m) => (&m.non_penetration, "sph: body_non_penetration"),
+                None => return,
+            },
             Op::AdvanceClock => {
                 if let Some(m) = m {
                     let mut pass = timing::begin_pass(timer, gpu, encoder, "sph: advance_clock");
@@ -750,6 +772,11 @@ impl SphData {
         }))
     }
 
+    /// Fluid particles kept out of bodies since the window's start (status[3]; tests).
+    pub fn read_reflected(&self, gpu: &Gpu) -> Result<u32, FluidError> {
+        Ok(gpu.read_buffer::<u32>(&self.status, 3, 1)?[0])
+    }
+
     /// The gradient pass's diagnostics word, `None` without the pass.
     pub fn read_diag(&self, gpu: &Gpu) -> Result<Option<[u32; 4]>, FluidError> {
         let Some(g) = &self.gradients else {
@@ -809,6 +836,9 @@ pub struct FluidSolver {
     /// Particle-steps of the last window whose truncation matrix was near-singular
     /// (kept the uncorrected gradient); 0 without the gradient pass.
     near_singular: u32,
+    /// Fluid particle-steps of the last window mirrored back out of a body
+    /// ([`crate::body_non_penetration`]); recomputed every window, not checkpointed.
+    reflected: u32,
     /// The fluid's kinetic energy, largest speed and density error at the end of the
     /// last window.
     stats: WindowStats,
@@ -922,6 +952,7 @@ impl FluidSolver {
             steps: 0,
             loads_ready: false,
             near_singular: 0,
+            reflected: 0,
             stats: WindowStats::default(),
             wall_frames,
             grains,
@@ -974,6 +1005,12 @@ impl FluidSolver {
     /// [`crate::joubert2020_gradients::B_DET_MIN`]).
     pub fn near_singular(&self) -> u32 {
         self.near_singular
+    }
+
+    /// Fluid particle-steps of the last window that ended behind a body's surface and
+    /// were mirrored back ([`crate::body_non_penetration`]).
+    pub fn reflected(&self) -> u32 {
+        self.reflected
     }
 
     /// Everything that carries this solver from one window to the next (see
@@ -1309,6 +1346,7 @@ impl FluidSolver {
             d.queue_op(gpu, encoder, timer.as_deref_mut(), update);
         }
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Shift);
+        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::NonPenetration);
         d.queue_op(gpu, encoder, timer, Op::AdvanceClock);
         Ok(())
     }
@@ -1324,6 +1362,8 @@ impl FluidSolver {
             encoder.clear_buffer(&b.marker_load, 0, None);
             encoder.clear_buffer(&b.marker_load_c, 0, None);
         }
+        // status[3]: the window's count of particles kept out of bodies.
+        encoder.clear_buffer(&self.data.status, 12, Some(4));
     }
 
     /// Runs `ops` once with substep `dt` and load weight `load_weight` after resetting the
@@ -1398,20 +1438,22 @@ impl FluidSolver {
         self.time += window;
         self.steps += u64::from(substeps);
         self.loads_ready = self.data.bodies.is_some();
-        (self.near_singular, self.stats) = self.check(gpu)?;
+        (self.near_singular, self.reflected, self.stats) = self.check(gpu)?;
         Ok(substeps)
     }
 
     /// End-of-window checks: blow-up (non-finite, runaway density or speed) and
     /// particles outside the grid. Returns the window's near-singular particle-steps of
     /// the gradient pass and of Joubert's boundary values (0 without the pass), copied
-    /// into `status[1..3]` so that one readback serves both; and the window's telemetry.
-    fn check(&self, gpu: &Gpu) -> Result<(u32, WindowStats), FluidError> {
+    /// into `status[1..3]` so that one readback serves both; the particle-steps kept out
+    /// of bodies (`status[3]`); and the window's telemetry.
+    fn check(&self, gpu: &Gpu) -> Result<(u32, u32, WindowStats), FluidError> {
         let d = &self.data;
+        // status[3] holds the window's non-penetration count: left alone.
         gpu.queue.write_buffer(
             &d.status,
             0,
-            bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 4]),
+            bytemuck::cast_slice(&[blowup_check::NO_BAD_ID; 3]),
         );
         let mut encoder = gpu
             .device
@@ -1428,7 +1470,7 @@ impl FluidSolver {
             encoder.copy_buffer_to_buffer(&g.diag, 4, &d.status, 4, 8);
         }
         gpu.queue.submit([encoder.finish()]);
-        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 3)?;
+        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 4)?;
         // Gradient-pass fallbacks per step, plus the one-sided matrices of Joubert
         // boundary particles and of the markers' corrected ∇u (each counted at both of
         // the step's rate evaluations).
@@ -1502,7 +1544,11 @@ impl FluidSolver {
             0,
             window_stats::partial_count(d.n_total) as u64,
         )?;
-        Ok((near_singular, WindowStats::from_partials(&partials)))
+        Ok((
+            near_singular,
+            status[3],
+            WindowStats::from_partials(&partials),
+        ))
     }
 
     /// Fluid force and moment per body, averaged over the last window (Joubert eqs.

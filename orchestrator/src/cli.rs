@@ -532,6 +532,12 @@ fn summary_text(s: &RunSummary) -> String {
             couplet_fluid::joubert2020_gradients::B_DET_MIN
         );
     }
+    if s.reflected > 0 {
+        t += &format!(
+            "bodies: {} fluid particle-steps ended behind a body's surface and were mirrored back out (per window in /run/windows; many mean a gap or a body under-resolved)\n",
+            s.reflected
+        );
+    }
     if let Some(r) = &s.recording {
         t += &format!("recording: {}\n", r.display());
     }

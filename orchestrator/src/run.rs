@@ -113,6 +113,8 @@ pub struct RunSummary {
     /// Fluid particle-steps that kept the uncorrected gradient (near-singular truncation
     /// matrix, Joubert eq. 10), over the run.
     pub near_singular: u64,
+    /// Fluid particle-steps mirrored back out of a resolved body, over the run.
+    pub reflected: u64,
     /// Last body states received.
     pub final_states: Vec<BodyState>,
     /// Every window's states of body 0 (time, height, vertical velocity) for validation.
@@ -823,6 +825,7 @@ impl CoupledRun {
         if let Some(r) = &fluid_report {
             summary.fluid_substeps += r.substeps as u64;
             summary.near_singular += u64::from(r.near_singular);
+            summary.reflected += u64::from(r.reflected);
         }
 
         // Drain what crossed this window; record it (bodies and loads every window, or

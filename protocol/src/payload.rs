@@ -265,7 +265,9 @@ pub struct SideReport {
     /// The [`CommandKind`] this report answers (`Advance` for a window's report, or the
     /// parameter change or checkpoint it acknowledges).
     pub kind: u32,
-    pub _pad: u32,
+    /// Fluid: particle-steps of the window that ended behind a resolved body's surface
+    /// and were mirrored back out (couplet_fluid::body_non_penetration); 0 for the DEM.
+    pub reflected: u32,
     /// Fluid at the end of the window: kinetic energy Σ ½ m |u|², J; largest speed,
     /// m/s; largest density error |ρ/(ε ρ0) − 1| (ε the grains' porosity, 1 without
     /// grains). Zero for the DEM and in acknowledgements.

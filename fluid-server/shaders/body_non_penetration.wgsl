@@ -1,0 +1,67 @@
+// ---- body_non_penetration.wgsl (CPU twin: body_non_penetration.rs) ----
+// After the step's last position change (the corrector's eq. 23 and the shift), once
+// per step: a fluid particle behind the tangent plane of its nearest surface marker
+// within δ, d = (x_i − x_m)·n_m < 0, is mirrored back across that plane,
+// x_i ← x_i − 2 d n_m, and the inward part of its velocity relative to the marker,
+// (u_i − u_m)·n_m < 0, is removed. Fill points (area 0) are not the surface. Each
+// particle moved is counted in status[3], read at the window's end and reported.
+// Needs: prelude, SPH constants, StepParams, grid_common, marker_update (library).
+
+// ---- kernels ----
+@group(0) @binding(0) var<storage, read_write> pos: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read_write> vel: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> id: array<u32>;
+@group(2) @binding(0) var<storage, read> markers_in: array<Marker>;
+@group(3) @binding(1) var<storage, read_write> status: array<atomic<u32>, 4>;
+
+// Fluid threads write only their own particle and read only markers: no race.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn body_non_penetration(@builtin(workgroup_id) wid: vec3<u32>,
+                        @builtin(local_invocation_index) lid: u32,
+                        @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= params.n_total || !is_fluid(id[i]) {
+        return;
+    }
+    let p_i = pos[i].xyz;
+    let c_i = cell_coord(p_i);
+    var best = SPACING * SPACING;
+    var found = false;
+    var r_m = vec3<f32>(0.0);
+    var n_m = vec3<f32>(0.0);
+    var u_m = vec3<f32>(0.0);
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
+            let rs = row_ranges(c_i, dy, dz);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let j = row_slot(rs, k);
+                if !is_marker(id[j]) {
+                    continue;
+                }
+                let m = markers_in[marker_index(id[j])];
+                let r = pair_vec(p_i, pos[j].xyz);
+                let r2 = dot(r, r);
+                // Ties go to the first in slot order (the sort is stable).
+                if m.pos_area.w > 0.0 && r2 < best {
+                    best = r2;
+                    found = true;
+                    r_m = r;
+                    n_m = m.normal.xyz;
+                    u_m = vel[j].xyz;
+                }
+            }
+        }
+    }
+    if !found {
+        return;
+    }
+    let d = dot(r_m, n_m);
+    if d >= 0.0 {
+        return;
+    }
+    pos[i] = vec4<f32>(p_i - 2.0 * d * n_m, pos[i].w);
+    let u_i = vel[i].xyz;
+    let inward = min(dot(u_i - u_m, n_m), 0.0);
+    vel[i] = vec4<f32>(u_i - inward * n_m, vel[i].w);
+    atomicAdd(&status[3], 1u);
+}

@@ -1,0 +1,113 @@
+//! Fluid kept out of resolved bodies. Once per step, after the last position change
+//! (the corrector's Joubert eq. 23 and the shift of eq. 17), a fluid particle behind
+//! the tangent plane of its nearest surface marker within δ — `d = (x_i − x_m)·n_m < 0`,
+//! the inside test the carve-out at the markers' arrival uses — is mirrored back
+//! across that plane, `x_i ← x_i − 2 d n_m`, and the inward part of its velocity
+//! relative to the marker, `(u_i − u_m)·n_m < 0`, is removed (no energy is added).
+//!
+//! Why: with the difference form of the pressure gradient (Joubert eq. 13) a pair
+//! pushes particle i from a boundary particle j only when p_j > p_i, and the boundary
+//! pressure (Adami's extrapolation, or eq. 25) follows the fluid's, so nothing but the
+//! compression of i's neighbours stops a particle crossing a boundary a spacing thin.
+//! Where two bodies close a gap below δ (the kissing phase of `couplet validate dkt`
+//! at r = 2δ), fluid squeezed from the gap slipped between the markers into a body and
+//! the run blew up (t = 0.30 s). The correction is not in Joubert; it is counted
+//! (`SideReport::reflected`, `/run/windows`, the run summary), so a run that relies on
+//! it says so: many reflections mean the gap or the body is under-resolved.
+//! WGSL: `shaders/body_non_penetration.wgsl`.
+
+use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
+use crate::gpu::Gpu;
+use crate::marker_update::MARKER_UPDATE_WGSL;
+use crate::neighbour_grid::GRID_COMMON_WGSL;
+use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::sph_kernel::{
+    Access, BODIES, PARAMS, PARTICLES, SphKernel, body_binding as bb, library, param_binding as qb,
+    particle_binding as pb,
+};
+
+pub const BODY_NON_PENETRATION_WGSL: &str = include_str!("../shaders/body_non_penetration.wgsl");
+
+pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
+    let consts = c.wgsl();
+    SphKernel::new(
+        gpu,
+        "sph: body_non_penetration",
+        &[
+            &consts,
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            library(MARKER_UPDATE_WGSL),
+            BODY_NON_PENETRATION_WGSL,
+        ],
+        "body_non_penetration",
+        &[
+            (
+                PARTICLES,
+                &[
+                    (pb::POS, Access::ReadWrite),
+                    (pb::VEL, Access::ReadWrite),
+                    (pb::ID, Access::Read),
+                ],
+            ),
+            (BODIES, &[(bb::MARKERS_IN, Access::Read)]),
+            (
+                PARAMS,
+                &[
+                    (qb::PARAMS, Access::Uniform),
+                    (qb::STATUS, Access::ReadWrite),
+                ],
+            ),
+        ],
+        Some(grid_layout),
+    )
+}
+
+/// What the CPU twin needs of a marker besides the particle arrays.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    pub normal: [f64; 3],
+    /// ΔS, m²; 0 for a fill point (not the surface).
+    pub area: f64,
+}
+
+/// CPU twin: applies the correction to every fluid particle of `set` (entries in any
+/// order; `markers[k]` describes the marker of id `marker_base + k`) and returns how many
+/// it moved. Nearest images are not taken (tests use closed boxes).
+pub fn non_penetration_cpu(
+    c: &SphConstants,
+    set: &mut ParticleSet,
+    markers: &[SurfacePoint],
+) -> u32 {
+    let base = set.kinds.marker_base();
+    let surface: Vec<usize> = (0..set.len())
+        .filter(|&j| {
+            set.kinds.kind(set.id[j]) == Kind::Marker
+                && markers[set.id[j] as usize - base].area > 0.0
+        })
+        .collect();
+    let mut moved = 0;
+    for i in 0..set.len() {
+        if set.kinds.kind(set.id[i]) != Kind::Fluid {
+            continue;
+        }
+        let nearest = surface
+            .iter()
+            .map(|&j| (j, sub(set.pos[i], set.pos[j])))
+            .filter(|(_, r)| dot(*r, *r) < c.spacing * c.spacing)
+            .min_by(|a, b| dot(a.1, a.1).total_cmp(&dot(b.1, b.1)));
+        let Some((j, r)) = nearest else {
+            continue;
+        };
+        let n = markers[set.id[j] as usize - base].normal;
+        let d = dot(r, n);
+        if d >= 0.0 {
+            continue;
+        }
+        set.pos[i] = std::array::from_fn(|k| set.pos[i][k] - 2.0 * d * n[k]);
+        let inward = dot(sub(set.vel[i], set.vel[j]), n).min(0.0);
+        set.vel[i] = std::array::from_fn(|k| set.vel[i][k] - inward * n[k]);
+        moved += 1;
+    }
+    moved
+}

@@ -1,0 +1,124 @@
+//! Fluid kept out of resolved bodies (`body_non_penetration`): the GPU kernel against its
+//! CPU twin. A sphere of 300 surface markers (r = 5δ) carves the fluid out of itself,
+//! then moves 0.8δ along +x at 0.1 m/s, so the fluid that stood δ/2 to 0.8δ outside its
+//! +x side is now behind the surface; fill points (area 0) at 0.9 r, δ/2 inside (the shallowest fill), must
+//! not count as surface (a fluid particle's nearest point is often one of them).
+//! Reference: the twin, `non_penetration_cpu`, applied to the GPU's own state before
+//! the pass.
+
+mod common;
+
+use couplet_fluid::body_non_penetration::{SurfacePoint, non_penetration_cpu};
+use couplet_fluid::gpu::shared_test_gpu;
+use couplet_fluid::particles::{dot, sub};
+use couplet_fluid::{FluidSolver, Kind, Op, SphConstants, initial_particles};
+use couplet_protocol::{BodyState, CouplingPoint};
+
+#[test]
+fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = common::scene("", "");
+    let c = SphConstants::from_scene(&s).unwrap();
+    let d = c.spacing;
+    let (centre, r) = ([0.1, 0.1, 0.1], 5.0 * d);
+    let mut points = common::sphere_markers(centre, r, 300);
+    let fill: Vec<CouplingPoint> = points
+        .iter()
+        .step_by(3)
+        .map(|p| {
+            let n = p.normal.map(f64::from);
+            CouplingPoint {
+                position: std::array::from_fn(|k| (centre[k] + 0.9 * r * n[k]) as f32),
+                measure: 0.0,
+                ..*p
+            }
+        })
+        .collect();
+    points.extend(fill);
+    let state = BodyState {
+        position: centre,
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        motion: 2,
+        mass: 1.0,
+        volume: 1.0,
+        ..Default::default()
+    };
+    let mut solver =
+        FluidSolver::from_particles(&gpu, &s, initial_particles(&s, &c).unwrap()).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
+    // The body moves: every point 0.8δ along +x, at 0.1 m/s.
+    let shift = 0.8 * d;
+    for p in &mut points {
+        p.position[0] += shift as f32;
+        p.velocity = [0.1, 0.0, 0.0];
+    }
+    let moved = BodyState {
+        position: [centre[0] + shift, centre[1], centre[2]],
+        linear_velocity: [0.1, 0.0, 0.0],
+        ..state
+    };
+    solver.set_bodies(&gpu, &[moved], &points, &[]).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort], 1e-5, 1.0)
+        .unwrap();
+    let mut twin = solver.data().read(&gpu).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::NonPenetration], 1e-5, 1.0)
+        .unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let count = solver.data().read_reflected(&gpu).unwrap();
+
+    let surface: Vec<SurfacePoint> = points
+        .iter()
+        .map(|p| SurfacePoint {
+            normal: p.normal.map(f64::from),
+            area: f64::from(p.measure),
+        })
+        .collect();
+    let twin_count = non_penetration_cpu(&c, &mut twin, &surface);
+    println!("mirrored out: GPU {count}, twin {twin_count}");
+    assert!(
+        twin_count >= 10,
+        "the moved surface should hold fluid behind it: {twin_count}"
+    );
+    assert_eq!(count, twin_count);
+    // Same particles, same order (the pass does not sort): positions to f32 round-off of
+    // the domain, velocities to that of 0.1 m/s.
+    let (mut dx, mut du) = (0.0f64, 0.0f64);
+    for i in 0..got.len() {
+        assert_eq!(got.id[i], twin.id[i]);
+        if got.kinds.kind(got.id[i]) == Kind::Fluid {
+            let e = sub(got.pos[i], twin.pos[i]);
+            dx = dx.max(dot(e, e).sqrt());
+            let e = sub(got.vel[i], twin.vel[i]);
+            du = du.max(dot(e, e).sqrt());
+        }
+    }
+    println!("largest difference: position {dx:e} m, velocity {du:e} m/s");
+    assert!(dx <= 1e-6 * 0.2, "position {dx:e}");
+    assert!(du <= 1e-5 * 0.1, "velocity {du:e}");
+    // Afterwards no fluid particle is behind its nearest surface marker's plane.
+    let base = got.kinds.marker_base();
+    for i in (0..got.len()).filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid) {
+        let nearest = (0..got.len())
+            .filter(|&j| {
+                got.kinds.kind(got.id[j]) == Kind::Marker
+                    && surface[got.id[j] as usize - base].area > 0.0
+            })
+            .min_by(|&a, &b| {
+                let (ra, rb) = (sub(got.pos[i], got.pos[a]), sub(got.pos[i], got.pos[b]));
+                dot(ra, ra).total_cmp(&dot(rb, rb))
+            })
+            .unwrap();
+        let r = sub(got.pos[i], got.pos[nearest]);
+        if dot(r, r) < d * d {
+            let n = surface[got.id[nearest] as usize - base].normal;
+            assert!(
+                dot(r, n) >= -1e-6 * d,
+                "particle {} still behind: {:e}",
+                got.id[i],
+                dot(r, n)
+            );
+        }
+    }
+}
