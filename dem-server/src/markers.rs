@@ -85,22 +85,27 @@ pub fn markers_of(geometry: &BodyGeometry, spacing: f64) -> Result<Vec<LocalMark
 }
 
 /// Fill points of a resolved body under Adami's wall model: the body-frame cubic lattice
-/// of spacing δ at (i + ½)δ from the centre of mass, each point at least δ/2 inside the
-/// surface (so that it crowds no marker) and less than `reach` − δ/2 deep (deeper, no
-/// fluid particle, which stands at least δ/2 outside, reaches it), with area 0 and the
-/// outward normal of the nearest surface. Adami's walls fill the support behind each
-/// face with layers of wall particles; a body's one layer of markers on its surface
-/// left the fluid beside it a truncated support, and fluid crossed that layer into the
-/// body (the DKT quick run at r = 2δ: 16 fluid particles inside the leading cylinder by
-/// t = 0.06 s with the standard scheme; with the corrected one the body's bottom
-/// decompressed to ρ = 168 kg/m³ at 0.093 s). The fill stands for the body's inside as
-/// the wall layers stand for the wall's. A body with no point δ/2 deep (a sphere of
-/// r < 1.37δ, on the ½-offset lattice) gets none. The lattice's ½ offsets put a body
-/// spanning a periodic axis with a whole number of spacings on the fluid's layers.
+/// of spacing δ at (i + ½)δ from the centre of mass, each point at least δ inside the
+/// surface — the markers on the surface are the first layer, the fill goes on a lattice
+/// spacing behind them — and less than `reach` − δ/2 deep (deeper, no fluid particle,
+/// which stands at least δ/2 outside, reaches it), with area 0 and the outward normal of
+/// the nearest surface. Faces for which `pressed(normal)` holds (body frame: those
+/// pressed against the domain, which carry no markers) are not surface. Adami's walls
+/// fill the support behind each face with layers of wall particles; a body's one layer
+/// of markers left the fluid beside it a truncated support, and fluid crossed that layer
+/// into the body (the DKT quick run at r = 2δ: 16 fluid particles inside the leading
+/// cylinder by t = 0.06 s with the standard scheme; with the corrected one the body's
+/// bottom decompressed to ρ = 168 kg/m³ at 0.093 s). Points only δ/2 deep, right behind
+/// the markers, made the wake of the r = 1.25δ cylinder of `couplet validate
+/// settling-cylinder --quick` decompress and blow up at 0.14 s. A body with no point δ
+/// deep (a sphere of r < 1.87δ, on the ½-offset lattice) gets none. The lattice's ½
+/// offsets put a body spanning a periodic axis with a whole number of spacings on the
+/// fluid's layers.
 pub fn fill_points(
     geometry: &BodyGeometry,
     spacing: f64,
     reach: f64,
+    pressed: impl Fn([f64; 3]) -> bool,
 ) -> Result<Vec<LocalMarker>, DemError> {
     if !(spacing.is_finite() && spacing > 0.0) {
         return Err(DemError::Spacing { value: spacing });
@@ -114,14 +119,14 @@ pub fn fill_points(
             limit: MAX_MARKERS_PER_BODY,
         });
     }
-    let surface = Surface::of(geometry);
+    let surface = Surface::of(geometry, &pressed);
     let (lo, hi) = surface.bounds;
     let index_range = |k: usize| {
         let first = (lo[k] / spacing - 0.5).ceil() as i64;
         let last = (hi[k] / spacing - 0.5).floor() as i64;
         first..=last
     };
-    let (min_depth, max_depth) = (0.5 * spacing * (1.0 - 1e-9), reach - 0.5 * spacing);
+    let (min_depth, max_depth) = (spacing * (1.0 - 1e-9), reach - 0.5 * spacing);
     let mut out = Vec::new();
     for i in index_range(0) {
         for j in index_range(1) {
@@ -143,9 +148,11 @@ pub fn fill_points(
     Ok(out)
 }
 
-/// A body's outer surface for depth queries (body frame).
+/// A body's outer surface for depth queries (body frame), without the faces pressed
+/// against the domain.
 struct Surface<'a> {
     geometry: &'a BodyGeometry,
+    pressed: &'a dyn Fn([f64; 3]) -> bool,
     /// A compound's outer faces: corners and outward normal (faces shared with another
     /// part are inside the body).
     faces: Vec<(Vec<[f64; 3]>, [f64; 3])>,
@@ -154,7 +161,7 @@ struct Surface<'a> {
 }
 
 impl<'a> Surface<'a> {
-    fn of(geometry: &'a BodyGeometry) -> Self {
+    fn of(geometry: &'a BodyGeometry, pressed: &'a dyn Fn([f64; 3]) -> bool) -> Self {
         let (mut faces, bounds) = (
             Vec::new(),
             match geometry {
@@ -193,7 +200,7 @@ impl<'a> Surface<'a> {
                         .iter()
                         .enumerate()
                         .any(|(j, other)| j != i && other.outside_distance(c) <= tol);
-                    if !shared {
+                    if !shared && !pressed(f.normal) {
                         faces.push((pts, f.normal));
                     }
                 }
@@ -201,6 +208,7 @@ impl<'a> Surface<'a> {
         }
         Surface {
             geometry,
+            pressed,
             faces,
             bounds,
         }
@@ -214,6 +222,12 @@ impl<'a> Surface<'a> {
             n[k] = if s < 0.0 { -1.0 } else { 1.0 };
             n
         };
+        // Candidate (distance, normal) pairs of the primitives; pressed faces are not
+        // surface.
+        let nearest = |c: &mut dyn Iterator<Item = (f64, [f64; 3])>| {
+            c.filter(|(_, n)| !(self.pressed)(*n))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        };
         let (d, n) = match self.geometry {
             BodyGeometry::Sphere { radius } => {
                 let r = norm(p);
@@ -224,24 +238,32 @@ impl<'a> Surface<'a> {
                 };
                 (radius - r, n)
             }
-            BodyGeometry::Box { half_extents } => (0..3)
-                .map(|k| (half_extents[k] - p[k].abs(), along(k, p[k])))
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .expect("three axes"),
+            BodyGeometry::Box { half_extents } => {
+                if (0..3).any(|k| p[k].abs() >= half_extents[k]) {
+                    return None;
+                }
+                nearest(&mut (0..3).map(|k| (half_extents[k] - p[k].abs(), along(k, p[k]))))?
+            }
             BodyGeometry::Cylinder {
                 radius,
                 half_height,
             } => {
                 let rho = p[0].hypot(p[2]);
-                let side = radius - rho;
-                let cap = half_height - p[1].abs();
-                if cap < side {
-                    (cap, along(1, p[1]))
-                } else if rho > 0.0 {
-                    (side, [p[0] / rho, 0.0, p[2] / rho])
-                } else {
-                    (side, [1.0, 0.0, 0.0])
+                if rho >= *radius || p[1].abs() >= *half_height {
+                    return None;
                 }
+                let radial = if rho > 0.0 {
+                    [p[0] / rho, 0.0, p[2] / rho]
+                } else {
+                    [1.0, 0.0, 0.0]
+                };
+                nearest(
+                    &mut [
+                        (radius - rho, radial),
+                        (half_height - p[1].abs(), along(1, p[1])),
+                    ]
+                    .into_iter(),
+                )?
             }
             BodyGeometry::Polyhedra(parts) => {
                 if !parts.iter().any(|part| part.outside_distance(p) < 0.0) {
@@ -594,7 +616,7 @@ fn wetted(
     body: &couplet_protocol::BodySpec,
     domain: &couplet_protocol::Domain,
     spacing: f64,
-) -> Result<Vec<LocalMarker>, DemError> {
+) -> Result<(Vec<LocalMarker>, Vec<usize>), DemError> {
     let q = quat_from_scaled_axis(body.rotation);
     let world = |m: &LocalMarker| {
         (
@@ -623,7 +645,7 @@ fn wetted(
             });
         }
     }
-    Ok(markers
+    let kept = markers
         .into_iter()
         .filter(|m| {
             let (x, n) = world(m);
@@ -632,7 +654,8 @@ fn wetted(
                     || ((x[k] - domain.max[k]).abs() < tol && n[k] > 1.0 - 1e-9)
             })
         })
-        .collect())
+        .collect();
+    Ok((kept, spans))
 }
 
 /// How deep fill points reach: the largest support radius a fluid particle may have.
@@ -670,11 +693,18 @@ impl MarkerSet {
                 BodyGeometry::from_shape(&body.shape).map_err(|e| e.in_body(index, &body.name))?;
             let own =
                 markers_of(&geometry, fluid.spacing).map_err(|e| e.in_body(index, &body.name))?;
-            let mut own = wetted(own, body, &scene.domain, fluid.spacing)
+            let (mut own, spans) = wetted(own, body, &scene.domain, fluid.spacing)
                 .map_err(|e| e.in_body(index, &body.name))?;
             if scene.domain.wall_model == WallModel::Adami {
+                // The faces pressed against the domain (wetted's spans) are no surface.
+                let q = quat_from_scaled_axis(body.rotation);
+                let pressed = |n: [f64; 3]| {
+                    let w = rotate(q, n);
+                    spans.iter().any(|&k| w[k].abs() > 1.0 - 1e-9)
+                };
+                let reach = fill_reach(fluid, &scene.effects);
                 own.extend(
-                    fill_points(&geometry, fluid.spacing, fill_reach(fluid, &scene.effects))
+                    fill_points(&geometry, fluid.spacing, reach, pressed)
                         .map_err(|e| e.in_body(index, &body.name))?,
                 );
             }

@@ -600,9 +600,9 @@ fn marker_set_world_points() {
 }
 
 /// Fill points (Adami's wall model): a box of half-extents 10δ holds the body-frame
-/// lattice (i + ½)δ, 20 points a side, at depths ½δ, 1½δ, …; with reach 2.8δ those less
-/// than reach − δ/2 = 2.3δ deep are the 20³ − 16³ = 3904 outside the inner cube of 16³
-/// (exact count, by hand). Each has area 0 and the unit normal of its nearest face.
+/// lattice (i + ½)δ, 20 points a side, at depths ½δ, 1½δ, …; at least δ and, with reach
+/// 2.8δ, less than reach − δ/2 = 2.3δ deep is the shell of depth 1½δ: 18³ − 16³ = 1736
+/// points (exact count, by hand). Each has area 0 and the unit normal of its nearest face.
 #[test]
 fn fill_points_of_a_box_are_its_lattice_shell_within_the_reach() {
     let d = 0.01;
@@ -610,18 +610,15 @@ fn fill_points_of_a_box_are_its_lattice_shell_within_the_reach() {
         half_extents: [10.0 * d; 3],
     })
     .unwrap();
-    let fill = fill_points(&g, d, 2.8 * d).unwrap();
-    assert_eq!(fill.len(), 20 * 20 * 20 - 16 * 16 * 16);
+    let fill = fill_points(&g, d, 2.8 * d, |_| false).unwrap();
+    assert_eq!(fill.len(), 18 * 18 * 18 - 16 * 16 * 16);
     for f in &fill {
         assert_eq!(f.area, 0.0);
         let depth = |k: usize| 10.0 * d - f.position[k].abs();
         let k = (0..3)
             .min_by(|a, b| depth(*a).total_cmp(&depth(*b)))
             .unwrap();
-        assert!(
-            depth(k) >= 0.5 * d * (1.0 - 1e-9) && depth(k) < 2.3 * d,
-            "{f:?}"
-        );
+        assert!(depth(k) >= d * (1.0 - 1e-9) && depth(k) < 2.3 * d, "{f:?}");
         let mut n = [0.0; 3];
         n[k] = f.position[k].signum();
         assert_eq!(f.normal, n, "{f:?}");
@@ -629,15 +626,15 @@ fn fill_points_of_a_box_are_its_lattice_shell_within_the_reach() {
 }
 
 /// Fill points of Joubert's 12-face cylinder, ring and cross (Table 3) at his δ = 0.25 mm,
-/// reach 2.4δ: inside the body, never closer than δ/2 to a surface marker (markers lie on
+/// reach 3δ: inside the body, never closer than δ to a surface marker (markers lie on
 /// the surface, so that holds exactly), and the same set as an independent depth — the
 /// distance to the nearest of the surface markers at δ/16, which overestimates the true
 /// depth by under a fine patch's half-diagonal — picks, except within δ/8 of the two
 /// bounds.
 #[test]
-fn fill_points_of_joubert_shapes_keep_half_a_spacing_inside_their_surface() {
+fn fill_points_of_joubert_shapes_keep_a_spacing_inside_their_surface() {
     let d = 2.5e-4;
-    let reach = 2.4 * d;
+    let reach = 3.0 * d;
     for shape in [
         Shape::Prism {
             sides: 12,
@@ -657,7 +654,7 @@ fn fill_points_of_joubert_shapes_keep_half_a_spacing_inside_their_surface() {
         },
     ] {
         let g = BodyGeometry::from_shape(&shape).unwrap();
-        let fill = fill_points(&g, d, reach).unwrap();
+        let fill = fill_points(&g, d, reach, |_| false).unwrap();
         assert!(!fill.is_empty(), "{shape:?}");
         let surface = generate_markers(&shape, d).unwrap();
         let fine = generate_markers(&shape, d / 16.0).unwrap();
@@ -670,7 +667,7 @@ fn fill_points_of_joubert_shapes_keep_half_a_spacing_inside_their_surface() {
         };
         for f in &fill {
             assert!(
-                nearest(f.position, &surface) >= 0.5 * d * (1.0 - 1e-9),
+                nearest(f.position, &surface) >= d * (1.0 - 1e-9),
                 "{shape:?}: {f:?} crowds a marker"
             );
         }
@@ -690,10 +687,10 @@ fn fill_points_of_joubert_shapes_keep_half_a_spacing_inside_their_surface() {
                         continue;
                     }
                     let depth = nearest(p, &fine);
-                    if depth > 0.5 * d + eps && depth < reach - 0.5 * d - eps {
+                    if depth > d + eps && depth < reach - 0.5 * d - eps {
                         assert!(in_fill(p), "{shape:?}: {p:?} at depth {depth:e} missing");
                         checked += 1;
-                    } else if depth < 0.5 * d - eps || depth > reach - 0.5 * d + eps {
+                    } else if depth < d - eps || depth > reach - 0.5 * d + eps {
                         assert!(!in_fill(p), "{shape:?}: {p:?} at depth {depth:e} kept");
                         checked += 1;
                     }
@@ -708,7 +705,8 @@ fn fill_points_of_joubert_shapes_keep_half_a_spacing_inside_their_surface() {
 /// its range; Joubert's one-layer model (§2.5) keeps the surface alone. The box of
 /// half-extent 5.5δ at δ = 0.02 (the default support 3δ) holds the lattice ±4.5δ … ±0.5δ,
 /// 10 a side, at depths 1δ to 5δ: those under 2.5δ deep are the 10³ lattice less its 6³
-/// core (by hand).
+/// core (by hand). A 12-face prism spanning a periodic z (the DKT quick's, 8 layers) has
+/// no surface at its pressed caps: every one of its layers gets the same fill.
 #[test]
 fn fill_points_follow_the_wall_model() {
     let body = cuboid("b", [0.11, 0.11, 0.11], 1200.0, [0.5, 0.25, 0.5], "");
@@ -730,4 +728,30 @@ fn fill_points_follow_the_wall_model() {
     let one_layer = MarkerSet::from_scene(&joubert).unwrap();
     assert_eq!(one_layer.len(), first_fill);
     assert!(one_layer.local().iter().all(|k| k.area > 0.0));
+
+    // The DKT quick's cylinder (r = 1 mm = 2δ at δ = 0.5 mm, laid along a periodic z of
+    // 8 layers): the (±½, ±½)δ columns, 1.29δ deep, in every layer.
+    let dkt = format!(
+        "{}\n[fluid]\ndensity = 1000.0\nkinematic_viscosity = 5e-6\nsound_speed = 1.0\nspacing = 5e-4\nblocks = [{{ min = [0, 0, 0], max = [0.02, 0.03, 0.004] }}]\n[[bodies]]\nname = \"c\"\nshape.prism = {{ sides = 12, radius = 1e-3, half_height = 2e-3 }}\ndensity = 1100.0\nposition = [0.01, 0.02, 0.002]\nrotation = [{:?}, 0.0, 0.0]\n",
+        common::BASE.replace(
+            "max = [1, 1, 1]\n",
+            "max = [0.02, 0.03, 0.004]\nperiodic = [false, false, true]\n"
+        ),
+        PI / 2.0
+    );
+    let s = couplet_protocol::Scene::parse(&dkt, std::path::Path::new("t.toml")).unwrap();
+    let set = MarkerSet::from_scene(&s).unwrap();
+    let fill: Vec<&LocalMarker> = set.local().iter().filter(|k| k.area == 0.0).collect();
+    assert_eq!(fill.len(), 4 * 8, "{fill:?}");
+    for layer in 0..8 {
+        // Body y is the prism's axis (world z after the rotation).
+        let y = (layer as f64 - 3.5) * 5e-4;
+        assert_eq!(
+            fill.iter()
+                .filter(|k| (k.position[1] - y).abs() < 1e-9)
+                .count(),
+            4,
+            "layer {layer}"
+        );
+    }
 }

@@ -5,10 +5,13 @@
 // fixed; markers' accelerations reach only Joubert's boundary pass). ρ_w from the
 // inverted Tait equation, times the porosity among unresolved grains (with the mass:
 // boundary_state_wgsl in porosity.rs). No fluid neighbour: p = 0, ρ = ρ0 (ε ρ0).
+// A fill point of a resolved body (fill_side(i).w = 1) sums only the fluid in front of
+// its nearest surface, (x_f − x_w)·n > 0 (adami2012_boundary_pressure.rs says why).
 // No-slip walls also get their velocity for the viscous sums, 2 v_w − ṽ_w with
 // ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (Adami et al. 2012, §2.3), through
 // `store_wall_velocity(i, v)` (adami2012_boundary_pressure.rs: a no-op when off).
-// Needs: prelude, SPH constants, StepParams, grid_common, kernel, tait_eos (library).
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel, tait_eos (library),
+// fill_side (adami2012_boundary_pressure.rs).
 
 // ---- kernels ----
 // `pos`, boundary_density and store_boundary_mass: porosity.rs, boundary_state_wgsl.
@@ -37,6 +40,7 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     // layer a fluid particle can reach has fluid within its support (constants.rs,
     // wall_kernel); otherwise H.
     let reach2 = support2_at(MAX_H);
+    let side = fill_side(i);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c_i, dy, dz);
@@ -44,7 +48,7 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
                 let j = row_slot(rs, k);
                 let r_wf = pair_vec(p_i, pos[j].xyz);
                 let r2 = dot(r_wf, r_wf);
-                if r2 >= reach2 || !is_fluid(id[j]) {
+                if r2 >= reach2 || !is_fluid(id[j]) || (side.w > 0.0 && dot(r_wf, side.xyz) >= 0.0) {
                     continue;
                 }
                 let w = w_at(sqrt(r2), MAX_H);

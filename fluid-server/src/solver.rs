@@ -105,6 +105,9 @@ pub struct MarkerPipelines {
 pub struct SphPipelines {
     tait_eos: SphKernel,
     boundary_pressure: SphKernel,
+    /// Adami's boundary pass with fill points extrapolated from one side: bound in place
+    /// of `boundary_pressure` once bodies exist (Adami's walls, resolved bodies).
+    boundary_pressure_fill: Option<SphKernel>,
     fluid_rates: SphKernel,
     predict: SphKernel,
     correct: SphKernel,
@@ -131,8 +134,10 @@ impl SphPipelines {
             boundary_pressure: if c.joubert_walls {
                 joubert2020_boundary_values::kernel(gpu, c, grid_layout)
             } else {
-                adami2012_boundary_pressure::kernel(gpu, c, grid_layout)
+                adami2012_boundary_pressure::kernel(gpu, c, grid_layout, false)
             },
+            boundary_pressure_fill: (with_markers && !c.joubert_walls)
+                .then(|| adami2012_boundary_pressure::kernel(gpu, c, grid_layout, true)),
             fluid_rates: fluid_rates::kernel(gpu, c, grid_layout),
             predict: integrate::predict_kernel(gpu, c),
             correct: integrate::correct_kernel(gpu, c),
@@ -544,10 +549,12 @@ impl SphData {
                     .tait_eos
                     .bind(gpu, resolve, None)
                     .ok_or_else(|| missing("tait_eos"))?,
-                boundary_pressure: p
-                    .boundary_pressure
-                    .bind(gpu, resolve, g)
-                    .ok_or_else(|| missing("boundary pressure"))?,
+                boundary_pressure: match (&p.boundary_pressure_fill, &bodies) {
+                    (Some(k), Some(_)) => k,
+                    _ => &p.boundary_pressure,
+                }
+                .bind(gpu, resolve, g)
+                .ok_or_else(|| missing("boundary pressure"))?,
                 fluid_rates: p
                     .fluid_rates
                     .bind(gpu, resolve, g)
@@ -1304,6 +1311,14 @@ impl FluidSolver {
                 &self.consts,
                 probe.bind_group_layout(),
             ));
+            if !self.consts.joubert_walls {
+                self.pipelines.boundary_pressure_fill = Some(adami2012_boundary_pressure::kernel(
+                    gpu,
+                    &self.consts,
+                    probe.bind_group_layout(),
+                    true,
+                ));
+            }
         }
         self.data = SphData::new(
             gpu,

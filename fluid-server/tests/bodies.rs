@@ -1,5 +1,8 @@
-//! Fluid kept out of resolved bodies (`body_non_penetration`): the GPU kernel against its
-//! CPU twin. A sphere of 300 surface markers (r = 5δ) carves the fluid out of itself,
+//! The fluid around resolved bodies. Fill points take Adami's pressure from the fluid in
+//! front of their nearest surface only; fluid behind a body's surface is mirrored out
+//! (`body_non_penetration`). Each GPU kernel against its CPU twin.
+//!
+//! Non-penetration: A sphere of 300 surface markers (r = 5δ) carves the fluid out of itself,
 //! then moves 0.8δ along +x at 0.1 m/s, so the fluid that stood δ/2 to 0.8δ outside its
 //! +x side is now behind the surface; fill points (area 0) at 0.9 r, δ/2 inside (the shallowest fill), must
 //! not count as surface (a fluid particle's nearest point is often one of them).
@@ -8,6 +11,9 @@
 
 mod common;
 
+use couplet_fluid::adami2012_boundary_pressure::{
+    boundary_pressure_cpu, boundary_pressure_with_fill_cpu,
+};
 use couplet_fluid::body_non_penetration::{SurfacePoint, non_penetration_cpu};
 use couplet_fluid::gpu::shared_test_gpu;
 use couplet_fluid::particles::{dot, sub};
@@ -121,4 +127,87 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
             );
         }
     }
+}
+
+/// Adami's boundary pass with a body's fill points (area 0) on one side: a sphere r = 1.5δ
+/// with 30 surface markers and fill points at 0.3 r, whose support of 3δ reaches the
+/// fluid on the body's far side too, in a fluid at rest whose pressure varies linearly across it
+/// without gravity (so the extrapolation is a Shepard average, which the side changes).
+/// The GPU's boundary pressures
+/// against the twin `boundary_pressure_with_fill_cpu` to 1e-4 of the largest; the fill
+/// points' pressures are shown to differ from the two-sided extrapolation (the twin's
+/// `boundary_pressure_cpu`) by more than that, so the test sees the side rule.
+#[test]
+fn fill_points_extrapolate_from_their_own_side_as_the_twin_does() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = common::scene("", "[gravity]\nvector = [0.0, 0.0, 0.0]\n");
+    let c = SphConstants::from_scene(&s).unwrap();
+    let d = c.spacing;
+    let (centre, r) = ([0.1, 0.1, 0.1], 1.5 * d);
+    let mut points = common::sphere_markers(centre, r, 30);
+    let fill: Vec<CouplingPoint> = points
+        .iter()
+        .step_by(3)
+        .map(|p| {
+            let n = p.normal.map(f64::from);
+            CouplingPoint {
+                position: std::array::from_fn(|k| (centre[k] + 0.3 * r * n[k]) as f32),
+                measure: 0.0,
+                ..*p
+            }
+        })
+        .collect();
+    points.extend(fill);
+    let state = BodyState {
+        position: centre,
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        motion: 2,
+        mass: 1.0,
+        volume: 1.0,
+        ..Default::default()
+    };
+    // p = 1000 (3, −9, 2)·x Pa/m (x relative to the domain centre).
+    let mut set = initial_particles(&s, &c).unwrap();
+    for i in 0..set.kinds.n_fluid {
+        let p = 1000.0 * (3.0 * set.pos[i][0] - 9.0 * set.pos[i][1] + 2.0 * set.pos[i][2]);
+        set.press[i] = p;
+        set.rho[i] = c.density(p);
+    }
+    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
+    solver
+        .run_ops(
+            &gpu,
+            &[Op::MarkerUpdate, Op::Sort, Op::BoundaryPressure],
+            1e-5,
+            1.0,
+        )
+        .unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let base = got.kinds.marker_base();
+    let side = |i: usize| {
+        let id = got.id[i] as usize;
+        (got.kinds.kind(got.id[i]) == Kind::Marker && points[id - base].measure == 0.0)
+            .then(|| points[id - base].normal.map(f64::from))
+    };
+    let one_sided = boundary_pressure_with_fill_cpu(&c, &got, side);
+    let two_sided = boundary_pressure_cpu(&c, &got);
+    let scale = got.press.iter().fold(0.0f64, |m, p| m.max(p.abs()));
+    let (mut e_gpu, mut d_side) = (0.0f64, 0.0f64);
+    for i in 0..got.len() {
+        if let Some((p, _)) = one_sided[i] {
+            e_gpu = e_gpu.max((got.press[i] - p).abs());
+            if side(i).is_some() {
+                d_side = d_side.max((p - two_sided[i].unwrap().0).abs());
+            }
+        }
+    }
+    println!(
+        "boundary pressure: GPU against twin {e_gpu:e} Pa, one- against two-sided at fill points {d_side:e} Pa, of {scale:e} Pa"
+    );
+    assert!(e_gpu <= 1e-4 * scale, "GPU {e_gpu:e} of {scale:e}");
+    assert!(
+        d_side > 1e-3 * scale,
+        "the side rule changes nothing here: {d_side:e}"
+    );
 }
