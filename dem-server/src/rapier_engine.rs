@@ -55,15 +55,24 @@ pub struct MassProperties {
 ///   adds the new ones, so a window's load acts in each substep exactly once.
 /// * Positions are held relative to the domain centre: rapier is `f32`, and a small
 ///   displacement per substep on top of a large coordinate would lose its digits.
-/// * rapier's tolerances scale with `length_unit`, set to the smallest body's size
-///   `∛V` (the defaults assume metre-sized bodies, and a 5 mm slop would swallow a
-///   millimetre sphere).
+/// * rapier works in a length unit of its own, `length_unit` = the smallest body's size
+///   `∛V` (or the domain's, if smaller): every length, velocity, acceleration and force
+///   goes in divided by it, every moment and inertia by its square, and comes back
+///   multiplied. rapier's `length_unit` parameter alone (which scales its slop and
+///   prediction distances) did not make millimetre polyhedra collide: parry's contacts
+///   between convex hulls keep tolerances of their own, and two of Joubert's 12-face
+///   cylinders (r = 1 mm) fell through each other, two 2 mm hull cubes came to rest
+///   0.2 mm deep in each other (`dem-server/tests/conformance.rs`,
+///   `millimetre_hulls_do_not_interpenetrate`), while the same bodies at metre size
+///   rested face to face.
 pub struct RapierEngine {
     world: PhysicsWorld,
     bodies: Vec<Body>,
     index_of: HashMap<RigidBodyHandle, usize>,
     /// Scene coordinates of rapier's origin (the domain centre), m.
     origin: [f64; 3],
+    /// rapier length units per metre, 1/`length_unit`.
+    scale: f64,
     domain: couplet_protocol::Domain,
     max_dt: f64,
     time: f64,
@@ -90,11 +99,22 @@ impl RapierEngine {
             f64::min,
         );
 
+        let scale = 1.0 / length_unit;
         let mut world = PhysicsWorld::new();
-        world.gravity = vec3(scene.gravity.vector);
+        world.gravity = scaled(scene.gravity.vector, scale);
         let p = &mut world.integration_parameters;
         p.dt = scene.dem.max_dt as Real;
-        p.length_unit = length_unit as Real;
+        // One rapier length unit is `length_unit` metres (see the struct doc).
+        p.length_unit = 1.0;
+        // rapier's contacts are springs of 30 Hz (60 Hz against fixed bodies), tuned
+        // for metre-sized bodies: under gravity a resting contact sinks g/ω², 0.28 mm
+        // at 30 Hz whatever the length unit, 14 % of a 2 mm body (two 2 mm hull cubes
+        // stacked 0.18 mm into each other). Their frequencies scale as 1/√length_unit, as
+        // a body's own time √(L/g) does, so a body of any size sinks the same fraction
+        // of itself that a metre body does at rapier's defaults.
+        let froude = (1.0 / length_unit).sqrt() as Real;
+        p.contact_softness.natural_frequency *= froude;
+        p.static_contact_softness.natural_frequency *= froude;
         p.normalized_allowed_linear_error = NORMALIZED_ALLOWED_LINEAR_ERROR as Real;
         // rapier caps speeds (400 length units/s) to keep game scenes sane; a physics
         // run must not be silently clamped (DESIGN.md failure model).
@@ -113,33 +133,34 @@ impl RapierEngine {
                 Motion::Dynamic => RigidBodyBuilder::dynamic().can_sleep(false),
             };
             let mut builder = builder
-                .translation(vec3(sub(spec.position, origin)))
+                .translation(scaled(sub(spec.position, origin), scale))
                 .rotation(vec3(spec.rotation));
             if spec.motion != Motion::Fixed {
                 builder = builder
-                    .linvel(vec3(spec.velocity))
+                    .linvel(scaled(spec.velocity, scale))
                     .angvel(vec3(spec.angular_velocity));
             }
             if spec.motion == Motion::Dynamic {
                 builder = builder.gravity_scale(gravity_scale(scene, i) as Real);
             }
             let handle = world.insert_body(builder);
+            let len = |x: f64| (x * scale) as Real;
             let shape = match geometry {
-                BodyGeometry::Sphere { radius } => ColliderBuilder::ball(*radius as Real),
+                BodyGeometry::Sphere { radius } => ColliderBuilder::ball(len(*radius)),
                 BodyGeometry::Box {
                     half_extents: [a, b, c],
-                } => ColliderBuilder::cuboid(*a as Real, *b as Real, *c as Real),
+                } => ColliderBuilder::cuboid(len(*a), len(*b), len(*c)),
                 BodyGeometry::Cylinder {
                     radius,
                     half_height,
-                } => ColliderBuilder::cylinder(*half_height as Real, *radius as Real),
+                } => ColliderBuilder::cylinder(len(*half_height), len(*radius)),
                 BodyGeometry::Polyhedra(parts) => {
                     let hulls = parts
                         .iter()
                         .enumerate()
                         .map(|(k, part)| {
                             let pts: Vec<Vector> =
-                                part.vertices.iter().map(|v| vec3(*v)).collect();
+                                part.vertices.iter().map(|v| scaled(*v, scale)).collect();
                             SharedShape::convex_hull(&pts).ok_or_else(|| {
                                 DemError::Shape {
                                     what: format!("part {k} vertices"),
@@ -168,7 +189,7 @@ impl RapierEngine {
             // the mass properties of two colliders, hence the single collider.
             world.insert_collider(
                 shape
-                    .mass_properties(mass_properties(geometry, spec.density))
+                    .mass_properties(mass_properties(geometry, spec.density, scale))
                     .friction(spec.friction as Real)
                     .restitution(spec.restitution as Real),
                 Some(handle),
@@ -184,12 +205,13 @@ impl RapierEngine {
                 kinematic,
             });
         }
-        add_walls(&mut world, scene, origin);
+        add_walls(&mut world, scene, origin, scale);
         Ok(Self {
             world,
             bodies,
             index_of,
             origin,
+            scale,
             domain: scene.domain.clone(),
             max_dt: scene.dem.max_dt,
             time: 0.0,
@@ -203,20 +225,17 @@ impl RapierEngine {
         let m = &b.mass_properties().local_mprops;
         let i = m.reconstruct_inertia_matrix();
         let col = [i.x_axis, i.y_axis, i.z_axis];
+        let s2 = self.scale * self.scale;
         Some(MassProperties {
             mass: m.mass() as f64,
-            local_com: [
-                m.local_com.x as f64,
-                m.local_com.y as f64,
-                m.local_com.z as f64,
-            ],
-            inertia: [0, 1, 2].map(|r| [0, 1, 2].map(|c| col[c][r] as f64)),
+            local_com: unscaled(m.local_com, self.scale),
+            inertia: [0, 1, 2].map(|r| [0, 1, 2].map(|c| col[c][r] as f64 / s2)),
         })
     }
 
     /// Contact slop in metres: rapier lets resting contacts overlap by up to about this.
     pub fn allowed_penetration(&self) -> f64 {
-        self.world.integration_parameters.allowed_linear_error() as f64
+        self.world.integration_parameters.allowed_linear_error() as f64 / self.scale
     }
 
     /// Simulated time since construction, s.
@@ -234,19 +253,15 @@ impl RapierEngine {
             ..Default::default()
         };
         if let Some(rb) = self.world.bodies.get(b.handle) {
-            let t = rb.translation();
-            s.position = [
-                t.x as f64 + self.origin[0],
-                t.y as f64 + self.origin[1],
-                t.z as f64 + self.origin[2],
-            ];
+            let t = unscaled(rb.translation(), self.scale);
+            s.position = std::array::from_fn(|k| t[k] + self.origin[k]);
             let q = rb.rotation();
             let q = [q.x as f64, q.y as f64, q.z as f64, q.w as f64];
             // Renormalised in f64 so that R·p keeps marker distances to the COM.
             let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
             s.orientation = if n > 0.0 { q.map(|x| x / n) } else { q };
             let (v, w) = (rb.linvel(), rb.angvel());
-            s.linear_velocity = [v.x as f64, v.y as f64, v.z as f64];
+            s.linear_velocity = unscaled(v, self.scale);
             s.angular_velocity = [w.x as f64, w.y as f64, w.z as f64];
         }
         if let Some(k) = &b.kinematic {
@@ -261,7 +276,7 @@ impl RapierEngine {
 /// tunnels through), the top only when `closed_top`. Friction and restitution 0 with the
 /// `Max` rule, which outranks rapier's default `Average`: a body–wall contact takes the
 /// body's own coefficients.
-fn add_walls(world: &mut PhysicsWorld, scene: &Scene, origin: [f64; 3]) {
+fn add_walls(world: &mut PhysicsWorld, scene: &Scene, origin: [f64; 3], scale: f64) {
     let d = &scene.domain;
     let half = [0, 1, 2].map(|k| 0.5 * (d.max[k] - d.min[k]));
     let t = 2.0 * half.iter().copied().fold(0.0, f64::max);
@@ -275,9 +290,10 @@ fn add_walls(world: &mut PhysicsWorld, scene: &Scene, origin: [f64; 3]) {
             centre[axis] += side * (half[axis] + 0.5 * t);
             let mut he = half.map(|h| h + t);
             he[axis] = 0.5 * t;
+            let he = he.map(|h| (h * scale) as Real);
             world.insert_collider(
-                ColliderBuilder::cuboid(he[0] as Real, he[1] as Real, he[2] as Real)
-                    .translation(vec3(centre))
+                ColliderBuilder::cuboid(he[0], he[1], he[2])
+                    .translation(scaled(centre, scale))
                     .friction(0.0)
                     .restitution(0.0)
                     .friction_combine_rule(CoefficientCombineRule::Max)
@@ -290,6 +306,16 @@ fn add_walls(world: &mut PhysicsWorld, scene: &Scene, origin: [f64; 3]) {
 
 fn vec3(v: [f64; 3]) -> Vector {
     Vector::new(v[0] as Real, v[1] as Real, v[2] as Real)
+}
+
+/// A length-dimensioned vector (position, velocity, acceleration, force) in rapier's units.
+fn scaled(v: [f64; 3], scale: f64) -> Vector {
+    vec3(v.map(|x| x * scale))
+}
+
+/// A rapier length-dimensioned vector back in SI.
+fn unscaled(v: Vector, scale: f64) -> [f64; 3] {
+    [v.x as f64, v.y as f64, v.z as f64].map(|x| x / scale)
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -336,8 +362,9 @@ impl DemEngine for RapierEngine {
             {
                 // User forces persist across steps until reset (rapier `add_force`): the
                 // load is held over the whole window. Ignored by fixed/kinematic bodies.
-                rb.add_force(vec3(l.force), true);
-                rb.add_torque(vec3(l.moment), true);
+                // Mass stays in kg: a force scales as a length, a moment as its square.
+                rb.add_force(scaled(l.force, self.scale), true);
+                rb.add_torque(scaled(l.moment, self.scale * self.scale), true);
             }
         }
         Ok(())
@@ -364,7 +391,10 @@ impl DemEngine for RapierEngine {
                     q[3] as Real,
                 );
                 rb.set_position(
-                    Pose::from_parts(vec3(sub(x, self.origin)), rotation.normalize()),
+                    Pose::from_parts(
+                        scaled(sub(x, self.origin), self.scale),
+                        rotation.normalize(),
+                    ),
                     false,
                 );
             }
@@ -420,7 +450,7 @@ impl DemEngine for RapierEngine {
     }
 
     fn set_gravity(&mut self, g: [f64; 3]) {
-        self.world.gravity = vec3(g);
+        self.world.gravity = scaled(g, self.scale);
     }
 
     fn set_kinematic_velocity(
@@ -439,7 +469,7 @@ impl DemEngine for RapierEngine {
         if let Some(rb) = self.world.bodies.get_mut(b.handle) {
             // rapier moves a velocity-based kinematic body by these (and contacts see
             // them); the pose is then reset to the closed form after each step.
-            rb.set_linvel(vec3(linear), true);
+            rb.set_linvel(scaled(linear, self.scale), true);
             rb.set_angvel(vec3(angular), true);
         }
         Ok(())
@@ -499,15 +529,20 @@ struct RapierState<W> {
 
 /// rapier's mass properties of a body from the `f64` geometry: mass ρV, centre of mass
 /// at the body origin, principal moments and axes from nalgebra's `f64` eigen
-/// decomposition of [`BodyGeometry::inertia`] (axes made right-handed).
-fn mass_properties(geometry: &BodyGeometry, density: f64) -> rapier3d::prelude::MassProperties {
+/// decomposition of [`BodyGeometry::inertia`] (axes made right-handed), the moments in
+/// rapier's length unit (times `scale`²).
+fn mass_properties(
+    geometry: &BodyGeometry,
+    density: f64,
+    scale: f64,
+) -> rapier3d::prelude::MassProperties {
     let eigen = geometry.inertia(density).symmetric_eigen();
     let mut axes = eigen.eigenvectors;
     if axes.determinant() < 0.0 {
         axes.set_column(2, &(-axes.column(2)));
     }
     let q = nalgebra::UnitQuaternion::from_matrix(&axes);
-    let v = eigen.eigenvalues;
+    let v = eigen.eigenvalues * (scale * scale);
     rapier3d::prelude::MassProperties::with_principal_inertia_frame(
         Vector::ZERO,
         (density * geometry.volume()) as Real,

@@ -261,6 +261,80 @@ pub fn boxes_do_not_interpenetrate(allow: Allowance) {
     );
 }
 
+/// Millimetre polyhedra collide: Joubert's 12-face cylinders of §3.3 (r = 1 mm, laid
+/// along z; the upper one 0.3 mm off the lower's axis, so it rolls off), and two hull
+/// cubes of 2 mm edge stacked face on face, never bring their centres closer than the
+/// bodies allow — face to face 2r cos 15° for the 12-gons, the edge for the cubes — less
+/// the engine's contact allowance (of ∛V) and, as for the boxes above, 2 % of the size
+/// for the landing. Regression: rapier took these
+/// in metres with only its `length_unit` parameter scaled, and the cylinders fell
+/// through each other (their centres came within 0.004 mm), the cubes rested 0.2 mm deep.
+/// An engine without polyhedra refuses them, naming the body.
+pub fn millimetre_hulls_do_not_interpenetrate(allow: Allowance) {
+    let prism = |name: &str, y: f64, x: f64| {
+        format!(
+            "[[bodies]]\nname = \"{name}\"\nshape.prism = {{ sides = 12, radius = 1e-3, half_height = 2e-3 }}\ndensity = 1100.0\nposition = [{x:?}, {y:?}, 0.5]\nrotation = [{:?}, 0.0, 0.0]\n",
+            std::f64::consts::FRAC_PI_2
+        )
+    };
+    let cube = |name: &str, y: f64, x: f64| {
+        let v: Vec<[f64; 3]> = (0..8)
+            .map(|i| [0, 1, 2].map(|k| if i >> k & 1 == 1 { 1e-3 } else { -1e-3 }))
+            .collect();
+        format!(
+            "[[bodies]]\nname = \"{name}\"\nshape.convex = {{ vertices = {v:?} }}\ndensity = 1100.0\nposition = [{x:?}, {y:?}, 0.5]\n"
+        )
+    };
+    let cases = [
+        (
+            prism("lower", 1.1e-3, 0.5) + &prism("upper", 3.5e-3, 0.5003),
+            2.0 * 1e-3 * (std::f64::consts::PI / 12.0).cos(),
+            (std::f64::consts::PI * 1e-6 * 4e-3 * (std::f64::consts::PI / 12.0).sin() * 12.0
+                / (2.0 * std::f64::consts::PI))
+                .cbrt(),
+        ),
+        (
+            cube("lower", 1.1e-3, 0.5) + &cube("upper", 3.5e-3, 0.5),
+            2e-3,
+            2e-3,
+        ),
+    ];
+    for (bodies, closest, size) in cases {
+        if !allow.polyhedra {
+            let s = scene(&format!(
+                "[dem]\nengine = \"{}\"\n{}\n{bodies}",
+                allow.engine, allow.dem
+            ));
+            let msg = create_engine(&s)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
+            assert!(msg.contains("bodies[0] \"lower\""), "{msg}");
+            continue;
+        }
+        let mut e = engine(allow, &bodies);
+        let mut nearest = f64::INFINITY;
+        for _ in 0..300 {
+            run(&mut *e, 1e-3, 1e-3, &[]);
+            let s = states(&*e);
+            let d = (0..2)
+                .map(|k| (s[1].position[k] - s[0].position[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            nearest = nearest.min(d);
+        }
+        let tol = (allow.penetration_rel + 0.02) * size;
+        println!(
+            "{}: nearest {nearest:.4e} m, touching at {closest:.4e} m",
+            allow.engine
+        );
+        assert!(
+            nearest > closest - tol,
+            "centres {nearest:.4e} m apart, the bodies touch at {closest:.4e} m (tolerance {tol:.1e})"
+        );
+    }
+}
+
 /// A kinematic body moves with its set velocities whatever acts on it: x = x0 + v t,
 /// rotation angle ω t, under gravity and a large load. Tolerance 1e-9 m and 1e-9 rad:
 /// the motion is prescribed, so nothing but round-off may move it off.
@@ -587,6 +661,7 @@ macro_rules! conformance {
             #[test] fn held_moment() { super::held_moment(ALLOW) }
             #[test] fn sphere_rests_on_floor() { super::sphere_rests_on_floor(ALLOW) }
             #[test] fn boxes_do_not_interpenetrate() { super::boxes_do_not_interpenetrate(ALLOW) }
+            #[test] fn millimetre_hulls_do_not_interpenetrate() { super::millimetre_hulls_do_not_interpenetrate(ALLOW) }
             #[test] fn kinematic_ignores_loads() { super::kinematic_ignores_loads(ALLOW) }
             #[test] fn fixed_never_moves() { super::fixed_never_moves(ALLOW) }
             #[test] fn two_body_impact_restitution() { super::two_body_impact_restitution(ALLOW) }
