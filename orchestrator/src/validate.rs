@@ -494,7 +494,7 @@ static CASES: [Case; 17] = [
             "bodies.1.position=[0.00999, 0.023, 0.002]",
             "time.end=0.5",
         ],
-        quick_why: "δ = 0.5 mm (r = 2 δ), the z span 4 mm (the grid needs a period of 2.5 supports), the box cut to 30 mm with the pair released 20 and 23 mm up: 19 200 particles, about half an hour on lavapipe; at r = 2 δ the wake is barely resolved, so the phases are a run of the pipeline",
+        quick_why: "δ = 0.5 mm (r = 2 δ), the z span 4 mm (the grid needs a period of 2.5 supports), the box cut to 30 mm with the pair released 20 and 23 mm up: 19 200 particles, about 13 minutes on lavapipe; at r = 2 δ the wake is barely resolved, so the phases are a run of the pipeline. Measured 2026-11-25: drafting (18.9 %), kissing (1.9355 mm, the 12-gons touch at 1.932 mm) and the overlap (4.9e-7 m) pass; the pair kisses at y ≈ 10 mm and reaches the floor before it tumbles (20.9°)",
         sweep_spacings: &[5e-4, 2.5e-4, 1e-4],
         sweep_schemes: &[("corrected + shifting", &[])],
         variants: &[],
