@@ -207,6 +207,22 @@ pub fn sphere_rests_on_floor(allow: Allowance) {
     assert!(speed < 1e-3, "speed {speed}");
 }
 
+/// An engine without polyhedra refuses `bodies`, naming the first, "lower".
+fn assert_refuses_lower(allow: Allowance, bodies: &str) {
+    let s = scene(&format!(
+        "[dem]\nengine = \"{}\"\n{}\n{bodies}",
+        allow.engine, allow.dem
+    ));
+    let msg = create_engine(&s)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        msg.contains("bodies[0] \"lower\"") && msg.contains("spheres only"),
+        "{msg}"
+    );
+}
+
 /// Two boxes dropped on each other settle as a stack: neither overlaps the other or the
 /// floor by more than the engine's contact allowance (rapier: its allowed linear error,
 /// 0.005 ∛V of the smallest body).
@@ -222,18 +238,7 @@ pub fn boxes_do_not_interpenetrate(allow: Allowance) {
             "rotation = [0, 0.3, 0]",
         );
     if !allow.polyhedra {
-        let s = scene(&format!(
-            "[dem]\nengine = \"{}\"\n{}\n{bodies}",
-            allow.engine, allow.dem
-        ));
-        let msg = create_engine(&s)
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default();
-        assert!(
-            msg.contains("bodies[0] \"lower\"") && msg.contains("spheres only"),
-            "{msg}"
-        );
+        assert_refuses_lower(allow, &bodies);
         return;
     }
     let mut e = engine(allow, &bodies);
@@ -289,9 +294,8 @@ pub fn millimetre_hulls_do_not_interpenetrate(allow: Allowance) {
         (
             prism("lower", 1.1e-3, 0.5) + &prism("upper", 3.5e-3, 0.5003),
             2.0 * 1e-3 * (std::f64::consts::PI / 12.0).cos(),
-            (std::f64::consts::PI * 1e-6 * 4e-3 * (std::f64::consts::PI / 12.0).sin() * 12.0
-                / (2.0 * std::f64::consts::PI))
-                .cbrt(),
+            // ∛V: the 12-gon's area is 3r², the prism 4 mm long.
+            (3.0 * 1e-6 * 4e-3_f64).cbrt(),
         ),
         (
             cube("lower", 1.1e-3, 0.5) + &cube("upper", 3.5e-3, 0.5),
@@ -301,15 +305,7 @@ pub fn millimetre_hulls_do_not_interpenetrate(allow: Allowance) {
     ];
     for (bodies, closest, size) in cases {
         if !allow.polyhedra {
-            let s = scene(&format!(
-                "[dem]\nengine = \"{}\"\n{}\n{bodies}",
-                allow.engine, allow.dem
-            ));
-            let msg = create_engine(&s)
-                .err()
-                .map(|e| e.to_string())
-                .unwrap_or_default();
-            assert!(msg.contains("bodies[0] \"lower\""), "{msg}");
+            assert_refuses_lower(allow, &bodies);
             continue;
         }
         let mut e = engine(allow, &bodies);

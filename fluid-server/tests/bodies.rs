@@ -20,21 +20,22 @@ use couplet_fluid::particles::{dot, sub};
 use couplet_fluid::{FluidSolver, Kind, Op, SphConstants, initial_particles};
 use couplet_protocol::{BodyState, CouplingPoint};
 
-#[test]
-fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
-    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = common::scene("", "");
-    let c = SphConstants::from_scene(&s).unwrap();
-    let d = c.spacing;
-    let (centre, r) = ([0.1, 0.1, 0.1], 5.0 * d);
-    let mut points = common::sphere_markers(centre, r, 300);
+/// A fixed sphere's coupling points: `n` surface markers (`common::sphere_markers`), then
+/// fill points (area 0) at `depth_fraction` r under every third of them, with its state.
+fn filled_sphere(
+    centre: [f64; 3],
+    r: f64,
+    n: usize,
+    depth_fraction: f64,
+) -> (Vec<CouplingPoint>, BodyState) {
+    let mut points = common::sphere_markers(centre, r, n);
     let fill: Vec<CouplingPoint> = points
         .iter()
         .step_by(3)
         .map(|p| {
             let n = p.normal.map(f64::from);
             CouplingPoint {
-                position: std::array::from_fn(|k| (centre[k] + 0.9 * r * n[k]) as f32),
+                position: std::array::from_fn(|k| (centre[k] + depth_fraction * r * n[k]) as f32),
                 measure: 0.0,
                 ..*p
             }
@@ -49,6 +50,17 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
         volume: 1.0,
         ..Default::default()
     };
+    (points, state)
+}
+
+#[test]
+fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = common::scene("", "");
+    let c = SphConstants::from_scene(&s).unwrap();
+    let d = c.spacing;
+    let (centre, r) = ([0.1, 0.1, 0.1], 5.0 * d);
+    let (mut points, state) = filled_sphere(centre, r, 300, 0.9);
     let mut solver =
         FluidSolver::from_particles(&gpu, &s, initial_particles(&s, &c).unwrap()).unwrap();
     solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
@@ -144,28 +156,7 @@ fn fill_points_extrapolate_from_their_own_side_as_the_twin_does() {
     let c = SphConstants::from_scene(&s).unwrap();
     let d = c.spacing;
     let (centre, r) = ([0.1, 0.1, 0.1], 1.5 * d);
-    let mut points = common::sphere_markers(centre, r, 30);
-    let fill: Vec<CouplingPoint> = points
-        .iter()
-        .step_by(3)
-        .map(|p| {
-            let n = p.normal.map(f64::from);
-            CouplingPoint {
-                position: std::array::from_fn(|k| (centre[k] + 0.3 * r * n[k]) as f32),
-                measure: 0.0,
-                ..*p
-            }
-        })
-        .collect();
-    points.extend(fill);
-    let state = BodyState {
-        position: centre,
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        motion: 2,
-        mass: 1.0,
-        volume: 1.0,
-        ..Default::default()
-    };
+    let (points, state) = filled_sphere(centre, r, 30, 0.3);
     // p = 1000 (3, −9, 2)·x Pa/m (x relative to the domain centre).
     let mut set = initial_particles(&s, &c).unwrap();
     for i in 0..set.kinds.n_fluid {
