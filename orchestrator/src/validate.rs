@@ -422,7 +422,7 @@ static CASES: [Case; 17] = [
             "bodies.0.position=[0.01, 0.032, 0.004]",
             "time.end=0.6",
         ],
-        quick_why: "δ = 1 mm (r = 1.25 δ), the box cut to 20 × 40 mm with the release at 32 mm, the z span 8 mm (the grid needs a period of 2.5 supports): 6400 fluid particles, about three minutes on lavapipe; the plateau and the force balance are judged, Re is reported (Table 2 has no figure at this δ). At r = 1.25δ the 12-gon rocks (its speed swings ±10 % over about 0.02 s): two runs that differ only in the DEM's round-off gave a change over the last fifth of 2.74 % and 6.57 %, so this run is not in CI. In a 30 mm box the fall ended before the velocity's overshoot had settled (6.5 %)",
+        quick_why: "δ = 1 mm (r = 1.25 δ), the box cut to 20 × 40 mm with the release at 32 mm, the z span 8 mm (the grid needs a period of 2.5 supports): 6400 fluid particles, about three minutes on lavapipe; the force balance is judged, the plateau and Re are reported (Table 2 has no figure at this δ). At r = 1.25δ the 12-gon rocks (its speed swings ±10 % over about 0.02 s): two runs that differ only in the DEM's round-off gave a change over the last fifth of 2.74 % and 6.57 % (the force balance 2.65 % and 2.56 %), so the plateau is judged from r = 2δ only. In a 30 mm box the fall ended before the velocity's overshoot had settled (6.5 %)",
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[
             ("corrected + shifting", &[]),
