@@ -88,9 +88,17 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
             f.sound_speed,
             f.kinematic_viscosity
         );
+        // The lattice inside a resolved body is removed by the fluid server when the
+        // body's markers first arrive (`carve_out_bodies`), so with bodies this is the
+        // lattice's count, not the run's.
+        let carved = if !markers.is_empty() {
+            " (on the lattice; those inside the bodies are removed when their markers arrive)"
+        } else {
+            ""
+        };
         let _ = writeln!(
             w,
-            "  particles: {} fluid, {} wall, {} body markers ({} on surfaces, {fill} fill points inside)",
+            "  particles: {} fluid{carved}, {} wall, {} body markers ({} on surfaces, {fill} fill points inside)",
             set.kinds.n_fluid,
             set.kinds.n_wall,
             markers.len(),

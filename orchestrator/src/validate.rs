@@ -212,7 +212,7 @@ const SHAPE_QUICK: &[&str] = &[
     "bodies.0.position.1=0.02",
     "time.end=0.6",
 ];
-const SHAPE_QUICK_WHY: &str = "δ = 1 mm, box cut to 30 mm with the release at 20 mm: about nine minutes per body on lavapipe. At this δ the ring's hole and the cross's arms are about one spacing across: a run of the pipeline for every shape, its numbers reported, not a resolution of the shapes";
+const SHAPE_QUICK_WHY: &str = "δ = 1 mm, box cut to 30 mm with the release at 20 mm: 6750 fluid particles, 1–2.5 minutes per body on lavapipe (Mesa 25). At this δ the ring's hole and the cross's arms are about one spacing across: a run of the pipeline for every shape, not a resolution of the shapes, and it fails (2026-11-25, 322 s for all four): the 12-face cylinder blows up at t = 0.27 s beside its rim, the ring at 0.019 s below its hole (as at δ = 0.5 mm, 0.025 s), and the sphere (plateau change 5.7 %) and cross (20.7 %, tumbling 77°) are not at a plateau, so their fluid forces miss the submerged weight by 4.6 % and 14.8 %";
 
 /// Joubert's ring (Table 3: 12 trapezoidal prisms, r_i = 0.725, r_o = 1.45 mm, height
 /// 1.75 mm, axis along y), as a `--set` shape value.
@@ -486,15 +486,16 @@ static CASES: [Case; 17] = [
         about: "Joubert §3.3: drafting, kissing and tumbling of two 12-face cylinders — the trailing body drafts (falls > 5 % faster), they kiss (centres within 2r + δ), tumble (their line turns past horizontal), and never overlap beyond the DEM's contact slop; heights, x and velocities plotted",
         quick: &[
             "fluid.spacing=5e-4",
-            "domain.max=[0.02, 0.03, 0.004]",
-            "fluid.blocks.0.max=[0.02, 0.03, 0.004]",
-            "bodies.0.shape.prism.half_height=2e-3",
-            "bodies.1.shape.prism.half_height=2e-3",
-            "bodies.0.position=[0.01, 0.02, 0.002]",
-            "bodies.1.position=[0.00999, 0.023, 0.002]",
-            "time.end=0.5",
+            "fluid.support=2.4",
+            "domain.max=[0.02, 0.04, 0.003]",
+            "fluid.blocks.0.max=[0.02, 0.04, 0.003]",
+            "bodies.0.shape.prism.half_height=1.5e-3",
+            "bodies.1.shape.prism.half_height=1.5e-3",
+            "bodies.0.position=[0.01, 0.03, 0.0015]",
+            "bodies.1.position=[0.00999, 0.033, 0.0015]",
+            "time.end=0.7",
         ],
-        quick_why: "δ = 0.5 mm (r = 2 δ), the z span 4 mm (the grid needs a period of 2.5 supports), the box cut to 30 mm with the pair released 20 and 23 mm up: 19 200 particles, about 13 minutes on lavapipe; at r = 2 δ the wake is barely resolved, so the phases are a run of the pipeline. Measured 2026-11-25: drafting (18.9 %), kissing (1.9355 mm, the 12-gons touch at 1.932 mm) and the overlap (4.9e-7 m) pass; the pair kisses at y ≈ 10 mm and reaches the floor before it tumbles (20.9°)",
+        quick_why: "δ = 0.5 mm (r = 2 δ) at support 2.4 δ (Joubert's in §4.2), the z span 3 mm (the grid needs a period of 2.5 supports), the box cut to 40 mm with the pair released 30 and 33 mm up, to t = 0.7 s: 19 200 lattice sites less the bodies, about 10 minutes on lavapipe; at r = 2 δ the wake is barely resolved, so the phases are a run of the pipeline. Measured 2026-11-25 to t = 0.8 s (677 s): drafting 24.9 %, kissing 1.9341 mm at t = 0.339 s (the 12-gons touch at 1.932 mm), tumbling 121.5° (past 90° at 0.611 s), overlap 9.6e-8 m. The earlier quick (support 3 δ, z span 4 mm, a 30 mm box, the pair at 20 and 23 mm, to 0.5 s; 19 200 particles, 13 minutes) kissed at y ≈ 10 mm and reached the floor before it tumbled (20.9°)",
         sweep_spacings: &[5e-4, 2.5e-4, 1e-4],
         sweep_schemes: &[("corrected + shifting", &[])],
         variants: &[],
