@@ -55,5 +55,16 @@ pub fn report_rows(out: &Path) -> Vec<(String, String)> {
         .collect()
 }
 
+/// Asserts that for each of `parts` some row of `rows` (from [`report_rows`]) whose
+/// quantity contains it has the result `result` ("PASS", "FAIL" or "reported").
+pub fn assert_rows(rows: &[(String, String)], result: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(
+            rows.iter().any(|(q, r)| q.contains(part) && r == result),
+            "no row containing {part:?} is {result}: {rows:?}"
+        );
+    }
+}
+
 pub use couplet_orchestrator::record::{BodySample, Particle, Recording, read_recording, track};
 pub use couplet_orchestrator::validate::joubert_terminal_velocity;

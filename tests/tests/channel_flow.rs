@@ -18,7 +18,7 @@
 //! --quick` (dropped from CI on 2026-11-24 to keep the run under 40 minutes: Couette
 //! already exercises Adami's wall velocity, and the body force is the same code).
 
-use couplet_tests::{couplet_validate, report_rows};
+use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
 
@@ -26,12 +26,7 @@ fn passes(name: &str, extra: &[&str]) {
     let out = tempfile::tempdir().unwrap();
     let o = couplet_validate(CLI, name, out.path(), extra);
     let rows = report_rows(out.path());
-    for row in ["during start-up", "steady state"] {
-        assert!(
-            rows.iter().any(|(q, r)| q.contains(row) && r == "PASS"),
-            "{name} {extra:?}: {row} row: {rows:?}"
-        );
-    }
+    assert_rows(&rows, "PASS", &["during start-up", "steady state"]);
     assert!(
         o.status.success(),
         "{name} {extra:?}: a judged row failed: {rows:?}"

@@ -11,7 +11,7 @@
 //! run to 0.8 s, 677 s): drafting 24.9 %, kiss at 1.9341 mm (t = 0.339 s; the 12-gons
 //! touch at 1.932 mm), tumbling 121.5° (past 90° at t = 0.611 s), overlap 9.6e-8 m.
 
-use couplet_tests::{couplet_validate, report_rows};
+use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
 
@@ -20,17 +20,16 @@ fn dkt_quick_validation_passes() {
     let out = tempfile::tempdir().unwrap();
     let o = couplet_validate(CLI, "dkt", out.path(), &[]);
     let rows = report_rows(out.path());
-    for q in [
-        "body states finite",
-        "drafting",
-        "kissing",
-        "tumbling",
-        "deepest overlap",
-    ] {
-        assert!(
-            rows.iter().any(|(name, r)| name.contains(q) && r == "PASS"),
-            "{q}: {rows:?}"
-        );
-    }
+    assert_rows(
+        &rows,
+        "PASS",
+        &[
+            "body states finite",
+            "drafting",
+            "kissing",
+            "tumbling",
+            "deepest overlap",
+        ],
+    );
     assert!(o.status.success(), "a judged row failed: {rows:?}");
 }

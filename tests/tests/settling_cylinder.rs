@@ -16,7 +16,7 @@
 //! 6.57 % (the 12-gon at r = 1.25δ rocks, its speed swinging ±10 % over about 0.02 s),
 //! Re 13.84 and 13.94; 199 s.
 
-use couplet_tests::{couplet_validate, report_rows};
+use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
 
@@ -25,16 +25,8 @@ fn settling_cylinder_quick_validation_passes() {
     let out = tempfile::tempdir().unwrap();
     let o = couplet_validate(CLI, "settling-cylinder", out.path(), &[]);
     let rows = report_rows(out.path());
-    for q in ["body state finite", "submerged weight"] {
-        assert!(
-            rows.iter().any(|(name, r)| name.contains(q) && r == "PASS"),
-            "{q}: {rows:?}"
-        );
-    }
-    assert!(
-        rows.iter()
-            .any(|(name, r)| name.contains("last fifth of the fall") && r == "reported"),
-        "the plateau at r = 1.25δ is reported: {rows:?}"
-    );
+    assert_rows(&rows, "PASS", &["body state finite", "submerged weight"]);
+    // The plateau at r = 1.25δ.
+    assert_rows(&rows, "reported", &["last fifth of the fall"]);
     assert!(o.status.success(), "a judged row failed: {rows:?}");
 }

@@ -18,7 +18,7 @@
 //! with the markers' corrected velocity gradient (2026-11-23), 1.00 % with the
 //! uncorrected one; 0.55–5.14 % over four identical runs before the sort was stable.
 
-use couplet_tests::{couplet_validate, report_rows};
+use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
 
@@ -27,16 +27,12 @@ fn settling_sphere_quick_validation_passes() {
     let out = tempfile::tempdir().unwrap();
     let o = couplet_validate(CLI, "settling-sphere", out.path(), &[]);
     let rows = report_rows(out.path());
-    for q in ["final height", "final vertical speed", "accelerates"] {
-        assert!(
-            rows.iter().any(|(name, r)| name.contains(q) && r == "PASS"),
-            "{q}: {rows:?}"
-        );
-    }
-    assert!(
-        rows.iter()
-            .any(|(name, r)| name.contains("last fifth of the fall") && r == "reported"),
-        "the plateau at r = 1.25δ is reported: {rows:?}"
+    assert_rows(
+        &rows,
+        "PASS",
+        &["final height", "final vertical speed", "accelerates"],
     );
+    // The plateau at r = 1.25δ.
+    assert_rows(&rows, "reported", &["last fifth of the fall"]);
     assert!(o.status.success(), "a judged row failed: {rows:?}");
 }
