@@ -112,7 +112,7 @@ impl RapierEngine {
         // stacked 0.18 mm into each other). Their frequencies scale as 1/√length_unit, as
         // a body's own time √(L/g) does, so a body of any size sinks the same fraction
         // of itself that a metre body does at rapier's defaults.
-        let froude = (1.0 / length_unit).sqrt() as Real;
+        let froude = scale.sqrt() as Real;
         p.contact_softness.natural_frequency *= froude;
         p.static_contact_softness.natural_frequency *= froude;
         p.normalized_allowed_linear_error = NORMALIZED_ALLOWED_LINEAR_ERROR as Real;

@@ -99,15 +99,16 @@ pub struct MarkerPipelines {
     marker_loads: SphKernel,
     reduce: SphKernel,
     non_penetration: SphKernel,
+    /// Adami's boundary pass with fill points extrapolated from one side, bound in place
+    /// of `SphPipelines::boundary_pressure` once bodies exist (absent with Joubert's
+    /// walls, whose bodies have no fill).
+    boundary_pressure_fill: Option<SphKernel>,
 }
 
 /// The compiled kernels of a scene (no data).
 pub struct SphPipelines {
     tait_eos: SphKernel,
     boundary_pressure: SphKernel,
-    /// Adami's boundary pass with fill points extrapolated from one side: bound in place
-    /// of `boundary_pressure` once bodies exist (Adami's walls, resolved bodies).
-    boundary_pressure_fill: Option<SphKernel>,
     fluid_rates: SphKernel,
     predict: SphKernel,
     correct: SphKernel,
@@ -136,8 +137,6 @@ impl SphPipelines {
             } else {
                 adami2012_boundary_pressure::kernel(gpu, c, grid_layout, false)
             },
-            boundary_pressure_fill: (with_markers && !c.joubert_walls)
-                .then(|| adami2012_boundary_pressure::kernel(gpu, c, grid_layout, true)),
             fluid_rates: fluid_rates::kernel(gpu, c, grid_layout),
             predict: integrate::predict_kernel(gpu, c),
             correct: integrate::correct_kernel(gpu, c),
@@ -169,6 +168,8 @@ impl MarkerPipelines {
             marker_loads: joubert2020_body_loads::kernel(gpu, c, grid_layout),
             reduce: body_load_reduce::kernel(gpu, c),
             non_penetration: body_non_penetration::kernel(gpu, c, grid_layout),
+            boundary_pressure_fill: (!c.joubert_walls)
+                .then(|| adami2012_boundary_pressure::kernel(gpu, c, grid_layout, true)),
         }
     }
 }
@@ -549,8 +550,14 @@ impl SphData {
                     .tait_eos
                     .bind(gpu, resolve, None)
                     .ok_or_else(|| missing("tait_eos"))?,
-                boundary_pressure: match (&p.boundary_pressure_fill, &bodies) {
-                    (Some(k), Some(_)) => k,
+                boundary_pressure: match (&p.markers, &bodies) {
+                    (
+                        Some(MarkerPipelines {
+                            boundary_pressure_fill: Some(k),
+                            ..
+                        }),
+                        Some(_),
+                    ) => k,
                     _ => &p.boundary_pressure,
                 }
                 .bind(gpu, resolve, g)
@@ -1311,14 +1318,6 @@ impl FluidSolver {
                 &self.consts,
                 probe.bind_group_layout(),
             ));
-            if !self.consts.joubert_walls {
-                self.pipelines.boundary_pressure_fill = Some(adami2012_boundary_pressure::kernel(
-                    gpu,
-                    &self.consts,
-                    probe.bind_group_layout(),
-                    true,
-                ));
-            }
         }
         self.data = SphData::new(
             gpu,

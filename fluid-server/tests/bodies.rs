@@ -42,14 +42,7 @@ fn filled_sphere(
         })
         .collect();
     points.extend(fill);
-    let state = BodyState {
-        position: centre,
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        motion: 2,
-        mass: 1.0,
-        volume: 1.0,
-        ..Default::default()
-    };
+    let state = common::body_at_rest(centre);
     (points, state)
 }
 
@@ -143,11 +136,11 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
 
 /// Adami's boundary pass with a body's fill points (area 0) on one side: a sphere r = 1.5δ
 /// with 30 surface markers and fill points at 0.3 r, whose support of 3δ reaches the
-/// fluid on the body's far side too, in a fluid at rest whose pressure varies linearly across it
-/// without gravity (so the extrapolation is a Shepard average, which the side changes).
-/// The GPU's boundary pressures
-/// against the twin `boundary_pressure_with_fill_cpu` to 1e-4 of the largest; the fill
-/// points' pressures are shown to differ from the two-sided extrapolation (the twin's
+/// fluid on the body's far side too, in a fluid at rest whose pressure varies linearly
+/// across it without gravity (so the extrapolation is a Shepard average, which the side
+/// changes). The GPU's boundary pressures against the twin
+/// `boundary_pressure_with_fill_cpu` to 1e-4 of the largest; the fill points' pressures
+/// are shown to differ from the two-sided extrapolation (the twin's
 /// `boundary_pressure_cpu`) by more than that, so the test sees the side rule.
 #[test]
 fn fill_points_extrapolate_from_their_own_side_as_the_twin_does() {

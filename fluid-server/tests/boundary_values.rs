@@ -11,7 +11,7 @@ use couplet_fluid::joubert2020_body_loads::{MarkerGeometry, marker_load_cpu};
 use couplet_fluid::joubert2020_boundary_values::{BoundaryFrame, boundary_values_cpu, wall_frames};
 use couplet_fluid::marker_update::BodyAcceleration;
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleSet, SphConstants, initial_particles};
-use couplet_protocol::{BodyState, CouplingPoint, Scene};
+use couplet_protocol::{CouplingPoint, Scene};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -280,14 +280,7 @@ fn neumann_marker_pressure_includes_the_body_acceleration() {
 
     let (centre, radius, n) = ([0.1, 0.1, 0.1], 0.05, 100);
     let points = common::sphere_markers(centre, radius, n);
-    let state = BodyState {
-        position: centre,
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        motion: 2,
-        mass: 1.0,
-        volume: 1.0,
-        ..Default::default()
-    };
+    let state = common::body_at_rest(centre);
     let acc = BodyAcceleration {
         linear: a_body,
         angular: [0.0; 3],
@@ -430,14 +423,7 @@ fn corrected_marker_traction_is_exact_for_a_linear_field() {
         normal: [0.0, -1.0, 0.0],
         ..Default::default()
     });
-    let state = BodyState {
-        position: [0.1, 0.05, 0.1],
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        motion: 2,
-        mass: 1.0,
-        volume: 1.0,
-        ..Default::default()
-    };
+    let state = common::body_at_rest([0.1, 0.05, 0.1]);
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
     solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
     solver

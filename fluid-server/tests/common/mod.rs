@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use couplet_fluid::{ParticleKinds, ParticleSet, SphConstants};
-use couplet_protocol::{CouplingPoint, Scene};
+use couplet_protocol::{BodyState, CouplingPoint, Scene};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -117,6 +117,19 @@ pub fn max_err(pairs: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
     pairs.fold((0.0, 0.0), |(e, m), (a, b)| {
         (f64::max(e, (a - b).abs()), f64::max(m, b.abs()))
     })
+}
+
+/// Body 0 at rest at `position`, unrotated, dynamic (`motion` 2), of unit mass and
+/// volume: the state a test hands the fluid beside its markers.
+pub fn body_at_rest(position: [f64; 3]) -> BodyState {
+    BodyState {
+        position,
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        motion: 2,
+        mass: 1.0,
+        volume: 1.0,
+        ..Default::default()
+    }
 }
 
 /// `n` markers of body 0 on a sphere (Fibonacci lattice): outward normals, equal areas
