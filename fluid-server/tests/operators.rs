@@ -45,6 +45,36 @@ fn tait_eos_matches_cpu_twin() {
     );
 }
 
+/// Regression (NVIDIA H200, 2026-11-26): the Tait pressure near ρ0 keeps the digits of
+/// ρ − ρ0. `pow(ρ/ρ0, γ) − 1` cancels there: NVIDIA's pow and 2.5-ulp division left
+/// errors of a few 1e-6 B (13 Pa at c = 200 m/s, failing the marker-pressure test), and
+/// even an exactly rounded ρ/ρ0 loses e = ρ/ρ0 − 1 to 6e-8 absolute, 6 % of e = 1e-6.
+/// Fluid densities ρ0 (1 ± e) for e from 1e-6 to 0.3 (both sides of the series limit):
+/// every particle's pressure within 1e-5 of its own |p| against the f64 EOS of the same
+/// f32 density. Reference: Joubert eq. (4) in f64.
+#[test]
+fn tait_pressure_keeps_its_digits_near_rho0() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = scene("", "");
+    let c = SphConstants::from_scene(&s).unwrap();
+    let mut set = random_set(&c, 10, 0.0, 0.0, 0.0, 3);
+    let n = set.len();
+    for (k, rho) in set.rho.iter_mut().enumerate() {
+        // e = 10^(-6 … -0.5) across the set, alternating sign.
+        let e = 10f64.powf(-6.0 + 5.5 * k as f64 / (n - 1) as f64);
+        *rho = c.rho0 * (1.0 + if k % 2 == 0 { e } else { -e });
+    }
+    set.press.iter_mut().for_each(|p| *p = 0.0);
+    let solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let want = tait_eos_cpu(&c, &got);
+    let worst = (0..got.len())
+        .map(|i| ((got.press[i] - want[i]).abs() / want[i].abs(), got.rho[i] / c.rho0 - 1.0))
+        .fold((0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a });
+    println!("EOS: worst relative error {:e} at e = {:e}", worst.0, worst.1);
+    assert!(worst.0 <= 1e-5, "relative error {:e} at e = {:e}", worst.0, worst.1);
+}
+
 /// Boundary pressure (Adami et al. 2012) of 30 % wall particles among 2744 jittered
 /// lattice particles, gravity on: |Δp_w| ≤ 1e-4 · max |p_w|, |Δρ_w| ≤ 1e-6 ρ0.
 #[test]
