@@ -46,12 +46,18 @@ fn tait_eos_matches_cpu_twin() {
 }
 
 /// Regression (NVIDIA H200, 2026-11-26): the Tait pressure near ρ0 keeps the digits of
-/// ρ − ρ0. `pow(ρ/ρ0, γ) − 1` cancels there: NVIDIA's pow and 2.5-ulp division left
-/// errors of a few 1e-6 B (13 Pa at c = 200 m/s, failing the marker-pressure test), and
-/// even an exactly rounded ρ/ρ0 loses e = ρ/ρ0 − 1 to 6e-8 absolute, 6 % of e = 1e-6.
-/// Fluid densities ρ0 (1 ± e) for e from 1e-6 to 0.3 (both sides of the series limit):
-/// every particle's pressure within 1e-5 of its own |p| against the f64 EOS of the same
-/// f32 density. Reference: Joubert eq. (4) in f64.
+/// ρ − ρ0. `pow(ρ/ρ0, γ) − 1` cancels there: NVIDIA's pow (exp2 of γ log2) put errors of
+/// a few 1e-6 B into the fluid's pressures (13 Pa at c = 200 m/s, failing
+/// `neumann_marker_pressure_includes_the_body_acceleration`), and even an exactly
+/// rounded ρ/ρ0 loses e = ρ/ρ0 − 1 to 6e-8. Fluid densities ρ0 (1 ± e) for e from 1e-6
+/// to 0.3 (both sides of the series limit) against Joubert eq. (4) in f64 at the same
+/// f32 density. The bound depends on the driver's arithmetic:
+/// - where division is exactly rounded (lavapipe, the CPU adapter CI runs), every
+///   pressure within 1e-5 of its own |p| (measured: series 6.7e-7; the pow form 6.6 % at
+///   e = 1.7e-6);
+/// - elsewhere within 1e-5 |p| plus 2 q, q = B γ ulp(ρ0)/ρ0 the pressure step of one
+///   f32 step of ρ: NVIDIA folds (ρ − ρ0)/ρ0 into ρ·(1/ρ0) − 1, which no WGSL form
+///   prevents (measured on the H200 at e = 9.8e-7: series 1.58 q, the pow form 2.97 q).
 #[test]
 fn tait_pressure_keeps_its_digits_near_rho0() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
@@ -68,11 +74,22 @@ fn tait_pressure_keeps_its_digits_near_rho0() {
     let solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
     let got = solver.data().read(&gpu).unwrap();
     let want = tait_eos_cpu(&c, &got);
-    let worst = (0..got.len())
-        .map(|i| ((got.press[i] - want[i]).abs() / want[i].abs(), got.rho[i] / c.rho0 - 1.0))
+    let rho0_f32 = c.rho0 as f32;
+    let ulp = f64::from(f32::from_bits(rho0_f32.to_bits() + 1) - rho0_f32);
+    let q = c.tait_b() * c.gamma * ulp / c.rho0;
+    let exact_division = gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
+    let slack = if exact_division { 0.0 } else { 2.0 * q };
+    let (worst, at) = (0..got.len())
+        .map(|i| {
+            let err = (got.press[i] - want[i]).abs();
+            (err / (1e-5 * want[i].abs() + slack), got.rho[i] / c.rho0 - 1.0)
+        })
         .fold((0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a });
-    println!("EOS: worst relative error {:e} at e = {:e}", worst.0, worst.1);
-    assert!(worst.0 <= 1e-5, "relative error {:e} at e = {:e}", worst.0, worst.1);
+    println!(
+        "EOS on {:?}: worst error {worst:.3} of the bound at e = {at:e} (q = {q:e} Pa)",
+        gpu.adapter_info.device_type
+    );
+    assert!(worst <= 1.0, "error {worst:.3} × the bound at e = {at:e}");
 }
 
 /// Boundary pressure (Adami et al. 2012) of 30 % wall particles among 2744 jittered
