@@ -16,7 +16,8 @@ pub enum GpuError {
     /// No Vulkan adapter is visible to wgpu.
     #[error(
         "no Vulkan adapter found (backends tried: {tried}). On a machine without a GPU install \
-         Mesa's lavapipe: `apt-get install mesa-vulkan-drivers`; with an NVIDIA GPU install its driver."
+         Mesa's lavapipe: `apt-get install mesa-vulkan-drivers`; with an NVIDIA GPU install its driver, \
+         and libglvnd, which NVIDIA's Vulkan driver loads (`libGLdispatch.so.0`: `apt-get install libglvnd0`)."
     )]
     NoAdapter { tried: String },
     /// The adapter exists but does not offer what couplet needs.

@@ -422,7 +422,7 @@ static CASES: [Case; 17] = [
             "bodies.0.position=[0.01, 0.032, 0.004]",
             "time.end=0.6",
         ],
-        quick_why: "δ = 1 mm (r = 1.25 δ), the box cut to 20 × 40 mm with the release at 32 mm, the z span 8 mm (the grid needs a period of 2.5 supports): 6400 fluid particles, about three minutes on lavapipe; the force balance is judged, the plateau and Re are reported (Table 2 has no figure at this δ). At r = 1.25δ the 12-gon rocks (its speed swings ±10 % over about 0.02 s): two runs that differ only in the DEM's round-off gave a change over the last fifth of 2.74 % and 6.57 % (the force balance 2.65 % and 2.56 %), so the plateau is judged from r = 2δ only. In a 30 mm box the fall ended before the velocity's overshoot had settled (6.5 %)",
+        quick_why: "δ = 1 mm (r = 1.25 δ), the box cut to 20 × 40 mm with the release at 32 mm, the z span 8 mm (the grid needs a period of 2.5 supports): 6400 fluid particles, about three minutes on lavapipe; the force balance is judged, the plateau and Re are reported (Table 2 has no figure at this δ). At r = 1.25δ the 12-gon rocks (its speed swings ±10 % over about 0.02 s): two runs that differ only in the DEM's round-off gave a change over the last fifth of 2.74 % and 6.57 % (the force balance 2.65 % and 2.56 %), so the plateau is judged from r = 2δ only. In a 30 mm box the fall ended before the velocity's overshoot had settled (6.5 %). On an NVIDIA H200 (2026-11-26) the same quick run missed the force balance by 14.9 % (Re 12.77): from t = 0.43 s its fluid force swung by ±70 % as the cylinder drifted 0.85 mm sideways, so at this δ even the force balance passes on lavapipe's round-off. The full case there (δ = 0.25 mm, cut at t = 0.64 s of 0.8): plateau 58.6 mm/s, Re 14.66 against Table 2's 17.03, force balance 0.07 %; δ = 0.175 mm blew up at t = 0.097 s",
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[
             ("corrected + shifting", &[]),
@@ -623,7 +623,7 @@ static CASES: [Case; 17] = [
             "fluid.blocks.0.max=[1.0, 1.0, 0.8]",
             "time.end=15",
         ],
-        quick_why: "δ = L/10 (z span kept at 8 spacings) to t = 15 s: 800 fluid particles, about ten minutes on lavapipe; the centreline errors are judged against coarse bounds (COARSE_CAVITY), Joubert's own figures only at δ ≤ L/100",
+        quick_why: "δ = L/10 (z span kept at 8 spacings) to t = 15 s: 800 fluid particles, about ten minutes on lavapipe; the centreline errors are judged against coarse bounds (COARSE_CAVITY), Joubert's own figures only at δ ≤ L/100. On an NVIDIA H200 (2026-11-26): δ = L/50 (z span 0.16 m) to t = 30 s in 327 s with other runs on the GPU, u 0.57 % / 0.11 % and v 0.65 % / 0.28 % (largest / mean), inside Joubert's δ = L/100 figures; the full δ = L/100 blew up at t = 9.5 s (a particle near the floor at x = 0.88 m decompressed to 436 kg/m³) after passing Joubert's figures at t = 7.5 s and 9.5 s (u 0.43 % / 0.13 %, v 0.50 % / 0.22 %), and a run with the previous Tait pressure passed t = 10 s",
         sweep_spacings: &[0.04, 0.02, 0.01],
         sweep_schemes: &[
             ("Joubert (corrected + shifting)", &[]),
