@@ -13,12 +13,27 @@ use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::joubert2020_body_loads::{MarkerGeometry, marker_load_cpu};
 use couplet_fluid::tait_eos::tait_eos_cpu;
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConstants};
-use couplet_protocol::{BodyState, CouplingPoint};
+use couplet_protocol::{BodyState, CouplingPoint, Scene};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// Relative parity bound for the pair kernels (f32 sums of O(100) terms).
 const PAIR_RTOL: f64 = 1e-4;
+
+/// The pressures the solver's EOS pass gives `set` (its own pressures zeroed first, so
+/// the pass must set them), read back, and the f64 twin's on the same f32 densities.
+fn eos_pass(
+    gpu: &Gpu,
+    s: &Scene,
+    c: &SphConstants,
+    mut set: ParticleSet,
+) -> (ParticleSet, Vec<f64>) {
+    set.press.iter_mut().for_each(|p| *p = 0.0);
+    let solver = FluidSolver::from_particles(gpu, s, set).unwrap();
+    let got = solver.data().read(gpu).unwrap();
+    let want = tait_eos_cpu(c, &got);
+    (got, want)
+}
 
 /// Tait EOS (Joubert eq. 4) on 2744 particles with ρ = ρ0 (1 ± 1 %):
 /// |Δp| ≤ 1e-4 · max |p|. Measured: 5.7e-4 Pa of 4.1e3 Pa on lavapipe, 4.5e-2 Pa on an
@@ -29,11 +44,7 @@ fn tait_eos_matches_cpu_twin() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
     let s = scene("", "");
     let c = SphConstants::from_scene(&s).unwrap();
-    let mut set = random_set(&c, 14, 0.3, 0.2, 0.5, 1);
-    set.press.iter_mut().for_each(|p| *p = 0.0); // the solver's EOS pass must set them
-    let solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-    let got = solver.data().read(&gpu).unwrap();
-    let want = tait_eos_cpu(&c, &got);
+    let (got, want) = eos_pass(&gpu, &s, &c, random_set(&c, 14, 0.3, 0.2, 0.5, 1));
     let (e, m) = max_err(
         (0..got.len())
             .filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid)
@@ -71,10 +82,7 @@ fn tait_pressure_keeps_its_digits_near_rho0() {
         let e = 10f64.powf(-6.0 + 5.5 * k as f64 / (n - 1) as f64);
         *rho = c.rho0 * (1.0 + if k % 2 == 0 { e } else { -e });
     }
-    set.press.iter_mut().for_each(|p| *p = 0.0);
-    let solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-    let got = solver.data().read(&gpu).unwrap();
-    let want = tait_eos_cpu(&c, &got);
+    let (got, want) = eos_pass(&gpu, &s, &c, set);
     let rho0_f32 = c.rho0 as f32;
     let ulp = f64::from(f32::from_bits(rho0_f32.to_bits() + 1) - rho0_f32);
     let q = c.tait_b() * c.gamma * ulp / c.rho0;
@@ -83,7 +91,10 @@ fn tait_pressure_keeps_its_digits_near_rho0() {
     let (worst, at) = (0..got.len())
         .map(|i| {
             let err = (got.press[i] - want[i]).abs();
-            (err / (1e-5 * want[i].abs() + slack), got.rho[i] / c.rho0 - 1.0)
+            (
+                err / (1e-5 * want[i].abs() + slack),
+                got.rho[i] / c.rho0 - 1.0,
+            )
         })
         .fold((0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a });
     println!(
