@@ -3,8 +3,11 @@
 // per step: a fluid particle behind the tangent plane of its nearest surface marker
 // within δ, d = (x_i − x_m)·n_m < 0, is mirrored back across that plane,
 // x_i ← x_i − 2 d n_m, and the inward part of its velocity relative to the marker,
-// (u_i − u_m)·n_m < 0, is removed. Fill points (area 0) are not the surface. Each
-// particle moved is counted in status[3], read at the window's end and reported.
+// (u_i − u_m)·n_m < 0, is removed. Fill points (area 0) are not the surface. Then a
+// fluid particle behind a wall face (WALL_LO/WALL_HI, ∓1e30 where none) is mirrored
+// back across it, x_k ← 2 face − x_k, and loses its velocity into the wall (walls move
+// only tangentially). Each particle moved, by either, is counted once in status[3],
+// read at the window's end and reported.
 // Needs: prelude, SPH constants, StepParams, grid_common, marker_update (library).
 
 // ---- kernels ----
@@ -52,16 +55,29 @@ fn body_non_penetration(@builtin(workgroup_id) wid: vec3<u32>,
             }
         }
     }
-    if !found {
-        return;
-    }
+    var p = p_i;
+    var u = vel[i].xyz;
+    var moved = false;
     let d = dot(r_m, n_m);
-    if d >= 0.0 {
-        return;
+    if found && d < 0.0 {
+        p -= 2.0 * d * n_m;
+        u -= min(dot(u - u_m, n_m), 0.0) * n_m;
+        moved = true;
     }
-    pos[i] = vec4<f32>(p_i - 2.0 * d * n_m, pos[i].w);
-    let u_i = vel[i].xyz;
-    let inward = min(dot(u_i - u_m, n_m), 0.0);
-    vel[i] = vec4<f32>(u_i - inward * n_m, vel[i].w);
-    atomicAdd(&status[3], 1u);
+    // A body landing on a wall pressed the fluid between them through it (the
+    // settling-sphere quick with the mass correction, 2026-11-26).
+    let below = p < WALL_LO;
+    let above = p > WALL_HI;
+    if any(below) || any(above) {
+        p = select(p, WALL_LO + (WALL_LO - p), below);
+        p = select(p, WALL_HI + (WALL_HI - p), above);
+        u = select(u, max(u, vec3<f32>(0.0)), below);
+        u = select(u, min(u, vec3<f32>(0.0)), above);
+        moved = true;
+    }
+    if moved {
+        pos[i] = vec4<f32>(p, pos[i].w);
+        vel[i] = vec4<f32>(u, vel[i].w);
+        atomicAdd(&status[3], 1u);
+    }
 }

@@ -47,6 +47,12 @@ pub struct SphConstants {
     /// at their own velocity). On whenever no-slip Adami walls meet a viscous term
     /// (Joubert's one-layer walls sit on the face: no extrapolation).
     pub wall_velocity_extrapolation: bool,
+    /// The faces fluid must stay inside, per axis `[low, high]`, relative to the solver
+    /// origin (the domain centre, where the GPU's positions are measured from): a wall
+    /// face's plane, or ∓∞ on a periodic axis and above an open top. The
+    /// non-penetration pass mirrors fluid back across them (see
+    /// [`crate::body_non_penetration`]).
+    pub wall_faces: [[f64; 2]; 3],
     /// `domain.wall_model = "joubert"`: one layer of boundary particles on the faces,
     /// their pressure from the Neumann condition of Joubert eq. (25) and, on symmetry
     /// planes, their velocity from eq. (27) ([`crate::joubert2020_boundary_values`]).
@@ -92,6 +98,12 @@ pub struct SphConstants {
     pub variable_h: Option<f64>,
 }
 
+/// Three face coordinates as WGSL f32 literals, ±∞ as ±1e30 (WGSL has no infinity, and
+/// a constant expression that overflows f32 is a shader compile error).
+fn wgsl_faces(v: [f64; 3]) -> String {
+    v.map(|x| format!("{:e}", x.clamp(-1e30, 1e30))).join(", ")
+}
+
 /// `η² = 0.01 h²` in the Morris (1997) and Monaghan (1992) denominators `r² + η²`: keeps
 /// them finite for coincident particles (Monaghan 1992, eq. 4.2).
 pub const VISCOUS_ETA2_H2: f64 = 0.01;
@@ -111,6 +123,20 @@ pub const MIN_TAIT_BASE: f64 = 1e-3;
 pub const TAIT_SERIES_LIMIT: f64 = 0.125;
 /// Terms of that series.
 pub const TAIT_SERIES_TERMS: usize = 12;
+
+/// [`SphConstants::wall_faces`] of `d`: its half extents about its centre, ∓∞ where
+/// no wall stands (a periodic axis; +y without `closed_top`).
+fn wall_faces(d: &couplet_protocol::scene::Domain) -> [[f64; 2]; 3] {
+    std::array::from_fn(|k| {
+        let half = 0.5 * (d.max[k] - d.min[k]);
+        let top_open = k == 1 && !d.closed_top;
+        match (d.periodic[k], top_open) {
+            (true, _) => [f64::NEG_INFINITY, f64::INFINITY],
+            (false, true) => [-half, f64::INFINITY],
+            (false, false) => [-half, half],
+        }
+    })
+}
 
 impl SphConstants {
     pub fn from_scene(scene: &Scene) -> Result<Self, FluidError> {
@@ -141,6 +167,7 @@ impl SphConstants {
                 && ((scene.effects.viscosity == ViscosityModel::Laminar
                     && f.kinematic_viscosity > 0.0)
                     || scene.effects.artificial_viscosity > 0.0),
+            wall_faces: wall_faces(&scene.domain),
             joubert_walls,
             gradient_correction: scene.effects.gradient_correction,
             corrected_continuity: scene.effects.gradient_correction && scene.grains().is_empty(),
@@ -273,6 +300,8 @@ impl SphConstants {
              const DIFFUSION_DELTA: f32 = {delta:e};\n\
              const VARIABLE_H: bool = {variable_h};\n\
              const MAX_H: f32 = {max_h:e};\n\
+             const WALL_LO: vec3<f32> = vec3<f32>({wall_lo});\n\
+             const WALL_HI: vec3<f32> = vec3<f32>({wall_hi});\n\
              // ---- end of SPH constants ----\n",
             quintic = k.kind == KernelKind::Quintic,
             h = k.h,
@@ -312,6 +341,8 @@ impl SphConstants {
             delta = self.density_diffusion,
             variable_h = self.variable_h.is_some(),
             max_h = k.h * self.variable_h.unwrap_or(1.0),
+            wall_lo = wgsl_faces(self.wall_faces.map(|f| f[0])),
+            wall_hi = wgsl_faces(self.wall_faces.map(|f| f[1])),
         )
     }
 }

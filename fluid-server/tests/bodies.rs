@@ -134,6 +134,81 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
     }
 }
 
+/// Regression (settling-sphere quick with Γ = 2, 2026-11-26: a sphere landing on the
+/// floor pressed a fluid particle through it, where its density went to NaN): the
+/// non-penetration pass also mirrors fluid back across the domain's wall faces. In the
+/// open-topped 0.2 m box with the sphere of the test above, three fluid particles
+/// start 0.3δ below the floor, 0.3δ beyond the +x wall and 0.3δ above the open top,
+/// each moving outward at 0.05 m/s. Reference: the mirror image, analytic — the first
+/// two end 0.3δ inside their face with no outward velocity; the third, above no wall,
+/// is left alone — and the twin for the whole state.
+#[test]
+fn fluid_pressed_through_a_wall_by_a_body_is_mirrored_back() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = common::scene("", "");
+    assert!(!s.domain.closed_top, "the test wants an open top");
+    let c = SphConstants::from_scene(&s).unwrap();
+    let d = c.spacing;
+    let mut set = initial_particles(&s, &c).unwrap();
+    let fluid: Vec<usize> = (0..set.len())
+        .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid)
+        .collect();
+    // (particle, axis, where it goes in the scene's frame, outward velocity)
+    let (a, b, t) = (fluid[0], fluid[1], fluid[2]);
+    let cases = [
+        (a, 1, -0.3 * d, -0.05),
+        (b, 0, 0.2 + 0.3 * d, 0.05),
+        (t, 1, 0.2 + 0.3 * d, 0.05),
+    ];
+    for &(i, k, x, u) in &cases {
+        set.pos[i][k] = x;
+        set.vel[i] = [0.0; 3];
+        set.vel[i][k] = u;
+    }
+    let ids: Vec<u32> = cases.iter().map(|&(i, ..)| set.id[i]).collect();
+    let (points, state) = filled_sphere([0.1, 0.1, 0.1], 5.0 * d, 300, 0.9);
+    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort], 1e-5, 1.0)
+        .unwrap();
+    let mut twin = solver.data().read(&gpu).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::NonPenetration], 1e-5, 1.0)
+        .unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let count = solver.data().read_reflected(&gpu).unwrap();
+    let surface: Vec<SurfacePoint> = points
+        .iter()
+        .map(|p| SurfacePoint {
+            normal: p.normal.map(f64::from),
+            area: f64::from(p.measure),
+        })
+        .collect();
+    let twin_count = non_penetration_cpu(&c, &mut twin, &surface);
+    println!("mirrored: GPU {count}, twin {twin_count}");
+    assert_eq!(count, 2, "the floor's and the +x wall's particles, not the top's");
+    assert_eq!(twin_count, count);
+    let origin = solver.origin();
+    let at = |id: u32| (0..got.len()).find(|&i| got.id[i] == id).unwrap();
+    // Positions to f32 round-off of the 0.2 m box (1e-7 · 0.2 m).
+    let expect = [
+        (1, 0.3 * d, 0.0),
+        (0, 0.2 - 0.3 * d, 0.0),
+        (1, 0.2 + 0.3 * d, 0.05),
+    ];
+    for (&id, &(k, x, u)) in ids.iter().zip(&expect) {
+        let i = at(id);
+        let world = got.pos[i][k] + origin[k];
+        println!("particle {id}: axis {k} at {world:e} m, velocity {:e} m/s", got.vel[i][k]);
+        assert!((world - x).abs() <= 2e-8, "position {world:e}, expected {x:e}");
+        assert!((got.vel[i][k] - u).abs() <= 1e-7, "velocity {:e}", got.vel[i][k]);
+        let j = (0..twin.len()).find(|&j| twin.id[j] == id).unwrap();
+        assert!((twin.pos[j][k] - got.pos[i][k]).abs() <= 2e-8);
+        assert!((twin.vel[j][k] - got.vel[i][k]).abs() <= 1e-7);
+    }
+}
+
 /// Adami's boundary pass with a body's fill points (area 0) on one side: a sphere r = 1.5δ
 /// with 30 surface markers and fill points at 0.3 r, whose support of 3δ reaches the
 /// fluid on the body's far side too, in a fluid at rest whose pressure varies linearly

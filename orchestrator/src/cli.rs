@@ -510,7 +510,7 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
 
 fn summary_text(s: &RunSummary) -> String {
     let mut t = format!(
-        "done: {} windows, t = {:.4} s simulated in {:.1} s wall ({:.3} sim-s/s)\n",
+        "done: {} windows, t = {:.4} s simulated in {:.1} s wall ({:.3e} sim-s/s)\n",
         s.windows,
         s.sim_time,
         s.wall_s,

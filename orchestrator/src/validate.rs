@@ -333,12 +333,23 @@ static CASES: [Case; 17] = [
         quick_why: SETTLING_SPHERE_QUICK_WHY,
         sweep_spacings: &[1e-3, 8e-4, 6.25e-4],
         sweep_schemes: &[
-            ("corrected + shifting", &[]),
-            ("shifting only", &["effects.gradient_correction=false"]),
+            ("corrected + mass correction Γ = 2 + shifting", &[]),
+            (
+                "corrected + shifting",
+                &["effects.mass_correction=0"],
+            ),
+            (
+                "shifting only",
+                &[
+                    "effects.gradient_correction=false",
+                    "effects.mass_correction=0",
+                ],
+            ),
             (
                 "standard",
                 &[
                     "effects.gradient_correction=false",
+                    "effects.mass_correction=0",
                     "effects.particle_shifting=0",
                 ],
             ),
@@ -425,10 +436,17 @@ static CASES: [Case; 17] = [
         quick_why: "δ = 1 mm (r = 1.25 δ), the box cut to 20 × 40 mm with the release at 32 mm, the z span 8 mm (the grid needs a period of 2.5 supports): 6400 fluid particles, about three minutes on lavapipe; the force balance is judged, the plateau and Re are reported (Table 2 has no figure at this δ). At r = 1.25δ the 12-gon rocks (its speed swings ±10 % over about 0.02 s): two runs that differ only in the DEM's round-off gave a change over the last fifth of 2.74 % and 6.57 % (the force balance 2.65 % and 2.56 %), so the plateau is judged from r = 2δ only. In a 30 mm box the fall ended before the velocity's overshoot had settled (6.5 %). On an NVIDIA H200 (2026-11-26) the same quick run missed the force balance by 14.9 % (Re 12.77): from t = 0.43 s its fluid force swung by ±70 % as the cylinder drifted 0.85 mm sideways, so at this δ even the force balance passes on lavapipe's round-off. The full case there (δ = 0.25 mm, cut at t = 0.64 s of 0.8): plateau 58.6 mm/s, Re 14.66 against Table 2's 17.03, force balance 0.07 %; δ = 0.175 mm blew up at t = 0.097 s",
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[
-            ("corrected + shifting", &[]),
+            ("corrected + mass correction Γ = 2 + shifting", &[]),
+            (
+                "corrected + shifting",
+                &["effects.mass_correction=0"],
+            ),
             (
                 "standard + shifting",
-                &["effects.gradient_correction=false"],
+                &[
+                    "effects.gradient_correction=false",
+                    "effects.mass_correction=0",
+                ],
             ),
         ],
         analyse: settling_cylinder,
@@ -461,7 +479,7 @@ static CASES: [Case; 17] = [
         quick: SHAPE_QUICK,
         quick_why: SHAPE_QUICK_WHY,
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
-        sweep_schemes: &[("corrected + shifting", &[])],
+        sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
         variants: SHAPE_VARIANTS,
         quick_variants: &[],
         analyse: settling_shape,
@@ -474,7 +492,7 @@ static CASES: [Case; 17] = [
         quick: SHAPE_QUICK,
         quick_why: SHAPE_QUICK_WHY,
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
-        sweep_schemes: &[("corrected + shifting", &[])],
+        sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
         variants: RING_BOXES,
         quick_variants: &[],
         analyse: settling_shape,
@@ -497,7 +515,7 @@ static CASES: [Case; 17] = [
         ],
         quick_why: "δ = 0.5 mm (r = 2 δ) at support 2.4 δ (Joubert's in §4.2), the z span 3 mm (the grid needs a period of 2.5 supports), the box cut to 40 mm with the pair released 30 and 33 mm up, to t = 0.7 s: 19 200 lattice sites less the bodies, about 10 minutes on lavapipe; at r = 2 δ the wake is barely resolved, so the phases are a run of the pipeline. Measured 2026-11-25 to t = 0.8 s (677 s): drafting 24.9 %, kissing 1.9341 mm at t = 0.339 s (the 12-gons touch at 1.932 mm), tumbling 121.5° (past 90° at 0.611 s), overlap 9.6e-8 m. The earlier quick (support 3 δ, z span 4 mm, a 30 mm box, the pair at 20 and 23 mm, to 0.5 s; 19 200 particles, 13 minutes) kissed at y ≈ 10 mm and reached the floor before it tumbled (20.9°)",
         sweep_spacings: &[5e-4, 2.5e-4, 1e-4],
-        sweep_schemes: &[("corrected + shifting", &[])],
+        sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
         variants: &[],
         quick_variants: &[],
         analyse: dkt,
@@ -510,7 +528,7 @@ static CASES: [Case; 17] = [
         quick: FIVE_BODY_QUICK,
         quick_why: "δ = 0.5 mm to t = 0.1 s: 32 000 fluid particles, about 20 minutes per variant on lavapipe; by 0.1 s the bodies are near their terminal speed but the rings have had little time to tip (Joubert's snapshots run to 0.7 s). Known to fail (2026-11-25): the spheres blew up at t = 0.031 s, a fluid particle leaving through the x = 0 symmetry plane near the lid; at δ = 1 mm both variants blew up within 0.025 s the same way, and with Adami's walls instead (no symmetry planes) at 0.088 s beside a body 1.25 δ in radius",
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
-        sweep_schemes: &[("corrected + shifting", &[])],
+        sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
         analyse: five_bodies,
         variants: FIVE_BODY_VARIANTS,
         quick_variants: &[],
@@ -626,16 +644,17 @@ static CASES: [Case; 17] = [
         quick_why: "δ = L/10 (z span kept at 8 spacings) to t = 15 s: 800 fluid particles, about ten minutes on lavapipe; the centreline errors are judged against coarse bounds (COARSE_CAVITY), Joubert's own figures only at δ ≤ L/100. On an NVIDIA H200 (2026-11-26): δ = L/50 (z span 0.16 m) to t = 30 s in 327 s with other runs on the GPU, u 0.57 % / 0.11 % and v 0.65 % / 0.28 % (largest / mean), inside Joubert's δ = L/100 figures; the full δ = L/100 blew up at t = 9.5 s (a particle near the floor at x = 0.88 m decompressed to 436 kg/m³) after passing Joubert's figures at t = 7.5 s and 9.5 s (u 0.43 % / 0.13 %, v 0.50 % / 0.22 %), and a run with the previous Tait pressure passed t = 10 s",
         sweep_spacings: &[0.04, 0.02, 0.01],
         sweep_schemes: &[
-            ("Joubert (corrected + shifting)", &[]),
+            ("Joubert (corrected + mass correction Γ = 1 + shifting)", &[]),
             (
-                "Joubert + mass correction Γ = 1",
-                &["effects.mass_correction=1"],
+                "Joubert without mass correction",
+                &["effects.mass_correction=0"],
             ),
             (
                 "standard + shifting",
                 &[
                     "effects.gradient_correction=false",
                     "effects.laplacian_correction=false",
+                    "effects.mass_correction=0",
                 ],
             ),
         ],
