@@ -24,7 +24,7 @@
 //! values (eqs. 25, 27; [`crate::joubert2020_boundary_values`]) at walls and markers.
 //! With the gradient correction the marker loads' velocity gradient takes a one-sided
 //! B ([`crate::joubert2020_body_loads`]). With markers, a fluid particle that ends a step
-//! behind a body's surface is mirrored back and counted
+//! behind a body's surface or a wall face is mirrored back and counted
 //! ([`crate::body_non_penetration`]).
 
 use crate::checkpoint::{self, FluidState};
@@ -87,7 +87,8 @@ pub enum Op {
     GrainReaction,
     /// Robinson's (h, Ω) per particle (absent without variable h).
     SmoothingLengths,
-    /// Fluid behind a body's surface mirrored back (absent without markers).
+    /// Fluid behind a body's surface or a wall face mirrored back (absent without
+    /// markers).
     NonPenetration,
 }
 
@@ -1021,8 +1022,8 @@ impl FluidSolver {
         self.near_singular
     }
 
-    /// Fluid particle-steps of the last window that ended behind a body's surface and
-    /// were mirrored back ([`crate::body_non_penetration`]).
+    /// Fluid particle-steps of the last window that ended behind a body's surface or a
+    /// wall face and were mirrored back ([`crate::body_non_penetration`]).
     pub fn reflected(&self) -> u32 {
         self.reflected
     }

@@ -534,7 +534,7 @@ fn summary_text(s: &RunSummary) -> String {
     }
     if s.reflected > 0 {
         t += &format!(
-            "bodies: {} fluid particle-steps ended behind a body's surface and were mirrored back out (per window in /run/windows; many mean a gap or a body under-resolved)\n",
+            "bodies: {} fluid particle-steps ended behind a body's surface or a wall face under a body and were mirrored back (per window in /run/windows; many mean a gap or a body under-resolved)\n",
             s.reflected
         );
     }
