@@ -4359,12 +4359,15 @@ mod tests {
     /// valid range, before anything runs.
     #[test]
     fn sweep_point_out_of_range_is_refused() {
-        let e = sweep_point("settling-sphere", 9, &[], None, &[], None, false)
+        // 3 spacings × 4 schemes (with and without the mass correction, shifting only,
+        // standard).
+        assert_eq!(sweep_specs("settling-sphere").unwrap().len(), 12);
+        let e = sweep_point("settling-sphere", 12, &[], None, &[], None, false)
             .unwrap_err()
             .to_string();
         assert_eq!(
             e,
-            "case `settling-sphere`'s sweep has 9 points, 0 to 8: there is no point 9"
+            "case `settling-sphere`'s sweep has 12 points, 0 to 11: there is no point 12"
         );
         let e = sweep_specs("constant-porosity-block")
             .unwrap_err()
