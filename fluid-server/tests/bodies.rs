@@ -15,8 +15,8 @@ use couplet_fluid::adami2012_boundary_pressure::{
     boundary_pressure_cpu, boundary_pressure_with_fill_cpu,
 };
 use couplet_fluid::body_non_penetration::{SurfacePoint, non_penetration_cpu};
-use couplet_fluid::gpu::shared_test_gpu;
-use couplet_fluid::particles::{dot, sub};
+use couplet_fluid::gpu::{Gpu, shared_test_gpu};
+use couplet_fluid::particles::{ParticleSet, dot, sub};
 use couplet_fluid::{FluidSolver, Kind, Op, SphConstants, initial_particles};
 use couplet_protocol::{BodyState, CouplingPoint};
 
@@ -46,6 +46,35 @@ fn filled_sphere(
     (points, state)
 }
 
+/// The marker update, the sort and the non-penetration pass on `solver` (its bodies set
+/// to `points`), and the twin on the state just before the pass. Returns the GPU's state
+/// after the pass, the twin's, and how many particles each moved.
+fn non_penetration_pass(
+    gpu: &Gpu,
+    c: &SphConstants,
+    solver: &mut FluidSolver,
+    points: &[CouplingPoint],
+) -> (ParticleSet, ParticleSet, u32, u32) {
+    solver
+        .run_ops(gpu, &[Op::MarkerUpdate, Op::Sort], 1e-5, 1.0)
+        .unwrap();
+    let mut twin = solver.data().read(gpu).unwrap();
+    solver
+        .run_ops(gpu, &[Op::NonPenetration], 1e-5, 1.0)
+        .unwrap();
+    let got = solver.data().read(gpu).unwrap();
+    let count = solver.data().read_reflected(gpu).unwrap();
+    let surface: Vec<SurfacePoint> = points
+        .iter()
+        .map(|p| SurfacePoint {
+            normal: p.normal.map(f64::from),
+            area: f64::from(p.measure),
+        })
+        .collect();
+    let twin_count = non_penetration_cpu(c, &mut twin, &surface);
+    (got, twin, count, twin_count)
+}
+
 #[test]
 fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
@@ -69,24 +98,7 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
         ..state
     };
     solver.set_bodies(&gpu, &[moved], &points, &[]).unwrap();
-    solver
-        .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort], 1e-5, 1.0)
-        .unwrap();
-    let mut twin = solver.data().read(&gpu).unwrap();
-    solver
-        .run_ops(&gpu, &[Op::NonPenetration], 1e-5, 1.0)
-        .unwrap();
-    let got = solver.data().read(&gpu).unwrap();
-    let count = solver.data().read_reflected(&gpu).unwrap();
-
-    let surface: Vec<SurfacePoint> = points
-        .iter()
-        .map(|p| SurfacePoint {
-            normal: p.normal.map(f64::from),
-            area: f64::from(p.measure),
-        })
-        .collect();
-    let twin_count = non_penetration_cpu(&c, &mut twin, &surface);
+    let (got, twin, count, twin_count) = non_penetration_pass(&gpu, &c, &mut solver, &points);
     println!("mirrored out: GPU {count}, twin {twin_count}");
     assert!(
         twin_count >= 10,
@@ -114,7 +126,7 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
         let nearest = (0..got.len())
             .filter(|&j| {
                 got.kinds.kind(got.id[j]) == Kind::Marker
-                    && surface[got.id[j] as usize - base].area > 0.0
+                    && points[got.id[j] as usize - base].measure > 0.0
             })
             .min_by(|&a, &b| {
                 let (ra, rb) = (sub(got.pos[i], got.pos[a]), sub(got.pos[i], got.pos[b]));
@@ -123,7 +135,9 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
             .unwrap();
         let r = sub(got.pos[i], got.pos[nearest]);
         if dot(r, r) < d * d {
-            let n = surface[got.id[nearest] as usize - base].normal;
+            let n = points[got.id[nearest] as usize - base]
+                .normal
+                .map(f64::from);
             assert!(
                 dot(r, n) >= -1e-6 * d,
                 "particle {} still behind: {:e}",
@@ -169,25 +183,12 @@ fn fluid_pressed_through_a_wall_by_a_body_is_mirrored_back() {
     let (points, state) = filled_sphere([0.1, 0.1, 0.1], 5.0 * d, 300, 0.9);
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
     solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
-    solver
-        .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort], 1e-5, 1.0)
-        .unwrap();
-    let mut twin = solver.data().read(&gpu).unwrap();
-    solver
-        .run_ops(&gpu, &[Op::NonPenetration], 1e-5, 1.0)
-        .unwrap();
-    let got = solver.data().read(&gpu).unwrap();
-    let count = solver.data().read_reflected(&gpu).unwrap();
-    let surface: Vec<SurfacePoint> = points
-        .iter()
-        .map(|p| SurfacePoint {
-            normal: p.normal.map(f64::from),
-            area: f64::from(p.measure),
-        })
-        .collect();
-    let twin_count = non_penetration_cpu(&c, &mut twin, &surface);
+    let (got, twin, count, twin_count) = non_penetration_pass(&gpu, &c, &mut solver, &points);
     println!("mirrored: GPU {count}, twin {twin_count}");
-    assert_eq!(count, 2, "the floor's and the +x wall's particles, not the top's");
+    assert_eq!(
+        count, 2,
+        "the floor's and the +x wall's particles, not the top's"
+    );
     assert_eq!(twin_count, count);
     let origin = solver.origin();
     let at = |id: u32| (0..got.len()).find(|&i| got.id[i] == id).unwrap();
@@ -200,9 +201,19 @@ fn fluid_pressed_through_a_wall_by_a_body_is_mirrored_back() {
     for (&id, &(k, x, u)) in ids.iter().zip(&expect) {
         let i = at(id);
         let world = got.pos[i][k] + origin[k];
-        println!("particle {id}: axis {k} at {world:e} m, velocity {:e} m/s", got.vel[i][k]);
-        assert!((world - x).abs() <= 2e-8, "position {world:e}, expected {x:e}");
-        assert!((got.vel[i][k] - u).abs() <= 1e-7, "velocity {:e}", got.vel[i][k]);
+        println!(
+            "particle {id}: axis {k} at {world:e} m, velocity {:e} m/s",
+            got.vel[i][k]
+        );
+        assert!(
+            (world - x).abs() <= 2e-8,
+            "position {world:e}, expected {x:e}"
+        );
+        assert!(
+            (got.vel[i][k] - u).abs() <= 1e-7,
+            "velocity {:e}",
+            got.vel[i][k]
+        );
         let j = (0..twin.len()).find(|&j| twin.id[j] == id).unwrap();
         assert!((twin.pos[j][k] - got.pos[i][k]).abs() <= 2e-8);
         assert!((twin.vel[j][k] - got.vel[i][k]).abs() <= 1e-7);

@@ -334,10 +334,7 @@ static CASES: [Case; 17] = [
         sweep_spacings: &[1e-3, 8e-4, 6.25e-4],
         sweep_schemes: &[
             ("corrected + mass correction Γ = 2 + shifting", &[]),
-            (
-                "corrected + shifting",
-                &["effects.mass_correction=0"],
-            ),
+            ("corrected + shifting", &["effects.mass_correction=0"]),
             (
                 "shifting only",
                 &[
@@ -437,10 +434,7 @@ static CASES: [Case; 17] = [
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[
             ("corrected + mass correction Γ = 2 + shifting", &[]),
-            (
-                "corrected + shifting",
-                &["effects.mass_correction=0"],
-            ),
+            ("corrected + shifting", &["effects.mass_correction=0"]),
             (
                 "standard + shifting",
                 &[
@@ -644,7 +638,10 @@ static CASES: [Case; 17] = [
         quick_why: "δ = L/10 (z span kept at 8 spacings) to t = 15 s: 800 fluid particles, 146 s on lavapipe (2026-11-26, beside another run); the centreline errors are judged against coarse bounds (COARSE_CAVITY), Joubert's own figures only at δ ≤ L/100. On an NVIDIA H200 (2026-11-26), without the mass correction: δ = L/50 (z span 0.16 m) to t = 30 s in 327 s with other runs on the GPU, u 0.57 % / 0.11 % and v 0.65 % / 0.28 % (largest / mean), inside Joubert's δ = L/100 figures; the full δ = L/100 blew up at t = 9.5 s (a particle near the floor at x = 0.88 m decompressed to 436 kg/m³). With the scene's mass correction Γ = 1 the full δ = L/100 ran to t = 21 s (cut by the time limit) inside Joubert's figures: u 0.52 % / 0.13 %, v 0.74 % / 0.34 %",
         sweep_spacings: &[0.04, 0.02, 0.01],
         sweep_schemes: &[
-            ("Joubert (corrected + mass correction Γ = 1 + shifting)", &[]),
+            (
+                "Joubert (corrected + mass correction Γ = 1 + shifting)",
+                &[],
+            ),
             (
                 "Joubert without mass correction",
                 &["effects.mass_correction=0"],
