@@ -15,7 +15,7 @@ use std::collections::HashMap;
 
 /// rapier's allowed linear error (its contact slop) in units of `length_unit`
 /// (rapier's default, 0.005): penetrations are corrected towards zero, and contacts
-/// rest within about this much of touching.
+/// rest well within this much of touching (with contact recycling off, see `new`).
 pub const NORMALIZED_ALLOWED_LINEAR_ERROR: f64 = 0.005;
 
 /// One scene body as the engine holds it.
@@ -116,6 +116,15 @@ impl RapierEngine {
         p.contact_softness.natural_frequency *= froude;
         p.static_contact_softness.natural_frequency *= froude;
         p.normalized_allowed_linear_error = NORMALIZED_ALLOWED_LINEAR_ERROR as Real;
+        // rapier 0.36 recycles a contact pair whose relative pose moved less than 10 slops
+        // since its last full narrow-phase update, keeping its old points and depths. A
+        // body resting on another sank into it until the pose had drifted that far: a
+        // 12-face prism placed on a fixed one sank 118 µm (0.05 ∛V, the recycle distance)
+        // instead of rapier's spring sag g/ω² = 0.16 µm, and the quick DKT's pair, once
+        // in contact with the mass correction on, sank 12.5 µm before the manifold was
+        // refreshed (`conformance.rs`, `resting_hulls_do_not_sink_into_each_other`). Every
+        // step recomputes its contacts instead: correct depths over speed.
+        p.contact_recycling = false;
         // rapier caps speeds (400 length units/s) to keep game scenes sane; a physics
         // run must not be silently clamped (DESIGN.md failure model).
         p.normalized_max_linear_velocity = Real::MAX;
@@ -233,7 +242,9 @@ impl RapierEngine {
         })
     }
 
-    /// Contact slop in metres: rapier lets resting contacts overlap by up to about this.
+    /// Contact slop in metres (rapier's allowed linear error): the overlap the DKT judge
+    /// allows. rapier 0.36 corrects penetrations all the way to zero (its slop is no
+    /// dead zone), so resting contacts sit well inside it, at the spring sag g/ω².
     pub fn allowed_penetration(&self) -> f64 {
         self.world.integration_parameters.allowed_linear_error() as f64 / self.scale
     }
