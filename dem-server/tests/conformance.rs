@@ -266,6 +266,23 @@ pub fn boxes_do_not_interpenetrate(allow: Allowance) {
     );
 }
 
+/// `[[bodies]]` table of Joubert's 12-face cylinder of §3.3 (r = 1 mm), 4 mm long and
+/// laid along z, at (x, y, 0.5); `extra` adds fields (`motion`).
+fn joubert_prism(name: &str, x: f64, y: f64, extra: &str) -> String {
+    format!(
+        "[[bodies]]\nname = \"{name}\"\nshape.prism = {{ sides = 12, radius = 1e-3, half_height = 2e-3 }}\ndensity = 1100.0\nposition = [{x:?}, {y:?}, 0.5]\nrotation = [{:?}, 0.0, 0.0]\n{extra}\n",
+        std::f64::consts::FRAC_PI_2
+    )
+}
+
+/// The prism's apothem r cos 15° (half the centre distance of two touching face to face).
+const PRISM_APOTHEM: f64 = 1e-3 * 0.965_925_826_289_068_3;
+
+/// The prism's size ∛V: the 12-gon's area is 3r², the prism 4 mm long.
+fn prism_size() -> f64 {
+    (3.0 * 1e-6 * 4e-3_f64).cbrt()
+}
+
 /// Millimetre polyhedra collide: Joubert's 12-face cylinders of §3.3 (r = 1 mm, laid
 /// along z; the upper one 0.3 mm off the lower's axis, so it rolls off), and two hull
 /// cubes of 2 mm edge stacked face on face, never bring their centres closer than the
@@ -276,12 +293,6 @@ pub fn boxes_do_not_interpenetrate(allow: Allowance) {
 /// through each other (their centres came within 0.004 mm), the cubes rested 0.2 mm deep.
 /// An engine without polyhedra refuses them, naming the body.
 pub fn millimetre_hulls_do_not_interpenetrate(allow: Allowance) {
-    let prism = |name: &str, y: f64, x: f64| {
-        format!(
-            "[[bodies]]\nname = \"{name}\"\nshape.prism = {{ sides = 12, radius = 1e-3, half_height = 2e-3 }}\ndensity = 1100.0\nposition = [{x:?}, {y:?}, 0.5]\nrotation = [{:?}, 0.0, 0.0]\n",
-            std::f64::consts::FRAC_PI_2
-        )
-    };
     let cube = |name: &str, y: f64, x: f64| {
         let v: Vec<[f64; 3]> = (0..8)
             .map(|i| [0, 1, 2].map(|k| if i >> k & 1 == 1 { 1e-3 } else { -1e-3 }))
@@ -292,10 +303,9 @@ pub fn millimetre_hulls_do_not_interpenetrate(allow: Allowance) {
     };
     let cases = [
         (
-            prism("lower", 1.1e-3, 0.5) + &prism("upper", 3.5e-3, 0.5003),
-            2.0 * 1e-3 * (std::f64::consts::PI / 12.0).cos(),
-            // ∛V: the 12-gon's area is 3r², the prism 4 mm long.
-            (3.0 * 1e-6 * 4e-3_f64).cbrt(),
+            joubert_prism("lower", 0.5, 1.1e-3, "") + &joubert_prism("upper", 0.5003, 3.5e-3, ""),
+            2.0 * PRISM_APOTHEM,
+            prism_size(),
         ),
         (
             cube("lower", 1.1e-3, 0.5) + &cube("upper", 3.5e-3, 0.5),
@@ -340,27 +350,19 @@ pub fn millimetre_hulls_do_not_interpenetrate(allow: Allowance) {
 /// in the quick DKT with the mass correction, the resting pair sank 12.5 µm, past the
 /// slop the judge allows. An engine without polyhedra refuses the prisms.
 pub fn resting_hulls_do_not_sink_into_each_other(allow: Allowance) {
-    let apothem = 1e-3 * (std::f64::consts::PI / 12.0).cos();
-    let prism = |name: &str, y: f64, extra: &str| {
-        format!(
-            "[[bodies]]\nname = \"{name}\"\nshape.prism = {{ sides = 12, radius = 1e-3, half_height = 2e-3 }}\ndensity = 1100.0\nposition = [0.5, {y:?}, 0.5]\nrotation = [{:?}, 0.0, 0.0]\n{extra}\n",
-            std::f64::consts::FRAC_PI_2
-        )
-    };
-    let bodies =
-        prism("lower", 0.5, "motion = \"fixed\"") + &prism("upper", 0.5 + 2.0 * apothem, "");
+    let bodies = joubert_prism("lower", 0.5, 0.5, "motion = \"fixed\"")
+        + &joubert_prism("upper", 0.5, 0.5 + 2.0 * PRISM_APOTHEM, "");
     if !allow.polyhedra {
         assert_refuses_lower(allow, &bodies);
         return;
     }
     let mut e = engine(allow, &bodies);
-    // ∛V: the 12-gon's area is 3r², the prism 4 mm long.
-    let size = (3.0 * 1e-6 * 4e-3_f64).cbrt();
+    let size = prism_size();
     let mut deepest: f64 = 0.0;
     for _ in 0..2000 {
         run(&mut *e, 1e-4, 1e-4, &[]);
         let s = states(&*e);
-        deepest = deepest.max(2.0 * apothem - (s[1].position[1] - s[0].position[1]));
+        deepest = deepest.max(2.0 * PRISM_APOTHEM - (s[1].position[1] - s[0].position[1]));
     }
     println!("{}: deepest overlap {deepest:.3e} m", allow.engine);
     assert!(
