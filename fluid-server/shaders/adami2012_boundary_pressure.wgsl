@@ -9,11 +9,22 @@
 // its nearest surface, (x_f − x_w)·n > 0 (adami2012_boundary_pressure.rs says why).
 // No-slip walls also get their velocity for the viscous sums, 2 v_w − ṽ_w with
 // ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (Adami et al. 2012, §2.3), through
-// `store_wall_velocity(i, v)` (adami2012_boundary_pressure.rs: a no-op when off).
+// `store_wall_velocity(i, v)` (adami2012_boundary_pressure.rs: a no-op when off); the
+// layers of a symmetry plane (ADAMI_SYMMETRY) take ṽ_w mirrored across it instead.
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, tait_eos (library),
 // fill_side (adami2012_boundary_pressure.rs).
 
 // ---- kernels ----
+// The axes across which the wall particle at x mirrors the fluid's velocity: those of
+// the symmetry planes it stands behind, none if it also stands behind a no-slip face
+// (the edge belongs to the wall) or behind no face (an obstacle). CPU twin:
+// SphConstants::symmetry_mirror.
+fn symmetry_mirror(x: vec3<f32>) -> vec3<bool> {
+    let behind = (x < WALL_LO) | (x > WALL_HI);
+    let held = any(behind & !ADAMI_SYMMETRY);
+    return behind & ADAMI_SYMMETRY & vec3<bool>(!held);
+}
+
 // `pos`, boundary_density and store_boundary_mass: porosity.rs, boundary_state_wgsl.
 @group(0) @binding(1) var<storage, read> vel: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rho: array<f32>;
@@ -71,6 +82,9 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     store_boundary_mass(i);
     if is_wall(id[i]) {
         let v_w = vel[i].xyz;
-        store_wall_velocity(i, select(v_w, 2.0 * v_w - sum_vw / sum_w, sum_w > 0.0));
+        let v_f = sum_vw / sum_w;
+        let mirror = symmetry_mirror(p_i);
+        let v = select(2.0 * v_w - v_f, select(v_f, -v_f, mirror), any(mirror));
+        store_wall_velocity(i, select(v_w, v, sum_w > 0.0));
     }
 }

@@ -23,7 +23,15 @@
 //! With [`SphConstants::wall_velocity_extrapolation`] the same loop gives each wall
 //! particle its velocity in the viscous sums, `2 v_w − Σ_f v_f W_wf / Σ_f W_wf`
 //! (Adami, Hu & Adams 2012, §2.3; `v_w` without fluid neighbours), in the buffer at
-//! `particle_binding::WALL_VEL`.
+//! `particle_binding::WALL_VEL`. The layers of a symmetry plane
+//! ([`SphConstants::adami_symmetry`]) take the fluid's `Σ_f v_f W_wf / Σ_f W_wf` mirrored
+//! across the plane instead (its normal component reversed): a mirror image of the
+//! fluid, so that a flow along the plane feels no shear from it and one towards it
+//! meets its own reflection. Leaving them out of the viscous sums altogether, as a
+//! free-slip wall is, does that for the Morris term but not for the corrected
+//! Laplacian (Joubert eq. 13), whose first-order sum Σ V s e runs over every viscous
+//! neighbour: the floor's drag on the bottom row beside such a plane came out 12 %
+//! below mid-way between two (`adami_symmetry_planes_exert_no_shear`).
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
@@ -197,9 +205,14 @@ pub fn extrapolate_from_cpu(
 }
 
 /// CPU twin of the no-slip wall velocity: `2 v_w − Σ_f v_f W_wf / Σ_f W_wf` for wall
-/// entry `w` (its own velocity without fluid neighbours).
+/// entry `w` (its own velocity without fluid neighbours); on a symmetry plane's layers
+/// the fluid's average mirrored across the plane.
 pub fn wall_velocity_cpu(c: &SphConstants, set: &ParticleSet, w: usize) -> [f64; 3] {
+    let mirror = c.symmetry_mirror(set.pos[w]);
     match extrapolate_cpu(c, set, w, [0.0; 3]) {
+        Some((_, v)) if mirror.iter().any(|m| *m) => {
+            std::array::from_fn(|k| if mirror[k] { -v[k] } else { v[k] })
+        }
         Some((_, v)) => std::array::from_fn(|k| 2.0 * set.vel[w][k] - v[k]),
         None => set.vel[w],
     }

@@ -39,6 +39,13 @@ pub struct SphConstants {
     /// enter them), and every one-layer Joubert boundary particle (no-slip ones with
     /// their own velocity, symmetry ones with the fluid's by eq. 27).
     pub no_slip_walls: bool,
+    /// Axes whose faces are symmetry planes of Adami's walls (`domain.symmetry` with
+    /// `wall_model = "adami"`): their wall particles enter the viscous sums with the
+    /// fluid's velocity mirrored across the plane, except those also behind a no-slip
+    /// face (an edge between a wall and a symmetry plane belongs to the wall, as with
+    /// Joubert's walls). See [`Self::symmetry_mirror`]. All false with Joubert's walls,
+    /// whose symmetry planes take eq. (27) instead.
+    pub adami_symmetry: [bool; 3],
     /// No-slip walls enter the viscous sums with the velocity 2 v_w − ṽ_w (Adami, Hu &
     /// Adams 2012, §2.3): ṽ_w the Shepard interpolation of the fluid's velocity at the
     /// wall particle, v_w the wall's own (0, or the lid's). The fluid then sees the
@@ -162,6 +169,9 @@ impl SphConstants {
                 && f.kinematic_viscosity > 0.0,
             alpha: scene.effects.artificial_viscosity,
             no_slip_walls: scene.domain.walls == WallKind::NoSlip || joubert_walls,
+            adami_symmetry: std::array::from_fn(|k| {
+                !joubert_walls && !scene.domain.periodic[k] && scene.domain.symmetry[k]
+            }),
             wall_velocity_extrapolation: scene.domain.walls == WallKind::NoSlip
                 && !joubert_walls
                 && ((scene.effects.viscosity == ViscosityModel::Laminar
@@ -227,6 +237,18 @@ impl SphConstants {
             || self.density_diffusion > 0.0
     }
 
+    /// The axes across which a wall particle at `x` (relative to the solver origin, as
+    /// [`Self::wall_faces`]) mirrors the fluid's velocity: those of the symmetry planes
+    /// of Adami's walls it stands behind, none if it also stands behind a no-slip face
+    /// (the edge belongs to the wall) or behind no face (fixed box obstacles). CPU twin
+    /// of `symmetry_mirror` in `adami2012_boundary_pressure.wgsl`.
+    pub fn symmetry_mirror(&self, x: [f64; 3]) -> [bool; 3] {
+        let behind: [bool; 3] =
+            std::array::from_fn(|k| x[k] < self.wall_faces[k][0] || x[k] > self.wall_faces[k][1]);
+        let held = (0..3).any(|k| behind[k] && !self.adami_symmetry[k]);
+        std::array::from_fn(|k| !held && behind[k] && self.adami_symmetry[k])
+    }
+
     /// The rates read B_i (the gradient correction, or the corrected Laplacian's
     /// gradient term).
     pub fn uses_b_matrix(&self) -> bool {
@@ -287,6 +309,7 @@ impl SphConstants {
              const ARTIFICIAL_VISCOSITY: bool = {av};\n\
              const ALPHA: f32 = {alpha:e};\n\
              const NO_SLIP_WALLS: bool = {no_slip};\n\
+             const ADAMI_SYMMETRY: vec3<bool> = vec3<bool>({adami_symmetry});\n\
              const VISCOUS_ETA2: f32 = {eta2:e};\n\
              const GRADIENT_CORRECTION: bool = {correction};\n\
              const CORRECTED_CONTINUITY: bool = {corrected_continuity};\n\
@@ -328,6 +351,7 @@ impl SphConstants {
             av = self.alpha > 0.0,
             alpha = self.alpha,
             no_slip = self.no_slip_walls,
+            adami_symmetry = self.adami_symmetry.map(|b| b.to_string()).join(", "),
             eta2 = VISCOUS_ETA2_H2 * k.h * k.h,
             correction = self.gradient_correction,
             corrected_continuity = self.corrected_continuity,

@@ -179,7 +179,19 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(
             BOUNDARY_PRESSURE,
             format!(
-                "{walls} domain walls{}{}: wall pressure extrapolated from the fluid (Adami, Hu & Adams 2012){}, twice per step",
+                "{walls} domain walls{}{}{}: wall pressure extrapolated from the fluid (Adami, Hu & Adams 2012){}, twice per step",
+                {
+                    let d = &scene.domain;
+                    let symmetric = axis_names(|k| !d.periodic[k] && d.symmetry[k]);
+                    if symmetric.is_empty() || walls == "free-slip" {
+                        String::new()
+                    } else {
+                        format!(
+                            " ({} faces symmetry planes: the fluid's velocity mirrored across them)",
+                            symmetric.join(", ")
+                        )
+                    }
+                },
                 if obstacles > 0 {
                     format!(", {obstacles} fixed box obstacle(s)")
                 } else {

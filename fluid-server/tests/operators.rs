@@ -548,3 +548,106 @@ fn rates_match_cpu_twin_mass_corrected() {
     assert!(term > 0.2 * scale, "term {term:e} vs {scale:e}");
     check_rates_within(effects, "", 9, [1e-3, PAIR_RTOL], dt);
 }
+
+/// Symmetry planes of Adami's walls (`domain.symmetry` with `wall_model = "adami"`): a
+/// uniform flow u = (0, 0, U) over a no-slip floor, between x faces that are symmetry
+/// planes, judged out of the reach of the z walls it runs into (the twin has no periodic
+/// images, or z would be periodic). A symmetry plane is a mirror, so the flow must feel no shear
+/// from it: every fluid particle out of the floor's reach has du_z/dt = 0 (only wall
+/// particles can contribute: between fluid particles u_ij = 0), and the floor's drag on
+/// the bottom row is the same beside the planes as mid-way between them (the edge
+/// layers, behind both the floor and a plane, belong to the floor and continue it).
+/// With the x faces no-slip instead, the particle beside them at mid-height is dragged.
+/// Both the Morris and the corrected Laplacian (Joubert eq. 13), each against its twin.
+#[test]
+fn adami_symmetry_planes_exert_no_shear() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let u = 0.1; // m/s along z
+    for effects in [
+        "viscosity = \"laminar\"",
+        "viscosity = \"laminar\"\ngradient_correction = true\nlaplacian_correction = true",
+    ] {
+        let rates = |symmetry: bool| {
+            let mut s = scene(
+                "kernel = \"wendland-c2\"",
+                &format!("[gravity]\non_fluid = false\n[effects]\n{effects}"),
+            );
+            s.domain.symmetry = [symmetry, false, false];
+            let c = SphConstants::from_scene(&s).unwrap();
+            assert_eq!(c.adami_symmetry, [symmetry, false, false]);
+            let mut set = couplet_fluid::initial_particles(&s, &c).unwrap();
+            for v in set.vel.iter_mut().take(set.kinds.n_fluid) {
+                *v = [0.0, 0.0, u];
+            }
+            let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+            solver
+                .run_ops(
+                    &gpu,
+                    &[
+                        Op::Sort,
+                        Op::BoundaryPressure,
+                        Op::Gradients,
+                        Op::FluidRates,
+                    ],
+                    1e-4,
+                    1.0,
+                )
+                .unwrap();
+            let got = solver.data().read(&gpu).unwrap();
+            let (_, dvel) = solver.data().read_rates(&gpu).unwrap();
+            let want = fluid_rates_cpu(&c, &got, 1e-4);
+            let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
+            let (em, mm) = max_err(fluid.iter().map(|&i| (dvel[i][2], want[i].unwrap().1[2])));
+            assert!(
+                em <= PAIR_RTOL * mm,
+                "twin (symmetry {symmetry}): {em:e} of {mm:e}"
+            );
+            // (x, y) of each fluid particle relative to the domain centre, and du_z/dt,
+            // out of the z walls' reach.
+            let reach = c.kernel.radius();
+            let rows: Vec<([f64; 2], f64)> = fluid
+                .iter()
+                .filter(|&&i| got.pos[i][2].abs() < 0.1 - reach)
+                .map(|&i| ([got.pos[i][0], got.pos[i][1]], dvel[i][2]))
+                .collect();
+            (c, rows)
+        };
+        let (_, held) = rates(false);
+        let (c, sym) = rates(true);
+        let (d, reach) = (c.spacing, c.kernel.radius());
+        let floor = -0.1; // the domain is 0.2 m, centred
+        let at = |rows: &[([f64; 2], f64)], x: f64, y: f64| {
+            rows.iter()
+                .find(|(p, _)| (p[0] - x).abs() < 0.25 * d && (p[1] - y).abs() < 0.25 * d)
+                .map(|r| r.1)
+                .expect("a lattice particle there")
+        };
+        let bottom = floor + 0.5 * d;
+        let (edge, middle) = (-0.1 + 0.5 * d, 0.5 * d);
+        let drag = at(&sym, middle, bottom);
+        assert!(
+            drag < -1e-3,
+            "the floor drags the bottom row: {drag:e} m/s²"
+        );
+        let aloft = sym
+            .iter()
+            .filter(|(p, _)| p[1] - floor > reach)
+            .map(|r| r.1.abs())
+            .fold(0.0, f64::max);
+        let beside = at(&sym, edge, bottom);
+        let walled = at(&held, edge, middle);
+        println!(
+            "{effects}: floor drag {drag:e}, beside the plane {beside:e}; \
+             largest |du_z/dt| out of the floor's reach {aloft:e}; no-slip x faces {walled:e}"
+        );
+        assert!(aloft <= 1e-6 * drag.abs(), "shear from a symmetry plane");
+        assert!(
+            (beside - drag).abs() <= 1e-4 * drag.abs(),
+            "the floor's edge"
+        );
+        assert!(
+            walled < 0.5 * drag,
+            "no-slip x faces drag the fluid beside them"
+        );
+    }
+}

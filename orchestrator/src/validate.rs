@@ -243,14 +243,8 @@ const FIVE_BODY_VARIANTS: &[Variant] = &[
     ),
 ];
 
-/// The five-bodies quick version: δ = 0.5 mm to 0.1 s, with Adami's no-slip walls in
-/// place of the scene's one-layer walls and x symmetry planes (see its `quick_why`).
-const FIVE_BODY_QUICK: &[&str] = &[
-    "fluid.spacing=5e-4",
-    "time.end=0.1",
-    "domain.wall_model=\"adami\"",
-    "domain.symmetry=[false, false, false]",
-];
+/// The five-bodies quick version: δ = 0.5 mm to 0.1 s (see its `quick_why`).
+const FIVE_BODY_QUICK: &[&str] = &["fluid.spacing=5e-4", "time.end=0.1"];
 
 /// Joubert Table 3's four shapes, the sphere first (the reference of Table 5's ratios).
 const SHAPE_VARIANTS: &[Variant] = &[
@@ -526,7 +520,7 @@ static CASES: [Case; 17] = [
         scene: "five-bodies.toml",
         about: "Joubert §4.4: five spheres, then five rings, settling together from a staggered start in the 10 × 50 × 8 mm box with symmetry planes in x — the spheres descend faster (mean descent speed over the rings' > 1) and the rings rotate more; each body's height plotted (Figs. 25–26)",
         quick: FIVE_BODY_QUICK,
-        quick_why: "δ = 0.5 mm to t = 0.1 s: 32 000 fluid particles, 3–6 minutes per variant on lavapipe; by 0.1 s the bodies are near their terminal speed but the rings have had little time to tip (Joubert's snapshots run to 0.7 s). The quick runs on Adami's no-slip walls all round instead of the scene's one-layer walls with symmetry planes in x (ARCHITECTURE.md, \"Two wall models\": a particle crosses the one-layer walls at their edges). On the scene's walls it blows up: the spheres at t = 0.031 s (2026-11-25, a fluid particle leaving through the x = 0 plane near the lid) and, with the mass correction at Γ = 2 and the wall mirror, at 0.0574 s (2026-11-26); the rings at 0.0658 s (a particle compressed to 1618 kg/m³ on the floor beside the x = 10 mm plane). On Adami's walls with Γ = 2 (2026-11-26, two runs side by side) both variants run to the end: mean descent speed 27.75 mm/s for the spheres against 20.27 mm/s for the rings (1.37), largest rotation 0.30° against 2.18°. No-slip walls where Joubert has symmetry planes add drag on the bodies 1.55 mm from them, so the quick's speeds are not §4.4's, only its comparison (spheres faster, rings rotating more)",
+        quick_why: "δ = 0.5 mm to t = 0.1 s: 32 000 fluid particles, 3–6 minutes per variant on lavapipe; by 0.1 s the bodies are near their terminal speed but the rings have had little time to tip (Joubert's snapshots run to 0.7 s). The scene's walls are Adami's, its x faces symmetry planes that mirror the fluid's velocity (ARCHITECTURE.md, \"Symmetry planes of Adami's walls mirror the fluid's velocity\"); both variants run to the end there (2026-11-26, 380 s for the two on lavapipe): mean descent speed 28.27 mm/s for the spheres against 20.84 mm/s for the rings (1.357), largest rotation 0.51° against 2.51°. On Adami's no-slip walls all round they fell at 27.75 and 20.27 mm/s. On Joubert's one-layer walls with eq. (27) on the planes both blow up (a particle crosses the one-layer walls at their edges): the spheres at t = 0.0574 s, the rings at 0.0658 s (2026-11-26)",
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
         analyse: five_bodies,

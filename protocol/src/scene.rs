@@ -356,10 +356,14 @@ pub struct Domain {
     #[serde(default)]
     pub wall_model: WallModel,
     /// Axes `[x, y, z]` whose two faces are symmetry planes (zero normal gradient of
-    /// every field, zero normal velocity; Joubert §2.5, eq. 27) instead of `walls`.
-    /// Default none. Needs `wall_model = "joubert"`; not on a periodic axis, nor on y
-    /// with a lid velocity. A particle on the edge between a symmetry plane and a wall
-    /// belongs to the wall (its velocity is the wall's).
+    /// every field, zero normal velocity) instead of `walls`. Default none. With
+    /// `wall_model = "joubert"` the plane's boundary particles take the fluid's
+    /// tangential velocity by Joubert eq. (27); with `"adami"` its wall layers carry
+    /// the extrapolated pressure (which keeps the fluid out and has no normal gradient
+    /// but the hydrostatic one) and stay out of the viscous sums, so the fluid feels no
+    /// shear from them, as on a free-slip wall. Not on a periodic axis, nor on y with a
+    /// lid velocity. A particle on the edge between a symmetry plane and a wall belongs
+    /// to the wall (its velocity is the wall's, and it takes part in the viscous sums).
     #[serde(default)]
     pub symmetry: [bool; 3],
 }
@@ -1497,9 +1501,7 @@ impl Scene {
             }
         }
         for k in (0..3).filter(|k| d.symmetry[*k]) {
-            let why = if d.wall_model != WallModel::Joubert {
-                "symmetry planes need domain.wall_model = \"joubert\" (Joubert eq. 27)"
-            } else if d.periodic[k] {
+            let why = if d.periodic[k] {
                 "an axis cannot be both periodic and bounded by symmetry planes"
             } else if k == 1 && d.lid_velocity != [0.0; 3] {
                 "the +y face carries the lid velocity: it cannot be a symmetry plane"
@@ -2263,8 +2265,15 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         assert_eq!(ok.domain.wall_model, WallModel::Joubert);
         assert_eq!(ok.domain.symmetry, [false, false, true]);
         assert_eq!(field(with(joubert, "")), "domain.wall_model");
+        // Adami's walls take symmetry planes too (free of shear, ARCHITECTURE.md).
+        let adami = with("symmetry = [true, false, false]", "").unwrap();
+        assert_eq!(adami.domain.wall_model, WallModel::Adami);
+        assert_eq!(adami.domain.symmetry, [true, false, false]);
         assert_eq!(
-            field(with("symmetry = [true, false, false]", gc)),
+            field(with(
+                "periodic = [true, false, false]\nsymmetry = [true, false, false]",
+                ""
+            )),
             "domain.symmetry[0]"
         );
         assert_eq!(
