@@ -124,6 +124,21 @@ pub fn advance_clock_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
     )
 }
 
+/// The mass a coupling point of `measure` ΔS carries in the fluid's sums (`pos.w`): the
+/// slab of fluid it stands for, ρ0 ΔS δ, so that markers packed closer than δ (a face
+/// under δ²/2 is one marker) do not make a denser wall; a fill point (ΔS = 0) is a
+/// lattice point, ρ0 δ³. ARCHITECTURE.md, "A marker weighs as the fluid slab it stands
+/// for".
+pub fn marker_mass(c: &SphConstants, measure: f32) -> f64 {
+    let d = c.spacing;
+    let volume = if measure > 0.0 {
+        f64::from(measure) * d
+    } else {
+        d * d * d
+    };
+    c.rho0 * volume
+}
+
 /// CPU twin: position and velocity of marker `k` at time τ into the window.
 pub fn marker_at(p: &CouplingPoint, tau: f64) -> ([f64; 3], [f64; 3]) {
     let v = p.velocity.map(f64::from);

@@ -33,7 +33,9 @@ use crate::gpu::Gpu;
 use crate::joubert2020_boundary_values::BoundaryFrame;
 use crate::limits::FluidLimits;
 use crate::marker_update::AccelerationEstimate;
-use crate::marker_update::{BodyAcceleration, Clock, GpuBody, GpuMarker, point_acceleration};
+use crate::marker_update::{
+    BodyAcceleration, Clock, GpuBody, GpuMarker, marker_mass, point_acceleration,
+};
 use crate::neighbour_grid::{GridBox, NeighbourGrid};
 use crate::particles::{Kind, ParticleKinds, ParticleSet, initial_particles, wall_layers};
 use crate::plan::Stage;
@@ -1307,7 +1309,7 @@ impl FluidSolver {
                 .push(std::array::from_fn(|a| f64::from(m.vel_body[a])));
             set.rho.push(self.consts.rho0);
             set.press.push(0.0);
-            set.mass.push(self.consts.mass);
+            set.mass.push(marker_mass(&self.consts, p.measure));
             set.id.push(marker_base + k as u32);
         }
         set.kinds.n_markers = points.len();

@@ -16,6 +16,7 @@ use couplet_fluid::adami2012_boundary_pressure::{
 };
 use couplet_fluid::body_non_penetration::{SurfacePoint, non_penetration_cpu};
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
+use couplet_fluid::marker_update::marker_mass;
 use couplet_fluid::particles::{ParticleSet, dot, sub};
 use couplet_fluid::{FluidSolver, Kind, Op, SphConstants, initial_particles};
 use couplet_protocol::{BodyState, CouplingPoint};
@@ -280,4 +281,49 @@ fn fill_points_extrapolate_from_their_own_side_as_the_twin_does() {
         d_side > 1e-3 * scale,
         "the side rule changes nothing here: {d_side:e}"
     );
+}
+
+/// Regression: the ring's hole at δ = 1 mm (`couplet validate shape-drag --quick
+/// --variant ring` blew up in the hole's column at t = 0.0313 s). Its twelve inner faces
+/// are each one marker of 0.66 δ², 0.375 δ apart, and every marker weighed the lattice
+/// mass ρ0 δ³, so the hole was walled by a wall denser than any other. Now a marker's
+/// mass (`pos.w`, its volume m/ρ in every sum) is the slab it stands for, ρ0 ΔS δ, and a
+/// fill point (ΔS = 0) keeps the lattice mass. Checked on the GPU's particles after
+/// `set_bodies`, against `marker_mass` and against ρ0 ΔS δ written out, to f32 round-off.
+#[test]
+fn ring_hole_markers_weigh_their_patch_not_a_lattice_particle() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = common::scene("", "");
+    let c = SphConstants::from_scene(&s).unwrap();
+    let d = c.spacing;
+    // 30 markers on r = 1.5δ (0.94 δ² each) and 10 fill points.
+    let (mut points, state) = filled_sphere([0.1, 0.1, 0.1], 1.5 * d, 30, 0.3);
+    // A small patch such as the ring's inner faces.
+    points[0].measure = (0.3 * d * d) as f32;
+    let mut solver =
+        FluidSolver::from_particles(&gpu, &s, initial_particles(&s, &c).unwrap()).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let base = got.kinds.marker_base();
+    let mut seen = [0usize; 2];
+    for i in 0..got.len() {
+        if got.kinds.kind(got.id[i]) != Kind::Marker {
+            continue;
+        }
+        let p = &points[got.id[i] as usize - base];
+        let area = f64::from(p.measure);
+        let want = if area > 0.0 {
+            c.rho0 * area * d
+        } else {
+            c.rho0 * d * d * d
+        };
+        assert!(
+            (got.mass[i] - want).abs() <= 1e-6 * want,
+            "marker of ΔS = {area:e} m²: mass {:e} kg, want {want:e}",
+            got.mass[i]
+        );
+        assert!((marker_mass(&c, p.measure) - want).abs() <= 1e-12 * want);
+        seen[usize::from(area > 0.0)] += 1;
+    }
+    assert_eq!(seen, [10, 30], "fill points and surface markers");
 }

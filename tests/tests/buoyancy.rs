@@ -8,8 +8,15 @@
 //!
 //! The run: the hydrostatic tank's quick version (δ = 0.02 m, support 2 δ, c_s = 17.5 m/s,
 //! α = 0.2, ν = 0) closed and filled to the lid, with Joubert's corrected gradients
-//! (`effects.gradient_correction`), and a fixed resolved sphere r = 0.05 m (2.5 δ) at
-//! mid-depth; the vertical fluid force averaged over t ∈ [0.2, 0.3] s. Reference:
+//! (`effects.gradient_correction`) and his particle shifting (`effects.particle_shifting
+//! = 0.1`, eqs. 17–19), and a fixed resolved sphere r = 0.05 m (2.5 δ) at mid-depth; the
+//! vertical fluid force averaged over t ∈ [0.2, 0.3] s. Without the shifting the tank
+//! was at the edge of its stability: a fluid particle that starts under the sphere
+//! drifts towards the x = 0 wall and is squeezed past 1500 kg/m³, at t = 0.373 s with
+//! the markers at the lattice mass and at 0.279 s (inside the averaged window) once they
+//! weighed their patches (2026-11-26; ARCHITECTURE.md, "A marker weighs as the fluid
+//! slab it stands for"); with it the run is steady to 0.6 s (5.0390 N over 0.5–0.6 s)
+//! and the force over 0.2–0.3 s is the same 5.038 N. Reference:
 //! ρf V g = 1000 · 4/3 π 0.05³ · 9.81 = 5.136 N, within 3 %: the markers' own quadrature
 //! of ∮ y n_y dA = V (8 bands of patches at this size) gives 0.975 V, so an exactly
 //! hydrostatic field would give 5.007 N. Measured 2026-11-23: 5.038 N (1.9 % low,
@@ -52,6 +59,8 @@ fn mean_fluid_lift(on_fluid: bool, end: f64) -> f64 {
             "fluid.blocks.0.max=[0.2, 0.4, 0.2]",
             "--set",
             "effects.gradient_correction=true",
+            "--set",
+            "effects.particle_shifting=0.1",
             "--set",
             &gravity,
             "--set",
