@@ -552,13 +552,17 @@ fn rates_match_cpu_twin_mass_corrected() {
 /// Symmetry planes of Adami's walls (`domain.symmetry` with `wall_model = "adami"`): a
 /// uniform flow u = (0, 0, U) over a no-slip floor, between x faces that are symmetry
 /// planes, judged out of the reach of the z walls it runs into (the twin has no periodic
-/// images, or z would be periodic). A symmetry plane is a mirror, so the flow must feel no shear
-/// from it: every fluid particle out of the floor's reach has du_z/dt = 0 (only wall
-/// particles can contribute: between fluid particles u_ij = 0), and the floor's drag on
-/// the bottom row is the same beside the planes as mid-way between them (the edge
-/// layers, behind both the floor and a plane, belong to the floor and continue it).
-/// With the x faces no-slip instead, the particle beside them at mid-height is dragged.
-/// Both the Morris and the corrected Laplacian (Joubert eq. 13), each against its twin.
+/// images, or z would be periodic). A symmetry plane is a mirror, so the flow must feel
+/// no shear from it: every fluid particle out of the floor's reach has du_z/dt = 0 to
+/// f32 round-off (only wall particles can contribute: between fluid particles u_ij = 0;
+/// measured 3e-7 of the floor's drag), and the floor's drag on the bottom row is the same
+/// beside the planes as mid-way between them (the edge layers, behind both the floor and
+/// a plane, belong to the floor and continue it; measured to 3e-7). With the x faces
+/// no-slip instead, the particle beside them at mid-height is dragged as hard as the
+/// floor drags the bottom row. Both the Morris and the corrected Laplacian (Joubert eq.
+/// 13), each against its twin. Leaving the planes' layers out of the viscous sums (the
+/// first version) failed the corrected case: the floor's drag beside a plane came out
+/// 12 % below mid-way.
 #[test]
 fn adami_symmetry_planes_exert_no_shear() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");

@@ -360,10 +360,11 @@ pub struct Domain {
     /// `wall_model = "joubert"` the plane's boundary particles take the fluid's
     /// tangential velocity by Joubert eq. (27); with `"adami"` its wall layers carry
     /// the extrapolated pressure (which keeps the fluid out and has no normal gradient
-    /// but the hydrostatic one) and stay out of the viscous sums, so the fluid feels no
-    /// shear from them, as on a free-slip wall. Not on a periodic axis, nor on y with a
-    /// lid velocity. A particle on the edge between a symmetry plane and a wall belongs
-    /// to the wall (its velocity is the wall's, and it takes part in the viscous sums).
+    /// but the hydrostatic one) and enter the viscous sums with the fluid's velocity
+    /// mirrored across the plane (its normal component reversed), so a flow along the
+    /// plane feels no shear from it. Not on a periodic axis, nor on y with a lid
+    /// velocity. A particle on the edge between a symmetry plane and a wall belongs to
+    /// the wall (its velocity is the wall's).
     #[serde(default)]
     pub symmetry: [bool; 3],
 }
@@ -2265,7 +2266,7 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         assert_eq!(ok.domain.wall_model, WallModel::Joubert);
         assert_eq!(ok.domain.symmetry, [false, false, true]);
         assert_eq!(field(with(joubert, "")), "domain.wall_model");
-        // Adami's walls take symmetry planes too (free of shear, ARCHITECTURE.md).
+        // Adami's walls take symmetry planes too (the fluid's velocity mirrored, ARCHITECTURE.md).
         let adami = with("symmetry = [true, false, false]", "").unwrap();
         assert_eq!(adami.domain.wall_model, WallModel::Adami);
         assert_eq!(adami.domain.symmetry, [true, false, false]);
