@@ -144,6 +144,43 @@ fn check_rates(effects: &str, walls: &str, seed: u64) {
     check_rates_within(effects, walls, seed, [PAIR_RTOL; 2], 1e-4);
 }
 
+/// Sort, boundary pressure, gradients and rates on the GPU from `set`, and the twin's
+/// rates on the GPU's particles: (particles, dρ/dt, du/dt, twin). `Gradients` is absent
+/// (dispatches nothing) without the correction; it runs after the wall densities are set
+/// so that the twin sees the same V_j = m/ρ_j.
+#[allow(clippy::type_complexity)]
+fn rates_pass(
+    gpu: &Gpu,
+    s: &Scene,
+    c: &SphConstants,
+    set: ParticleSet,
+    dt: f64,
+) -> (
+    ParticleSet,
+    Vec<f64>,
+    Vec<[f64; 3]>,
+    Vec<Option<(f64, [f64; 3])>>,
+) {
+    let mut solver = FluidSolver::from_particles(gpu, s, set).unwrap();
+    solver
+        .run_ops(
+            gpu,
+            &[
+                Op::Sort,
+                Op::BoundaryPressure,
+                Op::Gradients,
+                Op::FluidRates,
+            ],
+            dt,
+            1.0,
+        )
+        .unwrap();
+    let got = solver.data().read(gpu).unwrap();
+    let (drho, dvel) = solver.data().read_rates(gpu).unwrap();
+    let want = fluid_rates_cpu(c, &got, dt);
+    (got, drho, dvel, want)
+}
+
 /// [`check_rates`] with continuity and momentum held to `rtol` = [continuity, momentum]
 /// of their largest values, for a step `dt` (which only the mass correction reads).
 fn check_rates_within(effects: &str, walls: &str, seed: u64, rtol: [f64; 2], dt: f64) {
@@ -157,25 +194,7 @@ fn check_rates_within(effects: &str, walls: &str, seed: u64, rtol: [f64; 2], dt:
     for (k, v) in set.vel.iter_mut().enumerate().skip(n_fluid) {
         *v = [0.2, 0.0, -0.1 * (k % 3) as f64];
     }
-    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-    // `Gradients` is absent (dispatches nothing) without the correction; it runs after
-    // the wall densities are set so that the twin sees the same V_j = m/ρ_j.
-    solver
-        .run_ops(
-            &gpu,
-            &[
-                Op::Sort,
-                Op::BoundaryPressure,
-                Op::Gradients,
-                Op::FluidRates,
-            ],
-            dt,
-            1.0,
-        )
-        .unwrap();
-    let got = solver.data().read(&gpu).unwrap();
-    let (drho, dvel) = solver.data().read_rates(&gpu).unwrap();
-    let want = fluid_rates_cpu(&c, &got, dt);
+    let (got, drho, dvel, want) = rates_pass(&gpu, &s, &c, set, dt);
     let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
     let (ec, mc) = max_err(
         fluid
@@ -583,23 +602,7 @@ fn adami_symmetry_planes_exert_no_shear() {
             for v in set.vel.iter_mut().take(set.kinds.n_fluid) {
                 *v = [0.0, 0.0, u];
             }
-            let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-            solver
-                .run_ops(
-                    &gpu,
-                    &[
-                        Op::Sort,
-                        Op::BoundaryPressure,
-                        Op::Gradients,
-                        Op::FluidRates,
-                    ],
-                    1e-4,
-                    1.0,
-                )
-                .unwrap();
-            let got = solver.data().read(&gpu).unwrap();
-            let (_, dvel) = solver.data().read_rates(&gpu).unwrap();
-            let want = fluid_rates_cpu(&c, &got, 1e-4);
+            let (got, _, dvel, want) = rates_pass(&gpu, &s, &c, set, 1e-4);
             let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
             let (em, mm) = max_err(fluid.iter().map(|&i| (dvel[i][2], want[i].unwrap().1[2])));
             assert!(
