@@ -7,8 +7,10 @@
 //   B_i = M_i⁻¹ if det M_i ≥ B_DET_MIN, else I   (near-singular: counted in diag[1])
 //   ⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij      for f = u_x, u_y, u_z, p, ρ (eqs. 7, 9–10;
 //                                               ρ: the renormalised gradient of δ-SPH)
-//   s_i = r̄_i² Σ_j e_ij / r_ij²                  the shift direction of eq. (17) before
-//                                               its factor β ‖u‖max Δt
+//   s_i = r̄_i² Σ_j (m_j/m_0) e_ij / r_ij²       the shift direction of eq. (17) before
+//                                               its factor β ‖u‖max Δt, each neighbour
+//                                               counted as the lattice particles
+//                                               (m_0 = LATTICE_MASS) it stands for
 // and the largest fluid speed of the step (diag[0], f32 bits: non-negative floats
 // order like their bit patterns).
 // With B_HAT_SOLVE (the corrected Laplacian or the mass correction) also B̂_i of Joubert eq. (11): with q(e) = (e_x², e_y², e_z²,
@@ -221,7 +223,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 grho += (rho_j - rho_i) * vgw;
                 r_sum += r;
                 count += 1.0;
-                s += r_ij / (r2 * r);
+                s += (pos[j].w / LATTICE_MASS) * r_ij / (r2 * r);
                 if B_HAT_SOLVE {
                     let e = r_ij / r;
                     let vf = (pos[j].w / rho_j) * grad_factor_at(r, h_i);

@@ -13,8 +13,16 @@
 //!   is counted (see [`B_DET_MIN`]): the count is reported per window, never hidden.
 //! - `⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij` for `f = u_x, u_y, u_z, p, ρ` (ρ: the
 //!   renormalised density gradient of δ-SPH, Antuono et al. 2010).
-//! - `s_i = r̄_i² Σ_j e_ij / r_ij²` with `r̄_i` the mean neighbour distance: eq. (17)
-//!   without its factor `β ‖u‖max Δt`, which [`crate::particle_shifting`] applies.
+//! - `s_i = r̄_i² Σ_j (m_j/m_0) e_ij / r_ij²` with `r̄_i` the mean neighbour distance
+//!   and `m_0 = ρ0 δ³` the lattice mass: eq. (17) without its factor `β ‖u‖max Δt`,
+//!   which [`crate::particle_shifting`] applies. Joubert's sum counts every neighbour
+//!   as one particle; here each counts as the lattice particles it stands for, as every
+//!   other sum weighs it by its volume. Fluid, wall and fill particles weigh m_0 (eq. 17
+//!   as printed); a surface marker weighs ρ0 ΔS δ (`marker_mass`), so markers packed
+//!   closer than δ do not crowd the fluid off a surface. Counted whole, the 24 markers
+//!   0.375 δ apart in the hole of Joubert's ring at δ = 1 mm drove the fluid particle
+//!   there out against its flow while continuity compressed it, and the ring blew up
+//!   (ARCHITECTURE.md, "Particle shifting counts a marker as the patch it stands for").
 //! - the largest fluid speed of the step, `‖u‖max` of eq. (17).
 //!
 //! WGSL: `shaders/joubert2020_gradients.wgsl`.
@@ -276,8 +284,10 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
                 let r = r2.sqrt();
                 r_sum += r;
                 count += 1.0;
+                // Each neighbour counts as the lattice particles it stands for.
+                let w = set.mass[j] / c.mass;
                 for k in 0..3 {
-                    s[k] += r_ij[k] / (r2 * r);
+                    s[k] += w * r_ij[k] / (r2 * r);
                 }
             }
             let r_mean = if count > 0.0 { r_sum / count } else { 0.0 };

@@ -285,8 +285,8 @@ fn fill_points_extrapolate_from_their_own_side_as_the_twin_does() {
 
 /// Regression: the ring's hole at δ = 1 mm (`couplet validate shape-drag --quick
 /// --variant ring` blew up in the hole's column at t = 0.0313 s). Its twelve inner faces
-/// are each one marker of 0.66 δ², 0.375 δ apart, and every marker weighed the lattice
-/// mass ρ0 δ³, so the hole was walled by a wall denser than any other. Now a marker's
+/// carry two markers of 0.33 δ² each, 0.375 δ apart round the hole, and every marker
+/// weighed the lattice mass ρ0 δ³, so the hole was walled by a wall denser than any other. Now a marker's
 /// mass (`pos.w`, its volume m/ρ in every sum) is the slab it stands for, ρ0 ΔS δ, and a
 /// fill point (ΔS = 0) keeps the lattice mass. Checked on the GPU's particles after
 /// `set_bodies`, against `marker_mass` and against ρ0 ΔS δ written out, to f32 round-off.
@@ -326,4 +326,95 @@ fn ring_hole_markers_weigh_their_patch_not_a_lattice_particle() {
         seen[usize::from(area > 0.0)] += 1;
     }
     assert_eq!(seen, [10, 30], "fill points and surface markers");
+}
+
+/// Regression: the ring's hole at δ = 1 mm again (`couplet validate shape-drag --quick
+/// --variant ring`, cut to a 25 mm box and 0.3 s, blew up in the hole's column at
+/// t = 0.093 s). Particle shifting (Joubert eq. 17) counted each of the 24 inner-face
+/// markers, 0.375 δ apart, as a whole particle, drove the fluid particle in the hole out
+/// against its flow and let continuity compress it. Now each neighbour counts as
+/// m_j/(ρ0 δ³) lattice particles. A sphere whose markers stand for 0.3 δ² each, beside a
+/// fluid at rest, over the fluid particles that see a marker: the GPU's shift direction
+/// s_i against the twin's (`gradients_cpu`) to 1e-4 of the largest, and the twin's
+/// against the weighted sum written out here; the unweighted sum differs from it by more
+/// than 10 % somewhere, so the test sees the weights.
+#[test]
+fn shifting_counts_a_marker_as_the_patch_it_stands_for() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    // Support 2.9δ: the lattice has no pair at the support's edge (3δ), where eq. (17)'s
+    // 1/r² does not vanish and f32 and f64 disagree on whether the pair counts.
+    let s = common::scene(
+        "support = 2.9",
+        "[effects]\ngradient_correction = true\nparticle_shifting = 0.1\n",
+    );
+    let c = SphConstants::from_scene(&s).unwrap();
+    let d = c.spacing;
+    let (mut points, state) = filled_sphere([0.1, 0.1, 0.1], 1.5 * d, 30, 0.3);
+    for p in points.iter_mut().filter(|p| p.measure > 0.0) {
+        p.measure = (0.3 * d * d) as f32;
+    }
+    let mut solver =
+        FluidSolver::from_particles(&gpu, &s, initial_particles(&s, &c).unwrap()).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
+    solver
+        .run_ops(
+            &gpu,
+            &[Op::MarkerUpdate, Op::Sort, Op::Gradients],
+            1e-5,
+            1.0,
+        )
+        .unwrap();
+    let set = solver.data().read(&gpu).unwrap();
+    let gpu_shift: Vec<[f64; 3]> = solver
+        .data()
+        .read_gradients(&gpu)
+        .unwrap()
+        .unwrap()
+        .fields
+        .iter()
+        .map(|f| f[4])
+        .collect();
+    let twin = couplet_fluid::joubert2020_gradients::gradients_cpu(&c, &set);
+    let reach = c.kernel.radius();
+    let (mut e_gpu, mut e_sum, mut unweighted_off, mut scale, mut near) =
+        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0);
+    for i in 0..set.len() {
+        let Some(g) = twin[i] else { continue };
+        let norm = |v: [f64; 3]| dot(v, v).sqrt();
+        // Eq. (17)'s sum written out, weighted and not.
+        let (mut weighted, mut whole, mut r_sum, mut n, mut markers) =
+            ([0.0; 3], [0.0; 3], 0.0, 0.0, 0);
+        for j in set.neighbours(i, reach) {
+            let r_ij = sub(set.pos[i], set.pos[j]);
+            let r = dot(r_ij, r_ij).sqrt();
+            let w = set.mass[j] / (c.rho0 * d * d * d);
+            for k in 0..3 {
+                weighted[k] += w * r_ij[k] / (r * r * r);
+                whole[k] += r_ij[k] / (r * r * r);
+            }
+            r_sum += r;
+            n += 1.0;
+            markers += usize::from(set.kinds.kind(set.id[j]) == Kind::Marker);
+        }
+        if markers == 0 {
+            continue;
+        }
+        near += 1;
+        e_gpu = e_gpu.max(norm(sub(gpu_shift[i], g.shift)));
+        let r2 = (r_sum / n) * (r_sum / n);
+        let (weighted, whole) = (weighted.map(|x| r2 * x), whole.map(|x| r2 * x));
+        scale = scale.max(norm(g.shift));
+        e_sum = e_sum.max(norm(sub(g.shift, weighted)) / norm(weighted));
+        unweighted_off = unweighted_off.max(norm(sub(whole, weighted)) / norm(weighted));
+    }
+    println!(
+        "shift direction: GPU against twin {e_gpu:e} of {scale:e}; twin against the weighted sum {e_sum:e} (relative), the unweighted sum up to {unweighted_off:e} off, over {near} particles beside markers"
+    );
+    assert!(near > 10, "only {near} fluid particles see a marker");
+    assert!(e_gpu <= 1e-4 * scale, "GPU {e_gpu:e} of {scale:e}");
+    assert!(e_sum <= 1e-9, "twin against the weighted sum: {e_sum:e}");
+    assert!(
+        unweighted_off > 0.1,
+        "weights change the shift by only {unweighted_off:e}"
+    );
 }
