@@ -504,8 +504,10 @@ pub struct EffectsSpec {
     pub mass_correction: f64,
     /// Particle shifting of Joubert eqs. (17)–(19) (Xu et al. 2009): the decrowding
     /// factor β; 0 switches it off. Joubert gives 0.001 ≤ β ≤ 0.1, and values outside
-    /// that range are refused. Default 0 (off): shifting changes the particle
-    /// distribution, which a scene asks for.
+    /// that range are refused. Each neighbour in eq. (17)'s sum counts as the lattice
+    /// particles it stands for, m_j/(ρ0 δ³): 1 for fluid, wall and fill particles, ΔS/δ²
+    /// for a body's surface marker (ARCHITECTURE.md). Default 0 (off): shifting changes
+    /// the particle distribution, which a scene asks for.
     #[serde(default)]
     pub particle_shifting: f64,
     /// δ-SPH density diffusion (Antuono, Colagrossi, Marrone & Molteni 2010) with the

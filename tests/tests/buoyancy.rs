@@ -16,7 +16,8 @@
 //! the markers at the lattice mass and at 0.279 s (inside the averaged window) once they
 //! weighed their patches (2026-11-26; ARCHITECTURE.md, "A marker weighs as the fluid
 //! slab it stands for"); with it the run is steady to 0.6 s (5.0390 N over 0.5–0.6 s)
-//! and the force over 0.2–0.3 s is the same 5.038 N. Reference:
+//! and the force over 0.2–0.3 s is the same 5.038 N; 5.0188 N once the shifting counted
+//! each marker as its patch (2026-11-26, ARCHITECTURE.md). Reference:
 //! ρf V g = 1000 · 4/3 π 0.05³ · 9.81 = 5.136 N, within 3 %: the markers' own quadrature
 //! of ∮ y n_y dA = V (8 bands of patches at this size) gives 0.975 V, so an exactly
 //! hydrostatic field would give 5.007 N. Measured 2026-11-23: 5.038 N (1.9 % low,

@@ -14,7 +14,9 @@
 //! in a length unit of its own (round-off only): force 2.65 % and 2.56 % above the
 //! submerged weight (the body still slowing from its overshoot), plateau change 2.74 % and
 //! 6.57 % (the 12-gon at r = 1.25δ rocks, its speed swinging ±10 % over about 0.02 s),
-//! Re 13.84 and 13.94; 199 s.
+//! Re 13.84 and 13.94; 199 s. With Joubert's mass correction (Γ = 2) and particle
+//! shifting counting each marker as its patch (2026-11-26): force 0.22 % off, plateau
+//! change 0.39 %, Re 14.56; 245 s.
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 

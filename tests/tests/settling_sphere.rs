@@ -14,7 +14,9 @@
 //! 4.63 % after rapier took the bodies in a length unit of its own (2026-11-25; the two
 //! tracks agree to three digits until 0.22 s, then the wake's wiggles of ±4 % over
 //! 0.05–0.1 s part them); plateau 0.0566 and 0.0543 m/s against 0.0482 m/s from the
-//! correlation (r = 1.25 δ does not resolve the boundary layer); 132 s. Earlier: 2.38 %
+//! correlation (r = 1.25 δ does not resolve the boundary layer); 132 s. With particle
+//! shifting counting each marker as its patch (2026-11-26): plateau 0.0594 m/s, change
+//! 0.70 %; 186 s. Earlier: 2.38 %
 //! with the markers' corrected velocity gradient (2026-11-23), 1.00 % with the
 //! uncorrected one; 0.55–5.14 % over four identical runs before the sort was stable.
 
