@@ -286,9 +286,9 @@ fn fill_points_extrapolate_from_their_own_side_as_the_twin_does() {
 /// Regression: the ring's hole at δ = 1 mm (`couplet validate shape-drag --quick
 /// --variant ring` blew up in the hole's column at t = 0.0313 s). Its twelve inner faces
 /// carry two markers of 0.33 δ² each, 0.375 δ apart round the hole, and every marker
-/// weighed the lattice mass ρ0 δ³, so the hole was walled by a wall denser than any other. Now a marker's
-/// mass (`pos.w`, its volume m/ρ in every sum) is the slab it stands for, ρ0 ΔS δ, and a
-/// fill point (ΔS = 0) keeps the lattice mass. Checked on the GPU's particles after
+/// weighed the lattice mass ρ0 δ³, so the hole was walled by a wall denser than any
+/// other. Now a marker's mass (`pos.w`, its volume m/ρ in every sum) is the slab it
+/// stands for, ρ0 ΔS δ, and a fill point (ΔS = 0) keeps the lattice mass. Checked on the GPU's particles after
 /// `set_bodies`, against `marker_mass` and against ρ0 ΔS δ written out, to f32 round-off.
 #[test]
 fn ring_hole_markers_weigh_their_patch_not_a_lattice_particle() {
@@ -376,11 +376,11 @@ fn shifting_counts_a_marker_as_the_patch_it_stands_for() {
         .collect();
     let twin = couplet_fluid::joubert2020_gradients::gradients_cpu(&c, &set);
     let reach = c.kernel.radius();
+    let norm = |v: [f64; 3]| dot(v, v).sqrt();
     let (mut e_gpu, mut e_sum, mut unweighted_off, mut scale, mut near) =
         (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0);
     for i in 0..set.len() {
         let Some(g) = twin[i] else { continue };
-        let norm = |v: [f64; 3]| dot(v, v).sqrt();
         // Eq. (17)'s sum written out, weighted and not.
         let (mut weighted, mut whole, mut r_sum, mut n, mut markers) =
             ([0.0; 3], [0.0; 3], 0.0, 0.0, 0);

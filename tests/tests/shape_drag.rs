@@ -4,8 +4,8 @@
 //! --quick`, issue 4's reduced case 2: the 12-face cylinder, the ring and the cross each
 //! fall to a terminal velocity at which the fluid force on their markers (Joubert eqs.
 //! 31, 36) carries their submerged weight (ρs − ρf) V g within 3 % (reference: the
-//! body's own weight), with no NaN. Re and C_D are reported: Table 5's figures are at δ = 0.25 mm,
-//! which needs a GPU (`couplet validate shape-drag`).
+//! body's own weight), with no NaN. Re and C_D are reported: Table 5's figures are at
+//! δ = 0.25 mm, which needs a GPU (`couplet validate shape-drag`).
 //!
 //! Reduced for CI from the quick version (δ = 1 mm, box 30 mm high, release at 20 mm,
 //! to 0.6 s): the box cut to 25 mm with the release at 16 mm, to 0.3 s, which still
