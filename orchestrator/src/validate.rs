@@ -2709,7 +2709,10 @@ fn fall(s: &[BodySample], stop: f64, report: &mut Report) -> Result<Fall, String
             let last = s.last().ok_or("no body state recorded")?;
             report.judge(
                 "the fall reaches the floor stretch (the run ended before it)",
-                format!("ended at t = {:.4} s, y = {:.3e} m", last.time, last.position[1]),
+                format!(
+                    "ended at t = {:.4} s, y = {:.3e} m",
+                    last.time, last.position[1]
+                ),
                 format!("y < {stop:.3e} m"),
                 "exact".into(),
                 Some(false),
