@@ -2697,11 +2697,11 @@ struct Fall {
     change: f64,
 }
 
-///
-/// A run that ended before the body got down to `stop` (a time limit, a cut recording) is
-/// measured over the last fifth of what ran, and a failing row says where it stopped: its
-/// plateau and everything derived from it are then a lower bound on a fall still
-/// accelerating, or a terminal velocity where the change row says it had settled.
+/// The [`Fall`] of track `s` down to the centre height `stop`. A run that ended before
+/// the body got down to `stop` (a time limit, a cut recording) is measured over the last
+/// fifth of what ran, and a failing row says where it stopped: its plateau and all that
+/// follows from it are then a lower bound on a fall still accelerating, or a terminal
+/// velocity where the change row says it had settled.
 fn fall(s: &[BodySample], stop: f64, report: &mut Report) -> Result<Fall, String> {
     let end = match s.iter().position(|b| b.position[1] < stop) {
         Some(end) => end,
