@@ -288,8 +288,9 @@ fn fill_points_extrapolate_from_their_own_side_as_the_twin_does() {
 /// carry two markers of 0.33 δ² each, 0.375 δ apart round the hole, and every marker
 /// weighed the lattice mass ρ0 δ³, so the hole was walled by a wall denser than any
 /// other. Now a marker's mass (`pos.w`, its volume m/ρ in every sum) is the slab it
-/// stands for, ρ0 ΔS δ, and a fill point (ΔS = 0) keeps the lattice mass. Checked on the GPU's particles after
-/// `set_bodies`, against `marker_mass` and against ρ0 ΔS δ written out, to f32 round-off.
+/// stands for, ρ0 ΔS δ, and a fill point (ΔS = 0) keeps the lattice mass. Checked on the
+/// GPU's particles after `set_bodies`, against `marker_mass` and against ρ0 ΔS δ written
+/// out, to f32 round-off.
 #[test]
 fn ring_hole_markers_weigh_their_patch_not_a_lattice_particle() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");

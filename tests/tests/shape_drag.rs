@@ -17,8 +17,9 @@
 //! here).
 //!
 //! The sphere of the same scene at the same δ runs in CI as `settling_sphere.rs`; the
-//! 12-face prism is the settling cylinder's and the DKT's body (`settling_cylinder.rs`,
-//! `dkt.rs`), and at Table 3's δ it fell at Re 11.18 against Table 5's 11.95 on an H200.
+//! cylinder's 12-gon section is the settling cylinder's and the DKT's
+//! (`settling_cylinder.rs`, `dkt.rs`), and at Table 3's δ the cylinder fell at Re 11.18
+//! against Table 5's 11.95 on an H200.
 //! The ring's hole at δ = 1 mm (apothem 0.70 δ) holds one lattice column of fluid.
 //! Before particle shifting counted each marker as its patch (ARCHITECTURE.md,
 //! "Particle shifting counts a marker as the patch it stands for") it drove the particle
