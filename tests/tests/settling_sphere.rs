@@ -8,18 +8,18 @@
 //! r = 1.25δ it is reported, and the test checks that it is. The plateau velocity is
 //! reported next to the correlation of Joubert eqs. (37)–(38).
 //!
-//! Quick version: δ = 1 mm (r = 1.25 δ), support 2.4 δ, the box cut to 30 mm high with
-//! the release at 20 mm, to t = 0.5 s (0.6 s until 2026-11-26). Runs repeat bit for bit
-//! on one machine (stable grid sort), but the plateau at this radius is decided by
-//! round-off: 2.63 % before and 4.63 % after rapier took the bodies in a length unit of
-//! its own (2026-11-25; the two tracks agree to three digits until 0.22 s, then the wake's wiggles of ±4 % over
-//! 0.05–0.1 s part them); plateau 0.0566 and 0.0543 m/s against 0.0482 m/s from the
-//! correlation (r = 1.25 δ does not resolve the boundary layer); 132 s. With particle
-//! shifting counting each marker as its patch (2026-11-26): plateau 0.0594 m/s, change
-//! 0.70 %; 186 s; cut to 0.5 s to keep CI near 40 minutes, the same plateau, at rest on
-//! the floor (vertical speed 0). Earlier: 2.38 %
-//! with the markers' corrected velocity gradient (2026-11-23), 1.00 % with the
-//! uncorrected one; 0.55–5.14 % over four identical runs before the sort was stable.
+//! Quick version: δ = 1 mm (r = 1.25 δ), support 2.4 δ, the box cut to 30 mm high with the
+//! release at 20 mm, to t = 0.5 s (0.6 s until 2026-11-26). Runs repeat bit for bit on one
+//! machine (stable grid sort), but the plateau at this radius is decided by round-off: 2.63
+//! % before and 4.63 % after rapier took the bodies in a length unit of its own
+//! (2026-11-25; the two tracks agree to three digits until 0.22 s, then the wake's wiggles
+//! of ±4 % over 0.05–0.1 s part them); plateau 0.0566 and 0.0543 m/s against 0.0482 m/s
+//! from the correlation (r = 1.25 δ does not resolve the boundary layer); 132 s. With
+//! particle shifting counting each marker as its patch (2026-11-26): plateau 0.0594 m/s,
+//! change 0.70 %; 186 s; cut to 0.5 s to keep CI near 40 minutes, the same plateau, at rest
+//! on the floor (vertical speed 0). Earlier: 2.38 % with the markers' corrected velocity
+//! gradient (2026-11-23), 1.00 % with the uncorrected one; 0.55–5.14 % over four identical
+//! runs before the sort was stable.
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
