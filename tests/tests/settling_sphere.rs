@@ -10,8 +10,8 @@
 //!
 //! Quick version: δ = 1 mm (r = 1.25 δ), support 2.4 δ, the box cut to 30 mm high with the
 //! release at 20 mm, to t = 0.5 s (0.6 s until 2026-11-26). Runs repeat bit for bit on one
-//! machine (stable grid sort), but the plateau at this radius is decided by round-off: 2.63
-//! % before and 4.63 % after rapier took the bodies in a length unit of its own
+//! machine (stable grid sort), but the plateau at this radius is decided by round-off:
+//! 2.63 % before and 4.63 % after rapier took the bodies in a length unit of its own
 //! (2026-11-25; the two tracks agree to three digits until 0.22 s, then the wake's wiggles
 //! of ±4 % over 0.05–0.1 s part them); plateau 0.0566 and 0.0543 m/s against 0.0482 m/s
 //! from the correlation (r = 1.25 δ does not resolve the boundary layer); 132 s. With
