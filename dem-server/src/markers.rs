@@ -145,7 +145,85 @@ pub fn fill_points(
             }
         }
     }
+    let markers: Vec<LocalMarker> = markers_of(geometry, spacing)?
+        .into_iter()
+        .filter(|m| !pressed(m.normal))
+        .collect();
+    let backing = backing_points(&surface, &markers, &out, spacing, reach);
+    out.extend(backing);
     Ok(out)
+}
+
+/// Fill behind the patches the lattice gave to the other side. The lattice keeps a
+/// point only at least δ behind every face and gives it to its nearest face, so a wall
+/// thinner than about four spacings holds a band of fill under two spacings wide, and
+/// the lattice's accidents decide which side it backs: in Joubert's ring at δ = 0.25 mm
+/// (walls 2.8δ thick) the 96 lattice points lie 1.1–1.3δ behind the outer faces and take
+/// the outer fluid's pressure, and the hole's faces got none, so the fluid in the hole
+/// saw one layer of markers and the ring blew up there (ARCHITECTURE.md, "Thin walls are
+/// backed patch by patch"). A marker's first backing point is q = x − δ n, one spacing
+/// behind it along its inward normal, where the fill's first layer belongs. The marker
+/// is backed when a fill point lies within δ of q whose nearest face does not face away
+/// from the marker's (normals at most 90° apart: a point on a box's edge diagonal, as
+/// near to both faces, backs both), as on a face the lattice fills (its band of points
+/// [δ, reach − δ/2) deep always has one there). It is shadowed when fill within `reach`
+/// of q faces away, as the ring's outer fill does from its hole. A marker both bare and
+/// shadowed gets q and the points further behind it, kδ deep for k = 1, 2, … while
+/// kδ < `reach` − δ/2 (the lattice's depth range), each kept only if no other face is
+/// nearer to it than its own (the far face of a thin wall, a convex edge's wedge). A
+/// body with no lattice fill (under about 3.7 spacings across: the quick settling
+/// sphere and cylinder, r = 1.25δ) shadows nothing and stays unfilled: q there lies a
+/// fraction of δ from the centre, where every marker's q would crowd it.
+fn backing_points(
+    surface: &Surface,
+    markers: &[LocalMarker],
+    fill: &[LocalMarker],
+    spacing: f64,
+    reach: f64,
+) -> Vec<LocalMarker> {
+    use std::collections::HashMap;
+    // Cells of the reach: the fill within `reach` of q lies in the 27 around q's.
+    let cell = |p: [f64; 3]| p.map(|x| (x / reach).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    for (i, f) in fill.iter().enumerate() {
+        grid.entry(cell(f.position)).or_default().push(i);
+    }
+    let needs_backing = |m: &LocalMarker| {
+        let q = sub(m.position, scale(m.normal, spacing));
+        let c = cell(q);
+        let (mut backed, mut shadowed) = (false, false);
+        for n in 0..27 {
+            let key = [c[0] + n % 3 - 1, c[1] + n / 3 % 3 - 1, c[2] + n / 9 - 1];
+            for f in grid.get(&key).into_iter().flatten().map(|&i| &fill[i]) {
+                let r = norm(sub(f.position, q));
+                if dot(f.normal, m.normal) > -1e-6 {
+                    backed |= r <= spacing;
+                } else {
+                    shadowed |= r < reach;
+                }
+            }
+        }
+        shadowed && !backed
+    };
+    let mut out = Vec::new();
+    for m in markers.iter().filter(|m| m.area > 0.0 && needs_backing(m)) {
+        let mut k = 1.0;
+        while k * spacing < reach - 0.5 * spacing {
+            let q = sub(m.position, scale(m.normal, k * spacing));
+            if let Some((depth, normal)) = surface.depth(q)
+                && depth >= k * spacing * (1.0 - 1e-9)
+                && dot(normal, m.normal) > 1.0 - 1e-6
+            {
+                out.push(LocalMarker {
+                    position: q,
+                    normal: m.normal,
+                    area: 0.0,
+                });
+            }
+            k += 1.0;
+        }
+    }
+    out
 }
 
 /// A body's outer surface for depth queries (body frame), without the faces pressed
