@@ -154,71 +154,82 @@ pub fn fill_points(
     Ok(out)
 }
 
-/// Fill behind the patches the lattice gave to the other side. The lattice keeps a
-/// point only at least δ behind every face and gives it to its nearest face, so a wall
-/// thinner than about four spacings holds a band of fill under two spacings wide, and
-/// the lattice's accidents decide which side it backs: in Joubert's ring at δ = 0.25 mm
-/// (walls 2.8δ thick) the 96 lattice points lie 1.1–1.3δ behind the outer faces and take
-/// the outer fluid's pressure, and the hole's faces got none, so the fluid in the hole
-/// saw one layer of markers and the ring blew up there (ARCHITECTURE.md, "Thin walls are
-/// backed patch by patch"). A marker's first backing point is q = x − δ n, one spacing
-/// behind it along its inward normal, where the fill's first layer belongs. The marker
-/// is backed when a fill point lies within δ of q whose nearest face does not face away
-/// from the marker's (normals at most 90° apart: a point on a box's edge diagonal, as
-/// near to both faces, backs both), as on a face the lattice fills (its band of points
-/// [δ, reach − δ/2) deep always has one there). It is shadowed when fill within `reach`
-/// of q faces away, as the ring's outer fill does from its hole. A marker both bare and
-/// shadowed gets q and the points further behind it, kδ deep for k = 1, 2, … while
-/// kδ < `reach` − δ/2 (the lattice's depth range), each kept only if no other face is
-/// nearer to it than its own (the far face of a thin wall, a convex edge's wedge). A
-/// body with no lattice fill (under about 3.7 spacings across: the quick settling
-/// sphere and cylinder, r = 1.25δ) shadows nothing and stays unfilled: q there lies a
-/// fraction of δ from the centre, where every marker's q would crowd it.
+/// Fill behind the patches the lattice leaves bare. The lattice keeps a point only at
+/// least δ behind every face and gives it to its nearest face, so a wall thinner than
+/// about four spacings holds a band of fill under two spacings wide, and the lattice's
+/// accidents decide which side it backs: in Joubert's ring at δ = 0.25 mm (walls 2.8δ
+/// thick, 7δ tall) the 96 lattice points lie 1.1–1.3δ behind the outer faces, 16 to a
+/// layer, the hole's faces got none and the caps a fifth of a layer, so the fluid in
+/// the hole saw one layer of markers and the ring blew up there (ARCHITECTURE.md, "Thin
+/// walls are backed patch by patch"). A marker's first backing point is q = x − δ n,
+/// one spacing behind it along its inward normal, where the fill's first layer belongs.
+/// The marker is backed when a fill point lies within δ of q whose nearest face does not
+/// face away from the marker's (normals at most 90° apart: a point on a box's edge
+/// diagonal, as near to both faces, backs both), as on a face the lattice fills (its
+/// band of points [δ, reach − δ/2) deep always has one there). A bare marker gets q and
+/// the points further behind it, kδ deep for k = 1, 2, … while kδ < `reach` − δ/2 (the
+/// lattice's depth range), each kept only if no other face is nearer to it than its own
+/// (the far face of a thin wall, a convex edge's wedge) and none of its side's fill
+/// (the lattice's or backing kept before it) lies closer than δ: the backing is never
+/// denser than the lattice, except across a thin wall (as the lattice's own fill of the
+/// other side stands), so on a convex curve, where the inward normals meet, the backing
+/// points of neighbouring markers do not pile up. A body the lattice leaves
+/// unfilled (under about 3.7 spacings across: the quick settling sphere and cylinder,
+/// r = 1.25δ) stays so: q there lies a fraction of δ from the centre, where every
+/// marker's q would crowd into one spot.
 fn backing_points(
     surface: &Surface,
     markers: &[LocalMarker],
-    fill: &[LocalMarker],
+    lattice: &[LocalMarker],
     spacing: f64,
     reach: f64,
 ) -> Vec<LocalMarker> {
     use std::collections::HashMap;
-    // Cells of the reach: the fill within `reach` of q lies in the 27 around q's.
-    let cell = |p: [f64; 3]| p.map(|x| (x / reach).floor() as i64);
-    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-    for (i, f) in fill.iter().enumerate() {
-        grid.entry(cell(f.position)).or_default().push(i);
+    if lattice.is_empty() {
+        return Vec::new();
     }
-    let needs_backing = |m: &LocalMarker| {
-        let q = sub(m.position, scale(m.normal, spacing));
-        let c = cell(q);
-        let (mut backed, mut shadowed) = (false, false);
-        for n in 0..27 {
-            let key = [c[0] + n % 3 - 1, c[1] + n / 3 % 3 - 1, c[2] + n / 9 - 1];
-            for f in grid.get(&key).into_iter().flatten().map(|&i| &fill[i]) {
-                let r = norm(sub(f.position, q));
-                if dot(f.normal, m.normal) > -1e-6 {
-                    backed |= r <= spacing;
-                } else {
-                    shadowed |= r < reach;
-                }
-            }
-        }
-        shadowed && !backed
-    };
+    // Fill by cells of δ: the points within δ of x lie in the 27 cells around x's.
+    let cell = |p: [f64; 3]| p.map(|x| (x / spacing).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<LocalMarker>> = HashMap::new();
+    for f in lattice {
+        grid.entry(cell(f.position)).or_default().push(*f);
+    }
+    // Whether fill of the side of `normal` (not facing away) lies within `r` of `x`.
+    let sided =
+        |grid: &HashMap<[i64; 3], Vec<LocalMarker>>, x: [f64; 3], normal: [f64; 3], r: f64| {
+            let c = cell(x);
+            (0..27).any(|n| {
+                let key = [c[0] + n % 3 - 1, c[1] + n / 3 % 3 - 1, c[2] + n / 9 - 1];
+                grid.get(&key)
+                    .into_iter()
+                    .flatten()
+                    .any(|f| dot(f.normal, normal) > -1e-6 && norm(sub(f.position, x)) <= r)
+            })
+        };
     let mut out = Vec::new();
-    for m in markers.iter().filter(|m| m.area > 0.0 && needs_backing(m)) {
+    for m in markers.iter().filter(|m| m.area > 0.0) {
+        if sided(
+            &grid,
+            sub(m.position, scale(m.normal, spacing)),
+            m.normal,
+            spacing,
+        ) {
+            continue;
+        }
         let mut k = 1.0;
         while k * spacing < reach - 0.5 * spacing {
             let q = sub(m.position, scale(m.normal, k * spacing));
-            if let Some((depth, normal)) = surface.depth(q)
-                && depth >= k * spacing * (1.0 - 1e-9)
-                && dot(normal, m.normal) > 1.0 - 1e-6
-            {
-                out.push(LocalMarker {
+            let own_face = surface.depth(q).is_some_and(|(depth, normal)| {
+                depth >= k * spacing * (1.0 - 1e-9) && dot(normal, m.normal) > 1.0 - 1e-6
+            });
+            if own_face && !sided(&grid, q, m.normal, spacing * (1.0 - 1e-9)) {
+                let point = LocalMarker {
                     position: q,
                     normal: m.normal,
                     area: 0.0,
-                });
+                };
+                grid.entry(cell(q)).or_default().push(point);
+                out.push(point);
             }
             k += 1.0;
         }
