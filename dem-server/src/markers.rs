@@ -100,7 +100,8 @@ pub fn markers_of(geometry: &BodyGeometry, spacing: f64) -> Result<Vec<LocalMark
 /// settling-cylinder --quick` decompress and blow up at 0.14 s. A body with no point δ
 /// deep (a sphere of r < 1.87δ, on the ½-offset lattice) gets none. The lattice's ½
 /// offsets put a body spanning a periodic axis with a whole number of spacings on the
-/// fluid's layers.
+/// fluid's layers. Then the markers of a filled body that the lattice leaves bare (a
+/// thin wall's) get backing points behind them (`backing_points`).
 pub fn fill_points(
     geometry: &BodyGeometry,
     spacing: f64,
