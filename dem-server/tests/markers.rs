@@ -625,17 +625,9 @@ fn fill_points_of_a_box_are_its_lattice_shell_within_the_reach() {
     }
 }
 
-/// Fill points of Joubert's 12-face cylinder, ring and cross (Table 3) at his δ = 0.25 mm,
-/// reach 3δ: inside the body, never closer than δ to a surface marker (markers lie on
-/// the surface, so that holds exactly), and the same set as an independent depth — the
-/// distance to the nearest of the surface markers at δ/16, which overestimates the true
-/// depth by under a fine patch's half-diagonal — picks, except within δ/8 of the two
-/// bounds.
-#[test]
-fn fill_points_of_joubert_shapes_keep_a_spacing_inside_their_surface() {
-    let d = 2.5e-4;
-    let reach = 3.0 * d;
-    for shape in [
+/// Joubert's 12-face cylinder, ring and cross of Table 3 (§4.2), each along its y axis.
+fn joubert_shapes() -> [Shape; 3] {
+    [
         Shape::Prism {
             sides: 12,
             radius: 1.25e-3,
@@ -652,7 +644,20 @@ fn fill_points_of_joubert_shapes_keep_a_spacing_inside_their_surface() {
             width: 7.5e-4,
             height: 1e-3,
         },
-    ] {
+    ]
+}
+
+/// Fill points of Joubert's 12-face cylinder, ring and cross (Table 3) at his δ = 0.25 mm,
+/// reach 3δ: inside the body, never closer than δ to a surface marker (markers lie on
+/// the surface, so that holds exactly), and the same set as an independent depth — the
+/// distance to the nearest of the surface markers at δ/16, which overestimates the true
+/// depth by under a fine patch's half-diagonal — picks, except within δ/8 of the two
+/// bounds.
+#[test]
+fn fill_points_of_joubert_shapes_keep_a_spacing_inside_their_surface() {
+    let d = 2.5e-4;
+    let reach = 3.0 * d;
+    for shape in joubert_shapes() {
         let g = BodyGeometry::from_shape(&shape).unwrap();
         let fill = fill_points(&g, d, reach, |_| false).unwrap();
         assert!(!fill.is_empty(), "{shape:?}");
@@ -770,25 +775,7 @@ fn fill_points_follow_the_wall_model() {
 fn every_marker_of_joubert_shapes_is_backed_by_fill_of_its_side() {
     let d = 2.5e-4;
     let reach = 2.4 * d;
-    for shape in [
-        Shape::Sphere { radius: 1.25e-3 },
-        Shape::Prism {
-            sides: 12,
-            radius: 1.25e-3,
-            half_height: 8.75e-4,
-        },
-        Shape::Ring {
-            sides: 12,
-            inner_radius: 7.25e-4,
-            outer_radius: 1.45e-3,
-            half_height: 8.75e-4,
-        },
-        Shape::Cross {
-            base: 2.25e-3,
-            width: 7.5e-4,
-            height: 1e-3,
-        },
-    ] {
+    for shape in std::iter::once(Shape::Sphere { radius: 1.25e-3 }).chain(joubert_shapes()) {
         let g = BodyGeometry::from_shape(&shape).unwrap();
         let fill = fill_points(&g, d, reach, |_| false).unwrap();
         let markers = generate_markers(&shape, d).unwrap();
