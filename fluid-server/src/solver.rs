@@ -1697,7 +1697,14 @@ impl FluidSolver {
 /// surface markers (fill points, of area 0, are not the surface): a point is inside when
 /// it lies behind the outward normal of its nearest marker, `(x − m)·n < δ/2`; this
 /// needs no shape code here and holds for any surface whose markers are denser than its
-/// curvature radius (Joubert §2.6 meshes them at δ).
+/// curvature radius (Joubert §2.6 meshes them at δ). A particle within round-off of δ/2
+/// is kept: the markers come through f32, so on a face that lies exactly half a spacing
+/// from a lattice layer (every face of a body placed on the lattice's half offsets)
+/// `(x − m)·n` lands on either side of δ/2 by the rounding of the face's coordinate.
+/// Joubert's cross released at y = 8 mm had its side arms' tops at 8.5 mm, which f32
+/// rounds up, so the layer above them went and the fluid stood 1.5δ off them; it
+/// collapsed into that gap, and the cross blew up in the corner above
+/// (ARCHITECTURE.md, "A face half a spacing from the lattice keeps its fluid layer").
 /// `set` is in buffer order with GPU-relative positions; the result is in id order.
 /// Cost: every fluid particle within a body's bounding sphere against that body's
 /// markers, done once when the markers first arrive.
@@ -1736,7 +1743,11 @@ fn carve_out_bodies(
                 .iter()
                 .min_by(|a, b| dist2(x, a.0).total_cmp(&dist2(x, b.0)));
             nearest.is_some_and(|(m, n)| {
-                (0..3).map(|k| (x[k] - m[k]) * n[k]).sum::<f64>() < 0.5 * spacing
+                // Round-off of δ/2: 1e-3 δ, and the f32 marker's own (4 ulp of its
+                // largest coordinate).
+                let scale = m.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+                let tol = 1e-3 * spacing + 4.0 * f64::from(f32::EPSILON) * scale;
+                (0..3).map(|k| (x[k] - m[k]) * n[k]).sum::<f64>() < 0.5 * spacing - tol
             })
         })
     };
@@ -1858,5 +1869,71 @@ mod carve_out_tests {
             .filter(|p| dist2(**p, c).sqrt() > r + delta)
             .count();
         assert_eq!(kept_far, far_outside);
+    }
+
+    /// Regression (Joubert's cross blew up in its upper corners at δ = 0.25 mm): the
+    /// lattice layer half a spacing above a face is kept whichever way f32 rounds the
+    /// face's markers. The cross released at y = 8 mm has its side arms' tops at
+    /// 8.5 mm, which f32 rounds up (to 8.50000046e-3), and its upper arm's top at
+    /// 9.5 mm, which it rounds down; before, the layer at 8.625 mm went (the fluid then
+    /// stood 1.5δ off the face) and the one at 9.625 mm stayed. Reference: the
+    /// geometry, every particle at least δ/2 outside both faces kept, every one inside
+    /// removed.
+    #[test]
+    fn fluid_half_a_spacing_off_a_face_is_kept_however_f32_rounds_the_face() {
+        let delta = 2.5e-4;
+        for face in [8.5e-3_f64, 9.5e-3] {
+            assert_ne!(f64::from(face as f32), face, "the face must not be exact in f32");
+            // A 4δ × 4δ patch of the face at y = `face`, normal +y, and the lattice of
+            // (i + ½)δ on either side, from 2.5δ below to 2.5δ above it (inside the
+            // patch's bounding sphere, the only particles the carve-out looks at).
+            let points: Vec<CouplingPoint> = (0..4)
+                .flat_map(|i| (0..4).map(move |k| (i, k)))
+                .map(|(i, k)| CouplingPoint {
+                    position: [
+                        (2.0e-3 + (i as f64 + 0.5) * delta) as f32,
+                        face as f32,
+                        (2.0e-3 + (k as f64 + 0.5) * delta) as f32,
+                    ],
+                    measure: (delta * delta) as f32,
+                    normal: [0.0, 1.0, 0.0],
+                    ..Default::default()
+                })
+                .collect();
+            let mut pos = Vec::new();
+            for i in 1..3 {
+                for j in -3..3 {
+                    for k in 1..3 {
+                        pos.push([
+                            2.0e-3 + (i as f64 + 0.5) * delta,
+                            face + (j as f64 + 0.5) * delta,
+                            2.0e-3 + (k as f64 + 0.5) * delta,
+                        ]);
+                    }
+                }
+            }
+            let n = pos.len();
+            let set = ParticleSet {
+                vel: vec![[0.0; 3]; n],
+                rho: vec![1000.0; n],
+                press: vec![0.0; n],
+                mass: vec![1.0; n],
+                id: (0..n as u32).collect(),
+                pos: pos.clone(),
+                kinds: ParticleKinds {
+                    n_fluid: n,
+                    n_wall: 0,
+                    n_markers: 0,
+                },
+            };
+            let out = carve_out_bodies(set, &points, [0.0; 3], delta);
+            let above = |p: &[f64; 3]| p[1] > face;
+            assert_eq!(
+                out.pos.iter().filter(|p| above(p)).count(),
+                pos.iter().filter(|p| above(p)).count(),
+                "face at {face} m: a layer above it went"
+            );
+            assert_eq!(out.pos.iter().filter(|p| !above(p)).count(), 0, "face at {face} m");
+        }
     }
 }
