@@ -1883,7 +1883,11 @@ mod carve_out_tests {
     fn fluid_half_a_spacing_off_a_face_is_kept_however_f32_rounds_the_face() {
         let delta = 2.5e-4;
         for face in [8.5e-3_f64, 9.5e-3] {
-            assert_ne!(f64::from(face as f32), face, "the face must not be exact in f32");
+            assert_ne!(
+                f64::from(face as f32),
+                face,
+                "the face must not be exact in f32"
+            );
             // A 4δ × 4δ patch of the face at y = `face`, normal +y, and the lattice of
             // (i + ½)δ on either side, from 2.5δ below to 2.5δ above it (inside the
             // patch's bounding sphere, the only particles the carve-out looks at).
@@ -1933,7 +1937,11 @@ mod carve_out_tests {
                 pos.iter().filter(|p| above(p)).count(),
                 "face at {face} m: a layer above it went"
             );
-            assert_eq!(out.pos.iter().filter(|p| !above(p)).count(), 0, "face at {face} m");
+            assert_eq!(
+                out.pos.iter().filter(|p| !above(p)).count(),
+                0,
+                "face at {face} m"
+            );
         }
     }
 }
