@@ -1744,8 +1744,8 @@ fn carve_out_bodies(
                 .min_by(|a, b| dist2(x, a.0).total_cmp(&dist2(x, b.0)));
             nearest.is_some_and(|(m, n)| {
                 // Round-off of δ/2: 1e-3 δ, and the f32 marker's own (4 ulp of its
-                // largest coordinate).
-                let scale = m.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+                // largest world coordinate, the one f32 held).
+                let scale = (0..3).fold(0.0_f64, |a, k| a.max((m[k] + origin[k]).abs()));
                 let tol = 1e-3 * spacing + 4.0 * f64::from(f32::EPSILON) * scale;
                 (0..3).map(|k| (x[k] - m[k]) * n[k]).sum::<f64>() < 0.5 * spacing - tol
             })
