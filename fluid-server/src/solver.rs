@@ -1699,7 +1699,7 @@ impl FluidSolver {
 /// needs no shape code here and holds for any surface whose markers are denser than its
 /// curvature radius (Joubert §2.6 meshes them at δ). A particle within round-off of δ/2
 /// is kept: the markers come through f32, so on a face that lies exactly half a spacing
-/// from a lattice layer (every face of a body placed on the lattice's half offsets)
+/// from a lattice layer (the cross's faces at the heights it is released from)
 /// `(x − m)·n` lands on either side of δ/2 by the rounding of the face's coordinate.
 /// Joubert's cross released at y = 8 mm had its side arms' tops at 8.5 mm, which f32
 /// rounds up, so the layer above them went and the fluid stood 1.5δ off them; it
