@@ -118,6 +118,9 @@ pub struct Series {
 pub struct Report {
     pub case: String,
     pub quick: bool,
+    /// Analysed from a run made elsewhere (`--recording`): neither the quick nor the full
+    /// version is known to be what ran, and the wall time is not this process's.
+    pub from_recording: bool,
     pub rows: Vec<Row>,
     pub series: Vec<Series>,
     pub wall_s: f64,
@@ -159,11 +162,18 @@ impl Report {
     }
 
     pub fn markdown(&self) -> String {
-        let mut t = format!(
-            "## {} ({}), wall time {:.1} s\n\n| quantity | measured | reference | tolerance | result |\n|---|---|---|---|---|\n",
-            self.case,
-            if self.quick { "quick" } else { "full" },
-            self.wall_s
+        let mut t = if self.from_recording {
+            format!("## {} (analysed from a recording)\n\n", self.case)
+        } else {
+            format!(
+                "## {} ({}), wall time {:.1} s\n\n",
+                self.case,
+                if self.quick { "quick" } else { "full" },
+                self.wall_s
+            )
+        };
+        t.push_str(
+            "| quantity | measured | reference | tolerance | result |\n|---|---|---|---|---|\n",
         );
         for r in &self.rows {
             let verdict = match r.pass {
@@ -212,7 +222,7 @@ const SHAPE_QUICK: &[&str] = &[
     "bodies.0.position.1=0.02",
     "time.end=0.6",
 ];
-const SHAPE_QUICK_WHY: &str = "δ = 1 mm, box cut to 30 mm with the release at 20 mm: 6750 fluid particles, 1–3 minutes per body on lavapipe (Mesa 25). At this δ the ring's hole and the cross's arms are about one spacing across: a run of the pipeline for every shape, not a resolution of the shapes, so Re and C_D are reported and each body's fluid force is judged against its submerged weight. Shape-drag, 2026-11-26 (Γ = 2, markers weighing their patches, shifting counting them so; 744 s for the four): force balance sphere 1.19 %, cylinder 0.77 %, ring 0.18 %, cross 0.13 % (the cross tilting 64°); Re 14.72, 12.75, 16.35, 11.59; C_D ratios to the sphere 1.393, 1.133, 1.292 against Joubert's 1.271, 1.529, 1.083 (order sphere < ring < cross < cylinder; his: sphere < cross < cylinder < ring). Ring-walls, the same day (356 s for the three boxes): force balance 0.18 %, 1.10 %, 0.40 %; Re 16.35, 14.29, 11.83; C_D ratios to the full box 1.321 and 1.914 against Joubert's 1.382 and 2.391. CI runs the shape-drag ring and cross cut further (tests/tests/shape_drag.rs). The full shape-drag on an NVIDIA H200 (2026-11-26, δ = 0.25 mm, 836 k particles per shape, four side by side, cut at t = 0.85 s): sphere Re 12.56 against Table 5's 13.15 (−4.5 %), cylinder 11.18 against 11.95 (−6.5 %, measured 0.9 mm above its floor stretch), force balance 0.21 % and 0.08 %, C_D ratio 1.324 against Joubert's 1.271; the ring blew up at t = 0.130 s in its hole, which had no fill behind its faces (since backed: ARCHITECTURE.md, \"Thin walls are backed patch by patch\"; so backed, on an NVIDIA H100 on 2026-11-27 it ran through at δ = 0.25 mm: Re 11.29 in the full box, −10.08 %, and 9.78 and 7.68 in the 2/3 and 1/2 boxes against 10.68 and 8.12, C_D ratios to the full box 1.329 and 2.155 against 1.38 and 2.39), and the cross at 0.259 s in a corner between its arms, where the carve-out had dropped the fluid layer half a spacing above its side arms to f32 round-off (kept since: ARCHITECTURE.md, \"A face half a spacing from the lattice keeps its fluid layer\"; so kept, on an H200 on 2026-11-27 the cross blew up at 0.2795 s after bursts of force from fluid pressed onto its leading faces, and at Γ = 4 fell smoothly to 0.6 s at Re 9.69, −14.8 %, force within 0.003 % of its submerged weight, C_D 1.359 times the sphere's against Joubert's 1.083: the cross variant runs at Γ = 4 since, ARCHITECTURE.md, \"Joubert's cross at δ = 0.25 mm runs with Γ = 4\"). Before particle shifting weighed markers by their patches (ARCHITECTURE.md, \"Particle shifting counts a marker as the patch it stands for\") the ring's hole held a fluid particle that shifting drove against its flow: the ring's fluid force swung from −2.6 to +4 times its weight, the quick cut to 0.4 s blew up at 0.3157 s and the 2/3 box's force balance was 9.61 % off; before markers weighed their patches the ring blew up in its hole's column at 0.0313 s, and without the mass correction (2026-11-25) the cylinder blew up at t = 0.27 s and the ring at 0.019 s";
+const SHAPE_QUICK_WHY: &str = "δ = 1 mm, box cut to 30 mm with the release at 20 mm: 6750 fluid particles, 1–3 minutes per body on lavapipe (Mesa 25). At this δ the ring's hole and the cross's arms are about one spacing across: a run of the pipeline for every shape, not a resolution of the shapes, so Re and C_D are reported and each body's fluid force is judged against its submerged weight. Shape-drag, 2026-11-26 (Γ = 2, markers weighing their patches, shifting counting them so; 744 s for the four): force balance sphere 1.19 %, cylinder 0.77 %, ring 0.18 %, cross 0.13 % (the cross tilting 64°); Re 14.72, 12.75, 16.35, 11.59; C_D ratios to the sphere 1.393, 1.133, 1.292 against Joubert's 1.271, 1.529, 1.083 (order sphere < ring < cross < cylinder; his: sphere < cross < cylinder < ring); the cross at Γ = 4 as it runs since 2026-11-27 (below): force 0.29 %, Re 13.78, tilt 5.8°. Ring-walls, the same day (356 s for the three boxes): force balance 0.18 %, 1.10 %, 0.40 %; Re 16.35, 14.29, 11.83; C_D ratios to the full box 1.321 and 1.914 against Joubert's 1.382 and 2.391. CI runs the shape-drag ring and cross cut further (tests/tests/shape_drag.rs). The full shape-drag on an NVIDIA H200 (2026-11-26, δ = 0.25 mm, 836 k particles per shape, four side by side, cut at t = 0.85 s): sphere Re 12.56 against Table 5's 13.15 (−4.5 %), cylinder 11.18 against 11.95 (−6.5 %, measured 0.9 mm above its floor stretch), force balance 0.21 % and 0.08 %, C_D ratio 1.324 against Joubert's 1.271; the ring blew up at t = 0.130 s in its hole, which had no fill behind its faces (since backed: ARCHITECTURE.md, \"Thin walls are backed patch by patch\"; so backed, on an NVIDIA H100 on 2026-11-27 it ran through at δ = 0.25 mm: Re 11.29 in the full box, −10.08 %, and 9.78 and 7.68 in the 2/3 and 1/2 boxes against 10.68 and 8.12, C_D ratios to the full box 1.329 and 2.155 against 1.38 and 2.39), and the cross at 0.259 s in a corner between its arms, where the carve-out had dropped the fluid layer half a spacing above its side arms to f32 round-off (kept since: ARCHITECTURE.md, \"A face half a spacing from the lattice keeps its fluid layer\"; so kept, on an H200 on 2026-11-27 the cross blew up at 0.2795 s after bursts of force from fluid pressed onto its leading faces, and at Γ = 4 fell smoothly to 0.6 s at Re 9.69, −14.8 %, force within 0.003 % of its submerged weight, C_D 1.359 times the sphere's against Joubert's 1.083: the cross variant runs at Γ = 4 since, ARCHITECTURE.md, \"Joubert's cross at δ = 0.25 mm runs with Γ = 4\"). Before particle shifting weighed markers by their patches (ARCHITECTURE.md, \"Particle shifting counts a marker as the patch it stands for\") the ring's hole held a fluid particle that shifting drove against its flow: the ring's fluid force swung from −2.6 to +4 times its weight, the quick cut to 0.4 s blew up at 0.3157 s and the 2/3 box's force balance was 9.61 % off; before markers weighed their patches the ring blew up in its hole's column at 0.0313 s, and without the mass correction (2026-11-25) the cylinder blew up at t = 0.27 s and the ring at 0.019 s";
 
 /// Joubert's ring (Table 3: 12 trapezoidal prisms, r_i = 0.725, r_o = 1.45 mm, height
 /// 1.75 mm, axis along y), as a `--set` shape value.
@@ -436,9 +446,9 @@ static CASES: [Case; 17] = [
             "fluid.blocks.0.max=[0.02, 0.04, 0.008]",
             "bodies.0.shape.prism.half_height=4e-3",
             "bodies.0.position=[0.01, 0.032, 0.004]",
-            "time.end=0.6",
+            "time.end=0.55",
         ],
-        quick_why: "δ = 1 mm (r = 1.25 δ), the box cut to 20 × 40 mm with the release at 32 mm, the z span 8 mm (the grid needs a period of 2.5 supports): 6400 fluid particles, about five minutes on lavapipe; the force balance is judged, the plateau and Re are reported (Table 2 has no figure at this δ). At r = 1.25δ the 12-gon rocks: without the mass correction two runs that differed only in the DEM's round-off gave a change over the last fifth of 2.74 % and 6.57 %, so the plateau is judged from r = 2δ only; in a 30 mm box the fall ended before the velocity's overshoot had settled (6.5 %). Without the mass correction an NVIDIA H200 (2026-11-26) missed the force balance by 14.9 % (the fluid force swung by ±70 % as the cylinder drifted 0.85 mm sideways); with Γ = 1 there it was 0.07 % off (Re 15.11), with the scene's Γ = 2 on lavapipe 0.06 % (Re 14.90, a change of 0.25 % over the last fifth). The full case on the H200: δ = 0.25 mm with Γ = 1 ran to 0.8 s, plateau 58.7 mm/s, Re 14.68 against Table 2's 17.03, force balance 0.12 %; δ = 0.175 mm blew up at t = 0.097 s without the mass correction and at 0.137 s with Γ = 1, and with Γ = 2 fell steadily until cut at 0.443 s, Re ≈ 14.5 against 15.71",
+        quick_why: "δ = 1 mm (r = 1.25 δ), the box cut to 20 × 40 mm with the release at 32 mm, the z span 8 mm (the grid needs a period of 2.5 supports), to t = 0.55 s (the fall ends at 0.497 s; cut from 0.6 s on 2026-11-27 to keep CI near 40 minutes: force 0.06 % off, plateau change 0.19 %, Re 14.60): 6400 fluid particles, about five minutes on lavapipe; the force balance is judged, the plateau and Re are reported (Table 2 has no figure at this δ). At r = 1.25δ the 12-gon rocks: without the mass correction two runs that differed only in the DEM's round-off gave a change over the last fifth of 2.74 % and 6.57 %, so the plateau is judged from r = 2δ only; in a 30 mm box the fall ended before the velocity's overshoot had settled (6.5 %). Without the mass correction an NVIDIA H200 (2026-11-26) missed the force balance by 14.9 % (the fluid force swung by ±70 % as the cylinder drifted 0.85 mm sideways); with Γ = 1 there it was 0.07 % off (Re 15.11), with the scene's Γ = 2 on lavapipe 0.06 % (Re 14.90, a change of 0.25 % over the last fifth). The full case on the H200: δ = 0.25 mm with Γ = 1 ran to 0.8 s, plateau 58.7 mm/s, Re 14.68 against Table 2's 17.03, force balance 0.12 %; δ = 0.175 mm blew up at t = 0.097 s without the mass correction and at 0.137 s with Γ = 1, and with Γ = 2 fell steadily until cut at 0.443 s, Re ≈ 14.5 against 15.71",
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[
             ("corrected + mass correction Γ = 2 + shifting", &[]),
@@ -754,7 +764,10 @@ pub fn analyse_recording(name: &str, dir: &Path) -> Result<Report, ValidateError
     let case = find(name)?;
     let (scene, _) = resolve_scene(&dir.join("scene.toml"), &[])?;
     let rec = read_recording(&dir.join("run.mcap")).map_err(ValidateError::Recording)?;
-    let report = analysed(case, &scene, &rec, dir.to_owned())?;
+    let report = Report {
+        from_recording: true,
+        ..analysed(case, &scene, &rec, dir.to_owned())?
+    };
     write_outputs(&report)?;
     Ok(report)
 }
@@ -4604,6 +4617,26 @@ mod tests {
             let t_last: f64 = last.split(' ').next().unwrap().parse().unwrap();
             assert!(t_last <= (14.6f64).ln() / n + 1e-3, "n = {n}: {row:?}");
         }
+    }
+
+    /// Regression (recording_report_titled_full, 2026-11-27): `--recording` titled its
+    /// report "(full)" with "wall time 0.0 s" whatever had run (a quick run analysed so
+    /// read as the full case). The title says where the report came from, and a run's
+    /// title still says quick or full with its wall time.
+    #[test]
+    fn a_report_from_a_recording_is_titled_so_without_a_wall_time() {
+        let title = |r: &Report| r.markdown().lines().next().unwrap().to_owned();
+        let mut r = Report {
+            case: "shape-drag".into(),
+            quick: true,
+            wall_s: 12.34,
+            ..Default::default()
+        };
+        assert_eq!(title(&r), "## shape-drag (quick), wall time 12.3 s");
+        r.quick = false;
+        assert_eq!(title(&r), "## shape-drag (full), wall time 12.3 s");
+        r.from_recording = true;
+        assert_eq!(title(&r), "## shape-drag (analysed from a recording)");
     }
 
     /// Regression (report_cell_with_a_pipe, 2026-11-24): a row reading "|k| = …" split

@@ -10,13 +10,14 @@
 //! (`couplet validate settling-cylinder`).
 //!
 //! Quick version: δ = 1 mm (r = 1.25 δ), the box 20 × 40 mm with the release at 32 mm,
-//! z span 8 mm, to t = 0.6 s. Measured 2026-11-25 before and after rapier took the bodies
+//! z span 8 mm, to t = 0.55 s (0.6 s until 2026-11-27; the fall ends at 0.497 s). Measured 2026-11-25 before and after rapier took the bodies
 //! in a length unit of its own (round-off only): force 2.65 % and 2.56 % above the
 //! submerged weight (the body still slowing from its overshoot), plateau change 2.74 % and
 //! 6.57 % (the 12-gon at r = 1.25δ rocks, its speed swinging ±10 % over about 0.02 s),
 //! Re 13.84 and 13.94; 199 s. With Joubert's mass correction (Γ = 2) and particle
 //! shifting counting each marker as its patch (2026-11-26): force 0.22 % off, plateau
-//! change 0.39 %, Re 14.56; 245 s.
+//! change 0.39 %, Re 14.56; 245 s. Cut to 0.55 s (2026-11-27, 324 s beside another run):
+//! force 0.06 % off, plateau change 0.19 %, Re 14.60.
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
