@@ -279,12 +279,12 @@ const SHAPE_VARIANTS: &[Variant] = &[
             "bodies.0.name=\"cross\"",
             "bodies.0.shape={ cross = { base = 2.25e-3, width = 7.5e-4, height = 1e-3 } }",
             // Γ = 4, not the scene's 2 (Joubert eq. 14 asks only Γ ≥ 1): at δ = 0.25 mm
-            // on an H200 (2026-11-27) the cross at Γ = 2 took force spikes of ±2 times
-            // its weight from 0.125 s (fluid pressed onto its leading faces) and blew up
-            // at 0.2795 s in the corner under a side arm; at Γ = 4 it fell smoothly to
-            // 0.6 s (force within ±0.6 % of its weight from 0.35 s), at the same speed
-            // as Γ = 2 to within 0.5 % up to 0.25 s. ARCHITECTURE.md, "Joubert's cross
-            // at δ = 0.25 mm runs with Γ = 4".
+            // on an H200 (2026-11-27) the cross at Γ = 2 took bursts of force (−0.5 to
+            // 3.5 times its weight) from 0.125 s, fluid pressed onto its leading faces,
+            // and blew up at 0.2795 s in the corner under a side arm; at Γ = 4 it fell
+            // smoothly to 0.6 s (force within ±0.6 % of its weight from 0.3 s), at the
+            // same speed as Γ = 2 to within 0.5 % up to 0.25 s. ARCHITECTURE.md,
+            // "Joubert's cross at δ = 0.25 mm runs with Γ = 4".
             "effects.mass_correction=4.0",
         ],
     ),
