@@ -256,6 +256,42 @@ const FIVE_BODY_VARIANTS: &[Variant] = &[
 /// The five-bodies quick version: δ = 0.5 mm to 0.1 s (see its `quick_why`).
 const FIVE_BODY_QUICK: &[&str] = &["fluid.spacing=5e-4", "time.end=0.1"];
 
+/// `sphere-density-sweep`'s full case: the settling sphere (whose scene runs δ = 0.625 mm
+/// with the Wendland kernel at 3δ) at Joubert §4.2's δ = 0.25 mm, quintic kernel, support
+/// 2.4δ, at the three densities of his Fig. 21. Released at 40 mm; eqs. (37)–(38) give 24,
+/// 48 and 80 mm/s, so ρs = 1100 lands at about 1.7 s (an H200 run cut at 0.85 s was at
+/// 21.45 mm, falling at 24.1 mm/s) and runs to 1.9 s; the scene's 1.0 s lands the others.
+const SPHERE_DENSITIES: &[Variant] = &[
+    (
+        "ρs = 1100",
+        &[
+            "fluid.spacing=2.5e-4",
+            "fluid.kernel=\"quintic\"",
+            "fluid.support=2.4",
+            "bodies.0.density=1100",
+            "time.end=1.9",
+        ],
+    ),
+    (
+        "ρs = 1250",
+        &[
+            "fluid.spacing=2.5e-4",
+            "fluid.kernel=\"quintic\"",
+            "fluid.support=2.4",
+            "bodies.0.density=1250",
+        ],
+    ),
+    (
+        "ρs = 1500",
+        &[
+            "fluid.spacing=2.5e-4",
+            "fluid.kernel=\"quintic\"",
+            "fluid.support=2.4",
+            "bodies.0.density=1500",
+        ],
+    ),
+];
+
 /// Joubert Table 3's four shapes, the sphere first (the reference of Table 5's ratios).
 const SHAPE_VARIANTS: &[Variant] = &[
     ("sphere", &[]),
@@ -469,7 +505,7 @@ static CASES: [Case; 17] = [
     Case {
         name: "sphere-density-sweep",
         scene: "settling-sphere.toml",
-        about: "Joubert §4.2, Fig. 21: the settling sphere's plateau velocity against Joubert eqs. (37)–(38), next to Joubert's own error at its density (ρs = 1100, 1250, 1500 kg/m³: 0.11, 9.21, 13.52 %); `--sweep` runs the three densities at each spacing; judged at Joubert's δ ≤ 0.25 mm",
+        about: "Joubert §4.2, Fig. 21: the settling sphere's plateau velocity against Joubert eqs. (37)–(38), next to Joubert's own error at its density (ρs = 1100, 1250, 1500 kg/m³: 0.11, 9.21, 13.52 %); the full case runs the three densities at Joubert's δ = 0.25 mm (quintic kernel, support 2.4 δ), where they are judged; `--quick` runs ρs = 1250 at the settling sphere's quick δ, `--sweep` the three densities at each spacing of it",
         quick: SETTLING_SPHERE_QUICK,
         quick_why: SETTLING_SPHERE_QUICK_WHY,
         sweep_spacings: &[1e-3, 8e-4, 6.25e-4],
@@ -480,8 +516,9 @@ static CASES: [Case; 17] = [
             ("ρs = 1500", &["bodies.0.density=1500"]),
         ],
         analyse: sphere_density,
-        variants: &[],
-        quick_variants: &[],
+        variants: SPHERE_DENSITIES,
+        // One run, not labelled by a density: the sweep's schemes set the density.
+        quick_variants: &[("sphere", &[])],
         compare: None,
     },
     Case {
@@ -870,12 +907,15 @@ fn run_case(
             });
         }
     }
-    // The sweep's error measure: the worst variant's.
+    // The sweep's error measure: the worst variant's (named so where there are several).
     report.headline = parts
         .iter()
         .filter_map(|r| r.headline.clone())
         .max_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(name, e)| (format!("{name} (worst variant)"), e));
+        .map(|(name, e)| match parts.len() {
+            1 => (name, e),
+            _ => (format!("{name} (worst variant)"), e),
+        });
     let every = chosen_variants(case, quick, &[])?.len();
     match case.compare {
         Some(_) if variants.len() < every => report.judge(
@@ -4226,6 +4266,7 @@ pub fn joubert_terminal_velocity(radius: f64, rho_s: f64, rho_f: f64, nu: f64, g
 mod tests {
     use super::*;
     use crate::record::LoadSample;
+    use couplet_protocol::scene::KernelKind;
 
     /// The release delay shifts the measured clock: a front that is another one started
     /// ΔT later compares with ΔT = 0 as the first does with ΔT; and the worst deviation is
@@ -4663,6 +4704,39 @@ mod tests {
 
     /// `--variant` picks by label or folder name, from the quick list under `--quick`,
     /// and refuses a name no variant has, listing the ones there are.
+    /// `sphere-density-sweep` runs Joubert's Fig. 21 at his δ in full (three densities at
+    /// δ = 0.25 mm, quintic, support 2.4δ: §4.2) and one unlabelled run under `--quick`
+    /// and in each sweep point, at the quick's δ with the scene's kernel, so that the
+    /// sweep's density schemes are not filed under a density's label.
+    #[test]
+    fn sphere_density_sweep_runs_joubert_s_delta_in_full_and_one_sphere_when_quick() {
+        let case = find("sphere-density-sweep").unwrap();
+        let path = scene_path(case, None).unwrap();
+        let full = chosen_variants(case, false, &[]).unwrap();
+        let densities: Vec<f64> = full
+            .iter()
+            .map(|(_, o)| {
+                let (scene, _) = resolve_scene(&path, &pairs(o)).unwrap();
+                let f = scene.fluid.as_ref().unwrap();
+                assert_eq!(f.spacing, JOUBERT_SPHERE_SPACING);
+                assert_eq!(f.kernel, KernelKind::Quintic);
+                assert_eq!(f.support, 2.4);
+                scene.bodies[0].density
+            })
+            .collect();
+        assert_eq!(densities, [1100.0, 1250.0, 1500.0]);
+        let quick = chosen_variants(case, true, &[]).unwrap();
+        assert_eq!(quick.len(), 1);
+        assert_eq!(quick[0].0, "sphere");
+        let mut o = pairs(case.quick);
+        o.extend(pairs(quick[0].1));
+        let (scene, _) = resolve_scene(&path, &o).unwrap();
+        let f = scene.fluid.as_ref().unwrap();
+        assert_eq!(f.spacing, 1e-3);
+        assert_eq!(f.kernel, KernelKind::WendlandC2);
+        assert_eq!(scene.bodies[0].density, 1250.0);
+    }
+
     #[test]
     fn variants_are_chosen_by_label_or_folder_name() {
         let case = find("constant-porosity-block").unwrap();
