@@ -10,8 +10,9 @@
 //! (`couplet validate settling-cylinder`).
 //!
 //! Quick version: δ = 1 mm (r = 1.25 δ), the box 20 × 40 mm with the release at 32 mm,
-//! z span 8 mm, to t = 0.55 s (0.6 s until 2026-11-27; the fall ends at 0.497 s). Measured 2026-11-25 before and after rapier took the bodies
-//! in a length unit of its own (round-off only): force 2.65 % and 2.56 % above the
+//! z span 8 mm, to t = 0.55 s (0.6 s until 2026-11-27; the fall ends at 0.497 s).
+//! Measured 2026-11-25 before and after rapier took the bodies in a length unit of its
+//! own (round-off only): force 2.65 % and 2.56 % above the
 //! submerged weight (the body still slowing from its overshoot), plateau change 2.74 % and
 //! 6.57 % (the 12-gon at r = 1.25δ rocks, its speed swinging ±10 % over about 0.02 s),
 //! Re 13.84 and 13.94; 199 s. With Joubert's mass correction (Γ = 2) and particle
