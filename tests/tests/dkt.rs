@@ -6,17 +6,14 @@
 //! 2r + δ (kissing), the line between them turns past 90° from vertical (tumbling), the
 //! prisms never overlap by more than rapier's contact slop, and the states stay finite.
 //!
-//! Quick version: δ = 0.5 mm (r = 2 δ) at support 2.4 δ, z span 3 mm, the box cut to 40 mm
-//! with the pair released 30 and 33 mm up, to t = 0.6 s. Measured 2026-11-25 (the same
-//! run to 0.8 s, 677 s): drafting 24.9 %, kiss at 1.9341 mm (t = 0.339 s; the 12-gons
-//! touch at 1.932 mm), tumbling 121.5° (past 90° at t = 0.611 s), overlap 9.6e-8 m.
-//! With the scene's mass correction (Γ = 2) and particle shifting counting each marker
-//! as its patch (2026-11-26, to 0.7 s, 801 s): drafting 33.35 %, kiss at 1.9350 mm
-//! (t = 0.371 s), tumbling 120.2° (past 90° at t = 0.560 s), overlap 4.8e-7 m; cut to
-//! 0.63 s to keep CI under 40 minutes (726 s): 32.15 %, 1.9374 mm at 0.365 s, 118.4°
-//! (past 90° at 0.544 s), overlap 1.3e-7 m; cut to 0.6 s when CI had taken 45 minutes
-//! (797 s beside another run): 33.35 %, 1.9350 mm at 0.371 s, 104.4° (past 90° at
-//! 0.560 s), overlap 4.8e-7 m.
+//! Quick version: δ = 0.5 mm (r = 2 δ) at support 2.4 δ, z span 3 mm, the box cut to
+//! 14 × 38 mm with the pair released 30 and 33 mm up, the upper one 0.05 mm (0.1 δ) off
+//! the centre line so that the tumbling, an instability growing from that offset, comes
+//! sooner, to t = 0.5 s. Measured 2026-11-27 (the same run to 0.6 s, 585 s): drafting
+//! 34.22 %, kiss at 1.9460 mm (t = 0.356 s; the 12-gons touch at 1.932 mm), tumbling
+//! 119.5° (past 90° at t = 0.458 s), overlap 1.4e-7 m. The quick before (a 20 × 40 mm
+//! box, the scene's 0.01 mm offset, to 0.6 s, 871 s of a 43-minute CI run): 33.35 %,
+//! 1.9350 mm at 0.371 s, 104.4° (past 90° at 0.560 s), overlap 4.8e-7 m.
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
