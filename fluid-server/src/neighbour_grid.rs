@@ -665,7 +665,7 @@ impl NeighbourGrid {
                 }
                 encoder.copy_buffer_to_buffer(&self.scratch, 0, &r.buffer, 0, r.bytes);
             }
-            timing::end_span(timer.as_deref_mut(), gpu, encoder);
+            timing::end_span(timer, gpu, encoder);
         }
     }
 

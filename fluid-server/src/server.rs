@@ -163,33 +163,29 @@ pub fn serve(
             let (mut got_points, mut got_states) = (false, false);
             wake.wait_for(
                 || {
-                    if !got_points {
-                        if let Some(s) = points_rx.try_step(step)? {
-                            exchange_us += hop_us(s.user_header(), wait_start_ns);
-                            validate_points(s.payload(), n_bodies).map_err(|source| {
-                                TransportError::Invalid {
-                                    service: points_rx.service.clone(),
-                                    source,
-                                }
-                            })?;
-                            points.clear();
-                            points.extend_from_slice(s.payload());
-                            got_points = true;
-                        }
+                    if !got_points && let Some(s) = points_rx.try_step(step)? {
+                        exchange_us += hop_us(s.user_header(), wait_start_ns);
+                        validate_points(s.payload(), n_bodies).map_err(|source| {
+                            TransportError::Invalid {
+                                service: points_rx.service.clone(),
+                                source,
+                            }
+                        })?;
+                        points.clear();
+                        points.extend_from_slice(s.payload());
+                        got_points = true;
                     }
-                    if !got_states {
-                        if let Some(s) = bodies_rx.try_step(step)? {
-                            exchange_us += hop_us(s.user_header(), wait_start_ns);
-                            validate_states(s.payload(), n_bodies).map_err(|source| {
-                                TransportError::Invalid {
-                                    service: bodies_rx.service.clone(),
-                                    source,
-                                }
-                            })?;
-                            states.clear();
-                            states.extend_from_slice(s.payload());
-                            got_states = true;
-                        }
+                    if !got_states && let Some(s) = bodies_rx.try_step(step)? {
+                        exchange_us += hop_us(s.user_header(), wait_start_ns);
+                        validate_states(s.payload(), n_bodies).map_err(|source| {
+                            TransportError::Invalid {
+                                service: bodies_rx.service.clone(),
+                                source,
+                            }
+                        })?;
+                        states.clear();
+                        states.extend_from_slice(s.payload());
+                        got_states = true;
                     }
                     Ok((got_points && got_states).then_some(()))
                 },
@@ -245,7 +241,6 @@ pub fn serve(
             kinetic_energy: solver.stats().kinetic_energy,
             max_speed: solver.stats().max_speed,
             max_density_error: solver.stats().max_density_error,
-            ..Default::default()
         })?;
         wake_orchestrator.wake()?;
     }

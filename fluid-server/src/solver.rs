@@ -1714,8 +1714,10 @@ fn carve_out_bodies(
     origin: [f64; 3],
     spacing: f64,
 ) -> ParticleSet {
-    // Markers per body in GPU-relative coordinates, with each body's bounding sphere.
-    let mut bodies: Vec<(u32, [f64; 3], f64, Vec<([f64; 3], [f64; 3])>)> = Vec::new();
+    // Markers per body in GPU-relative coordinates (position, normal), with each body's
+    // bounding sphere: (body, centre, radius, markers).
+    type Markers = Vec<([f64; 3], [f64; 3])>;
+    let mut bodies: Vec<(u32, [f64; 3], f64, Markers)> = Vec::new();
     for p in points.iter().filter(|p| p.measure > 0.0) {
         let m = std::array::from_fn(|k| f64::from(p.position[k]) - origin[k]);
         let n = p.normal.map(f64::from);

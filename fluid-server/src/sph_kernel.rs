@@ -100,11 +100,14 @@ pub fn library(src: &'static str) -> &'static str {
     src.split(KERNEL_SECTION).next().unwrap_or(src)
 }
 
+/// One of a kernel's own bind groups: its index, its layout, and each binding's access.
+type GroupLayout = (u32, wgpu::BindGroupLayout, Vec<(u32, Access)>);
+
 /// A compute pipeline and the layouts of its own (non-grid) groups.
 pub struct SphKernel {
     pub label: &'static str,
     pipeline: wgpu::ComputePipeline,
-    groups: Vec<(u32, wgpu::BindGroupLayout, Vec<(u32, Access)>)>,
+    groups: Vec<GroupLayout>,
     uses_grid: bool,
 }
 
@@ -128,7 +131,7 @@ impl SphKernel {
         grid_layout: Option<&wgpu::BindGroupLayout>,
     ) -> SphKernel {
         let module = shaders::module(gpu, label, parts);
-        let own: Vec<(u32, wgpu::BindGroupLayout, Vec<(u32, Access)>)> = groups
+        let own: Vec<GroupLayout> = groups
             .iter()
             .map(|(g, bindings)| {
                 let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings

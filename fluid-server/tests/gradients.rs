@@ -491,7 +491,7 @@ fn mass_correction_vanishes_for_linear_pressure_and_damps_checkerboard_noise() {
     // Checkerboard noise on a lattice (twin and GPU).
     let eps = 10.0;
     let sign = |l: [usize; 3]| {
-        if (l[0] + l[1] + l[2]) % 2 == 0 {
+        if (l[0] + l[1] + l[2]).is_multiple_of(2) {
             1.0
         } else {
             -1.0

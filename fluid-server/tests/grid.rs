@@ -283,10 +283,10 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
         max: [1.0, 0.75, 0.5],
         periodic,
     };
-    let mut grid = NeighbourGrid::new(&gpu, bounds, h, n as u32).unwrap();
-    let b = upload_and_register(&gpu, &mut grid, &parts);
-    sort(&gpu, &grid, &b);
-    grid.check(&gpu).unwrap();
+    let mut grid = NeighbourGrid::new(gpu, bounds, h, n as u32).unwrap();
+    let b = upload_and_register(gpu, &mut grid, &parts);
+    sort(gpu, &grid, &b);
+    grid.check(gpu).unwrap();
 
     let pos: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
     let ids: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
@@ -322,12 +322,12 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
             entries: &[shaders::uniform_entry(0)],
         });
     let module = shaders::module(
-        &gpu,
+        gpu,
         "neighbour test",
         &[GRID_COMMON_WGSL, NEIGHBOUR_TEST_WGSL],
     );
     let pipeline = shaders::compute_pipeline_with_layouts(
-        &gpu,
+        gpu,
         "neighbour test",
         &module,
         "count_neighbours",
@@ -339,12 +339,12 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
         ],
     );
     let particles_bg = shaders::bind_buffers(
-        &gpu,
+        gpu,
         "test particles",
         &particles_layout,
         &[&b.pos, &b.id, &out],
     );
-    let params_bg = shaders::bind_buffers(&gpu, "test params", &params_layout, &[&test_params]);
+    let params_bg = shaders::bind_buffers(gpu, "test params", &params_layout, &[&test_params]);
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());

@@ -400,7 +400,7 @@ fn marker_loads_match_cpu_twin_with(gpu: &Gpu, effects: &str) {
     let s = scene("kernel = \"wendland-c2\"", effects);
     let c = SphConstants::from_scene(&s).unwrap();
     let set = random_set(&c, 14, 0.2, 0.2, 0.5, 6);
-    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    let mut solver = FluidSolver::from_particles(gpu, &s, set).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let n_bodies = 3;
     let states: Vec<BodyState> = (0..n_bodies)
@@ -437,11 +437,11 @@ fn marker_loads_match_cpu_twin_with(gpu: &Gpu, effects: &str) {
             });
         }
     }
-    solver.set_bodies(&gpu, &states, &points, &[]).unwrap();
+    solver.set_bodies(gpu, &states, &points, &[]).unwrap();
     assert_eq!(solver.counts().markers, 300);
     solver
         .run_ops(
-            &gpu,
+            gpu,
             &[
                 Op::MarkerUpdate,
                 Op::Sort,
@@ -453,9 +453,9 @@ fn marker_loads_match_cpu_twin_with(gpu: &Gpu, effects: &str) {
             1.0,
         )
         .unwrap();
-    let mut got = solver.particles(&gpu).unwrap();
+    let mut got = solver.particles(gpu).unwrap();
     got.kinds = solver.data().kinds;
-    let gpu_loads = solver.data().read_marker_loads(&gpu).unwrap();
+    let gpu_loads = solver.data().read_marker_loads(gpu).unwrap();
     let index = got.index_of_id();
     let base = got.kinds.marker_base();
     let mut want = Vec::new();

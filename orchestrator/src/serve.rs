@@ -534,13 +534,14 @@ impl Couplet for CoupletService {
             loop {
                 enum Next {
                     Frame(Result<Arc<WindowFrame>, broadcast::error::RecvError>),
-                    Ended(Option<Run>),
+                    // Boxed: a `Run` is large beside a frame's `Arc`.
+                    Ended(Option<Box<Run>>),
                 }
                 let next = tokio::select! {
                     biased;
                     f = frames.recv() => Next::Frame(f),
                     r = status.wait_for(|r| ended(r.state())) => {
-                        Next::Ended(r.ok().map(|r| r.clone()))
+                        Next::Ended(r.ok().map(|r| Box::new(r.clone())))
                     }
                 };
                 match next {
@@ -567,7 +568,7 @@ impl Couplet for CoupletService {
                         if let Some(r) = end {
                             let _ = tx
                                 .send(Ok(WatchEvent {
-                                    event: Some(watch_event::Event::Ended(r)),
+                                    event: Some(watch_event::Event::Ended(*r)),
                                 }))
                                 .await;
                         }
