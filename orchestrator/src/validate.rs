@@ -78,12 +78,11 @@ pub struct Case {
     /// quick version, every pair once.
     pub sweep_spacings: &'static [f64],
     pub sweep_schemes: &'static [(&'static str, &'static [&'static str])],
-    /// `(axis, spacings)` for each periodic axis along which the flow does not vary and
-    /// which runs on a thin span: each sweep point makes that span (the domain's and the
-    /// first fluid block's) this many of its own spacings, as the quick's is of the
-    /// quick's, so that a finer point adds no layers along it. Empty: the sweep keeps
-    /// the quick's domain.
-    pub sweep_thin_spans: &'static [(usize, f64)],
+    /// The periodic axes along which the flow does not vary and which run on a thin
+    /// span: each sweep point makes that span (the domain's and the first fluid block's)
+    /// as many of its own spacings as the quick's is of the quick's, so that a finer
+    /// point adds no layers along it. Empty: the sweep keeps the quick's domain.
+    pub sweep_thin_axes: &'static [usize],
     /// Runs that make up one validation, each (label, overrides) on top of the quick
     /// and sweep overrides and under the command line's: Joubert's shapes or boxes,
     /// compared with each other by `compare`. Empty: one run.
@@ -380,7 +379,7 @@ static CASES: [Case; 17] = [
             ("δ-SPH 0.1", &["effects.density_diffusion=0.1"]),
             ("shifting 0.1", &["effects.particle_shifting=0.1"]),
         ],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: hydrostatic,
         variants: &[],
         quick_variants: &[],
@@ -412,7 +411,7 @@ static CASES: [Case; 17] = [
                 ],
             ),
         ],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: settling_sphere,
         variants: &[],
         quick_variants: &[],
@@ -432,7 +431,7 @@ static CASES: [Case; 17] = [
                 &["gravity.on_fluid=false"],
             ),
         ],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: single_particle_sedimentation,
         variants: SPS_FLUIDS,
         quick_variants: &[],
@@ -450,7 +449,7 @@ static CASES: [Case; 17] = [
         quick_why: "each column cut to 8–10 lattice spacings (1.1–1.4 mm) across at the same resolution, to t = 12 ms (the plateau from about 5 ms): 2700–4300 fluid particles and 800–2100 grains, about 6 minutes per variant on lavapipe",
         sweep_spacings: &[],
         sweep_schemes: &[],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: constant_porosity_block,
         variants: CPB_VARIANTS,
         quick_variants: CPB_QUICK_VARIANTS,
@@ -464,7 +463,7 @@ static CASES: [Case; 17] = [
         quick_why: "water with α = 0.1 (α = 0 blew up at 18 ms in this column), in a column cut to 8 lattice spacings (1.1 mm, the shortest period at support 3δ) across, so the wave number is 3.6 times Robinson's, to t = 0.06 s: 2752 fluid particles and 1088 grains, about half an hour on lavapipe (water–glycerol's growth at that width, 3–6 1/s, would need seconds)",
         sweep_spacings: &[],
         sweep_schemes: &[],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: rayleigh_taylor,
         variants: RTI_VARIANTS,
         quick_variants: RTI_QUICK_VARIANTS,
@@ -478,7 +477,7 @@ static CASES: [Case; 17] = [
         quick_why: "δ = 0.2 m (the grain half a spacing): 1000 fluid particles",
         sweep_spacings: &[0.2, 0.1],
         sweep_schemes: &[("one-way, Di Felice drag", &[])],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: sedimentation_regimes,
         variants: REGIMES,
         quick_variants: &[],
@@ -509,7 +508,7 @@ static CASES: [Case; 17] = [
                 ],
             ),
         ],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: settling_cylinder,
         variants: &[],
         quick_variants: &[],
@@ -528,7 +527,7 @@ static CASES: [Case; 17] = [
             ("ρs = 1250", &["bodies.0.density=1250"]),
             ("ρs = 1500", &["bodies.0.density=1500"]),
         ],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: sphere_density,
         variants: SPHERE_DENSITIES,
         // One run, not labelled by a density: the sweep's schemes set the density.
@@ -543,7 +542,7 @@ static CASES: [Case; 17] = [
         quick_why: SHAPE_QUICK_WHY,
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         variants: SHAPE_VARIANTS,
         quick_variants: &[],
         analyse: settling_shape,
@@ -557,7 +556,7 @@ static CASES: [Case; 17] = [
         quick_why: SHAPE_QUICK_WHY,
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         variants: RING_BOXES,
         quick_variants: &[],
         analyse: settling_shape,
@@ -581,7 +580,7 @@ static CASES: [Case; 17] = [
         quick_why: "δ = 0.5 mm (r = 2 δ) at support 2.4 δ (Joubert's in §4.2), the z span 3 mm (the grid needs a period of 2.5 supports), the box cut to 14 × 38 mm with the pair released 30 and 33 mm up, the upper one 0.05 mm (0.1 δ) off the centre line, to t = 0.5 s: 12 768 lattice sites less the bodies, about 8 minutes on lavapipe; at r = 2 δ the wake is barely resolved, so the phases are a run of the pipeline. The box and the offset were cut on 2026-11-27 to bring CI under 40 minutes: the tumbling is an instability growing from the offset, and at 0.1 δ it passes 90° about 0.15 s sooner than at the scene's 0.01 mm (0.02 δ here). Measured 2026-11-27 to t = 0.6 s (585 s): drafting 34.22 %, kissing 1.9460 mm at t = 0.356 s (the 12-gons touch at 1.932 mm), tumbling 119.5° (past 90° at 0.458 s), overlap 1.4e-7 m; the same box with the 0.01 mm offset (646 s) passed the kiss (1.9327 mm at 0.389 s) but had turned only 73.9° by 0.6 s. The quick before (a 20 × 40 mm box, the 0.01 mm offset, to 0.6 s; 19 200 sites, 12–15 minutes): drafting 33.35 %, kissing 1.9350 mm at t = 0.371 s, tumbling 104.4° (past 90° at 0.560 s), overlap 4.8e-7 m. The one before that (support 3 δ, z span 4 mm, a 30 mm box, the pair at 20 and 23 mm) reached the floor before it tumbled (20.9°). Before rapier's contact recycling was switched off the resting pair sank 12.6 µm into each other",
         sweep_spacings: &[5e-4, 2.5e-4, 1e-4],
         sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         variants: &[],
         quick_variants: &[],
         analyse: dkt,
@@ -595,7 +594,7 @@ static CASES: [Case; 17] = [
         quick_why: "δ = 0.5 mm to t = 0.1 s: 32 000 fluid particles, 3–6 minutes per variant on lavapipe; by 0.1 s the bodies are near their terminal speed but the rings have had little time to tip (Joubert's snapshots run to 0.7 s). The scene's walls are Adami's, its x faces symmetry planes that mirror the fluid's velocity (ARCHITECTURE.md, \"Symmetry planes of Adami's walls mirror the fluid's velocity\"); both variants run to the end there (2026-11-26, 403 s for the two on lavapipe, particle shifting counting markers by their patches): mean descent speed 28.05 mm/s for the spheres against 20.12 mm/s for the rings (1.394), largest rotation 0.43° against 1.72° (with shifting counting every marker whole: 28.23 and 20.69 mm/s, 0.47° and 2.72°; with every marker at the lattice mass too: 28.27 and 20.84 mm/s, 0.51° and 2.51°). On Adami's no-slip walls all round they fell at 27.75 and 20.27 mm/s. On Joubert's one-layer walls with eq. (27) on the planes both blow up (a particle crosses the one-layer walls at their edges): the spheres at t = 0.0574 s, the rings at 0.0658 s (2026-11-26)",
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
         sweep_schemes: &[("corrected + mass correction Γ = 2 + shifting", &[])],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: five_bodies,
         variants: FIVE_BODY_VARIANTS,
         quick_variants: &[],
@@ -612,7 +611,7 @@ static CASES: [Case; 17] = [
             ("δ-SPH 0.1", &[]),
             ("standard", &["effects.density_diffusion=0"]),
         ],
-        sweep_thin_spans: &[],
+        sweep_thin_axes: &[],
         analyse: dam_break,
         variants: &[],
         quick_variants: &[],
@@ -640,7 +639,7 @@ static CASES: [Case; 17] = [
                 ],
             ),
         ],
-        sweep_thin_spans: &[(0, 8.0), (2, 8.0)],
+        sweep_thin_axes: &[0, 2],
         analyse: channel_flow,
         variants: &[],
         quick_variants: &[],
@@ -668,7 +667,7 @@ static CASES: [Case; 17] = [
                 ],
             ),
         ],
-        sweep_thin_spans: &[(0, 8.0), (2, 8.0)],
+        sweep_thin_axes: &[0, 2],
         analyse: channel_flow,
         variants: &[],
         quick_variants: &[],
@@ -696,7 +695,7 @@ static CASES: [Case; 17] = [
                 ],
             ),
         ],
-        sweep_thin_spans: &[(2, 8.0)],
+        sweep_thin_axes: &[2],
         analyse: taylor_green,
         variants: &[],
         quick_variants: &[],
@@ -732,7 +731,7 @@ static CASES: [Case; 17] = [
                 ],
             ),
         ],
-        sweep_thin_spans: &[(2, 8.0)],
+        sweep_thin_axes: &[2],
         analyse: lid_driven_cavity,
         variants: &[],
         quick_variants: &[],
@@ -1212,8 +1211,8 @@ fn sweep_point_into(
 }
 
 /// The overrides of sweep point `spec`, under the command line's: the quick's, the
-/// scheme's, the spacing, and each of `case.sweep_thin_spans` made that many of the
-/// point's spacings (from the domain's and the first block's lower bounds).
+/// scheme's, the spacing, and along each of `case.sweep_thin_axes` the domain and the
+/// first block cut to as many of the point's spacings as the quick has of its own.
 fn sweep_point_overrides(
     case: &Case,
     spec: &SweepSpec,
@@ -1221,31 +1220,33 @@ fn sweep_point_overrides(
 ) -> Result<Vec<(String, String)>, ValidateError> {
     let mut o = pairs(case.quick);
     o.extend(pairs(spec.scheme_overrides));
+    // The quick's scene, before the point's spacing, gives each thin span in spacings.
+    let quick = if case.sweep_thin_axes.is_empty() {
+        None
+    } else {
+        Some(resolve_scene(&scene_path(case, scenes_dir)?, &o)?.0)
+    };
     o.push(("fluid.spacing".into(), format!("{:e}", spec.spacing)));
-    if case.sweep_thin_spans.is_empty() {
+    let Some(quick) = quick else {
         return Ok(o);
-    }
-    let (scene, _) = resolve_scene(&scene_path(case, scenes_dir)?, &o)?;
-    let block_min = scene
+    };
+    let (d, block) = quick
         .fluid
         .as_ref()
-        .and_then(|f| f.blocks.first())
-        .map(|b| b.min)
+        .and_then(|f| Some((f.spacing, f.blocks.first()?)))
         .ok_or_else(|| {
             ValidateError::Analysis(format!(
                 "case `{}`: a thin span needs a fluid block to cut",
                 case.name
             ))
         })?;
-    for &(k, n) in case.sweep_thin_spans {
-        let span = n * spec.spacing;
-        o.push((
-            format!("domain.max.{k}"),
-            format!("{:e}", scene.domain.min[k] + span),
-        ));
+    for &k in case.sweep_thin_axes {
+        let (lo, hi) = (quick.domain.min[k], quick.domain.max[k]);
+        let span = (hi - lo) / d * spec.spacing;
+        o.push((format!("domain.max.{k}"), format!("{:e}", lo + span)));
         o.push((
             format!("fluid.blocks.0.max.{k}"),
-            format!("{:e}", block_min[k] + span),
+            format!("{:e}", block.min[k] + span),
         ));
     }
     Ok(o)
@@ -4533,7 +4534,7 @@ mod tests {
                 assert!((domain - 8.0).abs() < 1e-9 && (block - 8.0).abs() < 1e-9);
             }
         }
-        // Without thin spans the domain is the quick's at every point.
+        // Without thin axes the domain is the quick's at every point.
         let case = find("settling-sphere").unwrap();
         for spec in sweep_specs("settling-sphere").unwrap() {
             let o = sweep_point_overrides(case, &spec, None).unwrap();
