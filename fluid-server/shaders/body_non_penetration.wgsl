@@ -9,6 +9,44 @@
 // only tangentially). Each particle moved, by either, is counted once in status[3],
 // read at the window's end and reported.
 // Needs: prelude, SPH constants, StepParams, grid_common, marker_update (library).
+// Its library part, `nearest_surface_marker`, is shared with particle shifting's body
+// variant (particle_shifting_surface.wgsl); a kernel using it declares `pos`, `vel`,
+// `id` and `markers_in`.
+
+// The surface marker (area > 0; fill points are not the surface) nearest to p_i within
+// δ: r = p_i − x_m, its outward normal and velocity. Ties go to the first in slot order
+// (the sort is stable).
+struct NearestSurface {
+    found: bool,
+    r: vec3<f32>,
+    normal: vec3<f32>,
+    vel: vec3<f32>,
+}
+
+fn nearest_surface_marker(p_i: vec3<f32>) -> NearestSurface {
+    let c_i = cell_coord(p_i);
+    var best = SPACING * SPACING;
+    var s = NearestSurface(false, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
+        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
+            let rs = row_ranges(c_i, dy, dz);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let j = row_slot(rs, k);
+                if !is_marker(id[j]) {
+                    continue;
+                }
+                let m = markers_in[marker_index(id[j])];
+                let r = pair_vec(p_i, pos[j].xyz);
+                let r2 = dot(r, r);
+                if m.pos_area.w > 0.0 && r2 < best {
+                    best = r2;
+                    s = NearestSurface(true, r, m.normal.xyz, vel[j].xyz);
+                }
+            }
+        }
+    }
+    return s;
+}
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read_write> pos: array<vec4<f32>>;
@@ -27,41 +65,14 @@ fn body_non_penetration(@builtin(workgroup_id) wid: vec3<u32>,
         return;
     }
     let p_i = pos[i].xyz;
-    let c_i = cell_coord(p_i);
-    var best = SPACING * SPACING;
-    var found = false;
-    var r_m = vec3<f32>(0.0);
-    var n_m = vec3<f32>(0.0);
-    var u_m = vec3<f32>(0.0);
-    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
-        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let rs = row_ranges(c_i, dy, dz);
-            for (var k = 0u; k < row_length(rs); k++) {
-                let j = row_slot(rs, k);
-                if !is_marker(id[j]) {
-                    continue;
-                }
-                let m = markers_in[marker_index(id[j])];
-                let r = pair_vec(p_i, pos[j].xyz);
-                let r2 = dot(r, r);
-                // Ties go to the first in slot order (the sort is stable).
-                if m.pos_area.w > 0.0 && r2 < best {
-                    best = r2;
-                    found = true;
-                    r_m = r;
-                    n_m = m.normal.xyz;
-                    u_m = vel[j].xyz;
-                }
-            }
-        }
-    }
+    let m = nearest_surface_marker(p_i);
     var p = p_i;
     var u = vel[i].xyz;
     var moved = false;
-    let d = dot(r_m, n_m);
-    if found && d < 0.0 {
-        p -= 2.0 * d * n_m;
-        u -= min(dot(u - u_m, n_m), 0.0) * n_m;
+    let d = dot(m.r, m.normal);
+    if m.found && d < 0.0 {
+        p -= 2.0 * d * m.normal;
+        u -= min(dot(u - m.vel, m.normal), 0.0) * m.normal;
         moved = true;
     }
     // A body landing on a wall pressed the fluid between them through it (the

@@ -89,26 +89,14 @@ pub fn non_penetration_cpu(
     set: &mut ParticleSet,
     markers: &[SurfacePoint],
 ) -> u32 {
-    let base = set.kinds.marker_base();
-    let surface: Vec<usize> = (0..set.len())
-        .filter(|&j| {
-            set.kinds.kind(set.id[j]) == Kind::Marker
-                && markers[set.id[j] as usize - base].area > 0.0
-        })
-        .collect();
+    let surface = surface_markers(set, markers);
     let mut moved = 0;
     for i in 0..set.len() {
         if set.kinds.kind(set.id[i]) != Kind::Fluid {
             continue;
         }
-        let nearest = surface
-            .iter()
-            .map(|&j| (j, sub(set.pos[i], set.pos[j])))
-            .filter(|(_, r)| dot(*r, *r) < c.spacing * c.spacing)
-            .min_by(|a, b| dot(a.1, a.1).total_cmp(&dot(b.1, b.1)));
         let mut this_moved = false;
-        if let Some((j, r)) = nearest {
-            let n = markers[set.id[j] as usize - base].normal;
+        if let Some((j, r, n)) = nearest_surface_marker_cpu(c, set, markers, &surface, i) {
             let d = dot(r, n);
             if d < 0.0 {
                 set.pos[i] = std::array::from_fn(|k| set.pos[i][k] - 2.0 * d * n[k]);
@@ -131,4 +119,35 @@ pub fn non_penetration_cpu(
         moved += u32::from(this_moved);
     }
     moved
+}
+
+/// The entries of `set` that are surface markers (area > 0; fill points are not the
+/// surface), for [`nearest_surface_marker_cpu`].
+pub fn surface_markers(set: &ParticleSet, markers: &[SurfacePoint]) -> Vec<usize> {
+    let base = set.kinds.marker_base();
+    (0..set.len())
+        .filter(|&j| {
+            set.kinds.kind(set.id[j]) == Kind::Marker
+                && markers[set.id[j] as usize - base].area > 0.0
+        })
+        .collect()
+}
+
+/// CPU twin of `nearest_surface_marker` (body_non_penetration.wgsl): of `surface`
+/// ([`surface_markers`]), the marker nearest to entry `i` within δ, the first in set
+/// order on a tie, as its entry, `r = x_i − x_m` and its outward normal.
+pub fn nearest_surface_marker_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    markers: &[SurfacePoint],
+    surface: &[usize],
+    i: usize,
+) -> Option<(usize, [f64; 3], [f64; 3])> {
+    let base = set.kinds.marker_base();
+    surface
+        .iter()
+        .map(|&j| (j, sub(set.pos[i], set.pos[j])))
+        .filter(|(_, r)| dot(*r, *r) < c.spacing * c.spacing)
+        .min_by(|a, b| dot(a.1, a.1).total_cmp(&dot(b.1, b.1)))
+        .map(|(j, r)| (j, r, markers[set.id[j] as usize - base].normal))
 }

@@ -9,50 +9,112 @@
 //! The gradients are those of the step start (the pass runs on the sorted state, before
 //! the rates): a first-order Taylor correction over a shift of O(β) of the distance
 //! moved in the step. Only with `effects.particle_shifting` = β > 0.
-//! WGSL: `shaders/particle_shifting.wgsl`.
+//!
+//! Near a resolved body's surface the shift may not carry a particle closer than δ/2 in
+//! front of its nearest surface marker's tangent plane ([`limit_toward_surface`]): eq.
+//! (17)'s sum has an unstable equilibrium in front of a plane of markers a spacing
+//! apart, and drew fluid onto the leading faces of Joubert's cross (ARCHITECTURE.md,
+//! "Joubert's cross at δ = 0.25 mm runs with Γ = 4"). The kernel with that rule is bound
+//! once bodies exist ([`kernel`] with a grid layout).
+//! WGSL: `shaders/particle_shifting.wgsl`, `shaders/particle_shifting_surface.wgsl`.
 
+use crate::body_non_penetration::BODY_NON_PENETRATION_WGSL;
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::joubert2020_gradients::Gradients;
+use crate::marker_update::MARKER_UPDATE_WGSL;
+use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::dot;
 use crate::sph_kernel::{
-    Access, PARAMS, PARTICLES, SphKernel, library, param_binding as qb, particle_binding as pb,
+    Access, BODIES, PARAMS, PARTICLES, SphKernel, body_binding as bb, library, param_binding as qb,
+    particle_binding as pb,
 };
 use crate::tait_eos::TAIT_EOS_WGSL;
 
 pub const PARTICLE_SHIFTING_WGSL: &str = include_str!("../shaders/particle_shifting.wgsl");
+pub const PARTICLE_SHIFTING_SURFACE_WGSL: &str =
+    include_str!("../shaders/particle_shifting_surface.wgsl");
+/// `limit_shift` without bodies: the shift as eq. (17) gives it.
+const PLAIN_SHIFT_WGSL: &str =
+    "fn limit_shift(p_i: vec3<f32>, dr: vec3<f32>) -> vec3<f32> {\n    return dr;\n}\n";
 
-pub fn kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
+/// The shift kernel: without `grid_layout` the plain eqs. (17)–(19); with it (bound once
+/// bodies exist) the variant that keeps the shift from carrying fluid within δ/2 of a
+/// surface ([`limit_toward_surface`]).
+pub fn kernel(
+    gpu: &Gpu,
+    c: &SphConstants,
+    grid_layout: Option<&wgpu::BindGroupLayout>,
+) -> SphKernel {
     let consts = c.wgsl();
-    SphKernel::new(
-        gpu,
-        "sph: particle_shifting",
-        &[
-            &consts,
-            STEP_PARAMS_WGSL,
-            library(TAIT_EOS_WGSL),
-            PARTICLE_SHIFTING_WGSL,
-        ],
-        "shift",
-        &[
-            (
-                PARTICLES,
-                &[
-                    (pb::POS, Access::ReadWrite),
-                    (pb::VEL, Access::ReadWrite),
-                    (pb::RHO, Access::ReadWrite),
-                    (pb::PRESS, Access::ReadWrite),
-                    (pb::ID, Access::Read),
-                    (pb::GRADS, Access::Read),
-                ],
-            ),
-            (
-                PARAMS,
-                &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::Read)],
-            ),
-        ],
-        None,
-    )
+    let particles: &[(u32, Access)] = &[
+        (pb::POS, Access::ReadWrite),
+        (pb::VEL, Access::ReadWrite),
+        (pb::RHO, Access::ReadWrite),
+        (pb::PRESS, Access::ReadWrite),
+        (pb::ID, Access::Read),
+        (pb::GRADS, Access::Read),
+    ];
+    let params: &[(u32, Access)] = &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::Read)];
+    match grid_layout {
+        None => SphKernel::new(
+            gpu,
+            "sph: particle_shifting",
+            &[
+                &consts,
+                STEP_PARAMS_WGSL,
+                library(TAIT_EOS_WGSL),
+                PLAIN_SHIFT_WGSL,
+                PARTICLE_SHIFTING_WGSL,
+            ],
+            "shift",
+            &[(PARTICLES, particles), (PARAMS, params)],
+            None,
+        ),
+        Some(grid) => SphKernel::new(
+            gpu,
+            "sph: particle_shifting (surfaces)",
+            &[
+                &consts,
+                STEP_PARAMS_WGSL,
+                GRID_COMMON_WGSL,
+                library(MARKER_UPDATE_WGSL),
+                library(BODY_NON_PENETRATION_WGSL),
+                library(TAIT_EOS_WGSL),
+                PARTICLE_SHIFTING_SURFACE_WGSL,
+                PARTICLE_SHIFTING_WGSL,
+            ],
+            "shift",
+            &[
+                (PARTICLES, particles),
+                (BODIES, &[(bb::MARKERS_IN, Access::Read)]),
+                (PARAMS, params),
+            ],
+            Some(grid),
+        ),
+    }
+}
+
+/// The shift `dr` of a particle whose nearest surface marker within δ is `nearest`
+/// (`r = x_i − x_m` and the marker's outward unit normal), limited so that it carries
+/// the particle no closer than δ/2 in front of the marker's tangent plane: the inward
+/// part beyond that is dropped (all of it for a particle already closer). CPU twin of
+/// `limit_shift` in `particle_shifting_surface.wgsl`.
+pub fn limit_toward_surface(
+    c: &SphConstants,
+    dr: [f64; 3],
+    nearest: Option<([f64; 3], [f64; 3])>,
+) -> [f64; 3] {
+    let Some((r, n)) = nearest else {
+        return dr;
+    };
+    let inward = -dot(dr, n);
+    if inward <= 0.0 {
+        return dr;
+    }
+    let allowed = (dot(r, n) - 0.5 * c.spacing).max(0.0);
+    let back = inward - inward.min(allowed);
+    std::array::from_fn(|k| dr[k] + back * n[k])
 }
 
 /// One fluid particle before and after the shift.
@@ -63,9 +125,21 @@ pub struct Shifted {
     pub rho: f64,
 }
 
-/// CPU twin of eqs. (17)–(19) for one particle.
-pub fn shift_cpu(c: &SphConstants, g: &Gradients, u_max: f64, dt: f64, s: Shifted) -> Shifted {
-    let dr: [f64; 3] = g.shift.map(|x| c.shifting_beta * u_max * dt * x);
+/// CPU twin of eqs. (17)–(19) for one particle; `nearest` as [`limit_toward_surface`]
+/// takes it (None without bodies).
+pub fn shift_cpu(
+    c: &SphConstants,
+    g: &Gradients,
+    u_max: f64,
+    dt: f64,
+    s: Shifted,
+    nearest: Option<([f64; 3], [f64; 3])>,
+) -> Shifted {
+    let dr = limit_toward_surface(
+        c,
+        g.shift.map(|x| c.shifting_beta * u_max * dt * x),
+        nearest,
+    );
     let dp = dot(g.grad_p, dr);
     Shifted {
         pos: std::array::from_fn(|k| s.pos[k] + dr[k]),

@@ -106,6 +106,9 @@ pub struct MarkerPipelines {
     /// of `SphPipelines::boundary_pressure` once bodies exist (absent with Joubert's
     /// walls, whose bodies have no fill).
     boundary_pressure_fill: Option<SphKernel>,
+    /// Particle shifting that keeps fluid off the surfaces, bound in place of
+    /// `SphPipelines::shift` once bodies exist (absent without shifting).
+    shift_near_surfaces: Option<SphKernel>,
 }
 
 /// The compiled kernels of a scene (no data).
@@ -150,7 +153,7 @@ impl SphPipelines {
             gradients: c
                 .gradient_pass()
                 .then(|| joubert2020_gradients::kernel(gpu, c, grid_layout)),
-            shift: (c.shifting_beta > 0.0).then(|| particle_shifting::kernel(gpu, c)),
+            shift: (c.shifting_beta > 0.0).then(|| particle_shifting::kernel(gpu, c, None)),
             smoothing_lengths: c
                 .variable_h
                 .is_some()
@@ -173,6 +176,8 @@ impl MarkerPipelines {
             non_penetration: body_non_penetration::kernel(gpu, c, grid_layout),
             boundary_pressure_fill: (!c.joubert_walls)
                 .then(|| adami2012_boundary_pressure::kernel(gpu, c, grid_layout, true)),
+            shift_near_surfaces: (c.shifting_beta > 0.0)
+                .then(|| particle_shifting::kernel(gpu, c, Some(grid_layout))),
         }
     }
 }
@@ -596,12 +601,23 @@ impl SphData {
                     ),
                     None => None,
                 },
-                shift: match &p.shift {
-                    Some(k) => Some(
+                shift: match (&p.markers, &bodies, &p.shift) {
+                    (
+                        Some(MarkerPipelines {
+                            shift_near_surfaces: Some(k),
+                            ..
+                        }),
+                        Some(_),
+                        _,
+                    ) => Some(
+                        k.bind(gpu, resolve, g)
+                            .ok_or_else(|| missing("particle_shifting (surfaces)"))?,
+                    ),
+                    (_, _, Some(k)) => Some(
                         k.bind(gpu, resolve, None)
                             .ok_or_else(|| missing("particle_shifting"))?,
                     ),
-                    None => None,
+                    _ => None,
                 },
                 smoothing_lengths: match &p.smoothing_lengths {
                     Some(k) => Some(

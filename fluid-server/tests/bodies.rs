@@ -14,12 +14,18 @@ mod common;
 use couplet_fluid::adami2012_boundary_pressure::{
     boundary_pressure_cpu, boundary_pressure_with_fill_cpu,
 };
-use couplet_fluid::body_non_penetration::{SurfacePoint, non_penetration_cpu};
+use couplet_fluid::body_non_penetration::{
+    SurfacePoint, nearest_surface_marker_cpu, non_penetration_cpu, surface_markers,
+};
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
+use couplet_fluid::joubert2020_gradients::gradients_cpu;
 use couplet_fluid::marker_update::marker_mass;
+use couplet_fluid::particle_shifting::{Shifted, shift_cpu};
 use couplet_fluid::particles::{ParticleSet, dot, sub};
 use couplet_fluid::{FluidSolver, Kind, Op, SphConstants, initial_particles};
 use couplet_protocol::{BodyState, CouplingPoint};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 /// A fixed sphere's coupling points: `n` surface markers (`common::sphere_markers`), then
 /// fill points (area 0) at `depth_fraction` r under every third of them, with its state.
@@ -74,6 +80,120 @@ fn non_penetration_pass(
         .collect();
     let twin_count = non_penetration_cpu(c, &mut twin, &surface);
     (got, twin, count, twin_count)
+}
+
+fn surface_points(points: &[CouplingPoint]) -> Vec<SurfacePoint> {
+    points
+        .iter()
+        .map(|p| SurfacePoint {
+            normal: p.normal.map(f64::from),
+            area: f64::from(p.measure),
+        })
+        .collect()
+}
+
+/// Regression (cross_leading_face_pile_up, 2026-11-27): Joubert eq. (17)'s shift drew
+/// fluid onto the leading faces of Joubert's cross at δ = 0.25 mm, 2.4 mm/s toward a
+/// face while the particle's own velocity pointed away, until it sat on the face and the
+/// fluid force burst (ARCHITECTURE.md, "Joubert's cross at δ = 0.25 mm runs with Γ = 4").
+/// Near a body the shift may not carry a particle closer than δ/2 in front of its nearest
+/// surface marker's plane. A filled sphere (r = 5δ) carves jittered fluid (±0.3δ, random
+/// velocities up to 0.5 m/s) and then moves 0.2δ along +x, so fluid on that side stands
+/// 0.3δ and more off its surface; one gradient pass and one shift with Δt = 1e-3 s.
+/// Reference: the twins (`gradients_cpu`, `shift_cpu` with `nearest_surface_marker_cpu`)
+/// on the GPU's state before the pass; without the rule the twin moves particles inside
+/// δ/2 that the rule holds.
+#[test]
+fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = common::scene(
+        "",
+        "[effects]\ngradient_correction = true\nparticle_shifting = 0.1",
+    );
+    let c = SphConstants::from_scene(&s).unwrap();
+    let d = c.spacing;
+    let (centre, r) = ([0.1, 0.1, 0.1], 5.0 * d);
+    let (mut points, state) = filled_sphere(centre, r, 300, 0.9);
+    let mut set = initial_particles(&s, &c).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(27);
+    for i in 0..set.len() {
+        if set.kinds.kind(set.id[i]) == Kind::Fluid {
+            for k in 0..3 {
+                set.pos[i][k] += (rng.random::<f64>() - 0.5) * 0.6 * d;
+                set.vel[i][k] = (rng.random::<f64>() - 0.5) * 1.0;
+            }
+        }
+    }
+    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
+    let shift = 0.2 * d;
+    for p in &mut points {
+        p.position[0] += shift as f32;
+    }
+    let moved = BodyState {
+        position: [centre[0] + shift, centre[1], centre[2]],
+        ..state
+    };
+    solver.set_bodies(&gpu, &[moved], &points, &[]).unwrap();
+    let dt = 1e-3;
+    solver
+        .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort], dt, 1.0)
+        .unwrap();
+    let before = solver.data().read(&gpu).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::Gradients, Op::Shift], dt, 1.0)
+        .unwrap();
+    let after = solver.data().read(&gpu).unwrap();
+    let markers = surface_points(&points);
+    let surface = surface_markers(&before, &markers);
+    let cpu = gradients_cpu(&c, &before);
+    let u_max = (0..before.len())
+        .filter(|&i| cpu[i].is_some())
+        .map(|i| dot(before.vel[i], before.vel[i]).sqrt())
+        .fold(0.0, f64::max);
+    let (mut pairs, mut held, mut worst_gap) = (Vec::new(), 0, f64::INFINITY);
+    let mut largest_hold = 0.0f64;
+    for i in 0..before.len() {
+        let Some(g) = cpu[i] else { continue };
+        let s0 = Shifted {
+            pos: before.pos[i],
+            vel: before.vel[i],
+            rho: before.rho[i],
+        };
+        let near = nearest_surface_marker_cpu(&c, &before, &markers, &surface, i);
+        let twin = shift_cpu(&c, &g, u_max, dt, s0, near.map(|(_, r, n)| (r, n)));
+        let free = shift_cpu(&c, &g, u_max, dt, s0, None);
+        for k in 0..3 {
+            pairs.push((after.pos[i][k] - s0.pos[k], twin.pos[k] - s0.pos[k]));
+        }
+        if let Some((j, r, n)) = near {
+            let (gap0, gap_free) = (dot(r, n), dot(sub(free.pos, before.pos[j]), n));
+            if gap_free < gap0.min(0.5 * d) - 1e-9 {
+                held += 1;
+                let e = sub(free.pos, twin.pos);
+                largest_hold = largest_hold.max(dot(e, e).sqrt());
+            }
+            // The GPU's particle after the shift, against the same marker's plane.
+            let gap = dot(sub(after.pos[i], before.pos[j]), n);
+            worst_gap = worst_gap.min(gap - gap0.min(0.5 * d));
+        }
+    }
+    let (e, m) = common::max_err(pairs.into_iter());
+    println!(
+        "shift δr: max |GPU − twin| = {e:e} of {m:e}; {held} particles held off, by up to {largest_hold:e} m; worst gap {worst_gap:e} m"
+    );
+    // f32 positions near 0.1 m resolve 1e-8 m.
+    let tolerance = 1e-3 * m + 2e-8;
+    assert!(m > 0.0 && e <= tolerance, "δr: {e:e} of {m:e}");
+    // The configuration tests the rule: without it the GPU would miss the twin.
+    assert!(
+        held >= 5 && largest_hold > 10.0 * tolerance,
+        "{held} held, by up to {largest_hold:e} m"
+    );
+    assert!(
+        worst_gap >= -2e-8,
+        "a particle shifted inside δ/2: {worst_gap:e} m"
+    );
 }
 
 #[test]
