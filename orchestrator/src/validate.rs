@@ -325,7 +325,9 @@ const SHAPE_VARIANTS: &[Variant] = &[
             // and blew up at 0.2795 s in the corner under a side arm; at Γ = 4 it fell
             // smoothly to 0.6 s (force within ±0.6 % of its weight from 0.3 s), at the
             // same speed as Γ = 2 to within 0.5 % up to 0.25 s. ARCHITECTURE.md,
-            // "Joubert's cross at δ = 0.25 mm runs with Γ = 4".
+            // "Joubert's cross at δ = 0.25 mm runs with Γ = 4". Particle shifting drew
+            // that fluid there and now stops δ/2 short of a surface; Γ = 4 stays until
+            // a full-size run at Γ = 2 shows the bursts gone (scripts/gpu-vals/shape-drag.txt).
             "effects.mass_correction=4.0",
         ],
     ),
