@@ -71,15 +71,30 @@ fn non_penetration_pass(
         .unwrap();
     let got = solver.data().read(gpu).unwrap();
     let count = solver.data().read_reflected(gpu).unwrap();
-    let surface: Vec<SurfacePoint> = points
-        .iter()
-        .map(|p| SurfacePoint {
-            normal: p.normal.map(f64::from),
-            area: f64::from(p.measure),
-        })
-        .collect();
-    let twin_count = non_penetration_cpu(c, &mut twin, &surface);
+    let twin_count = non_penetration_cpu(c, &mut twin, &surface_points(points));
     (got, twin, count, twin_count)
+}
+
+/// Moves the body of `state` (set on `solver` with `points`) by `dx` along +x, its points
+/// with it, now at `speed` m/s along +x.
+fn move_along_x(
+    gpu: &Gpu,
+    solver: &mut FluidSolver,
+    points: &mut [CouplingPoint],
+    state: BodyState,
+    dx: f64,
+    speed: f64,
+) {
+    for p in points.iter_mut() {
+        p.position[0] += dx as f32;
+        p.velocity = [speed as f32, 0.0, 0.0];
+    }
+    let moved = BodyState {
+        position: [state.position[0] + dx, state.position[1], state.position[2]],
+        linear_velocity: [speed, 0.0, 0.0],
+        ..state
+    };
+    solver.set_bodies(gpu, &[moved], points, &[]).unwrap();
 }
 
 fn surface_points(points: &[CouplingPoint]) -> Vec<SurfacePoint> {
@@ -126,15 +141,7 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
     }
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
     solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
-    let shift = 0.2 * d;
-    for p in &mut points {
-        p.position[0] += shift as f32;
-    }
-    let moved = BodyState {
-        position: [centre[0] + shift, centre[1], centre[2]],
-        ..state
-    };
-    solver.set_bodies(&gpu, &[moved], &points, &[]).unwrap();
+    move_along_x(&gpu, &mut solver, &mut points, state, 0.2 * d, 0.0);
     let dt = 1e-3;
     solver
         .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort], dt, 1.0)
@@ -147,10 +154,7 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
     let markers = surface_points(&points);
     let surface = surface_markers(&before, &markers);
     let cpu = gradients_cpu(&c, &before);
-    let u_max = (0..before.len())
-        .filter(|&i| cpu[i].is_some())
-        .map(|i| dot(before.vel[i], before.vel[i]).sqrt())
-        .fold(0.0, f64::max);
+    let u_max = common::largest_fluid_speed(&before);
     let (mut pairs, mut held, mut worst_gap) = (Vec::new(), 0, f64::INFINITY);
     let mut largest_hold = 0.0f64;
     for i in 0..before.len() {
@@ -208,17 +212,7 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
         FluidSolver::from_particles(&gpu, &s, initial_particles(&s, &c).unwrap()).unwrap();
     solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
     // The body moves: every point 0.8δ along +x, at 0.1 m/s.
-    let shift = 0.8 * d;
-    for p in &mut points {
-        p.position[0] += shift as f32;
-        p.velocity = [0.1, 0.0, 0.0];
-    }
-    let moved = BodyState {
-        position: [centre[0] + shift, centre[1], centre[2]],
-        linear_velocity: [0.1, 0.0, 0.0],
-        ..state
-    };
-    solver.set_bodies(&gpu, &[moved], &points, &[]).unwrap();
+    move_along_x(&gpu, &mut solver, &mut points, state, 0.8 * d, 0.1);
     let (got, twin, count, twin_count) = non_penetration_pass(&gpu, &c, &mut solver, &points);
     println!("mirrored out: GPU {count}, twin {twin_count}");
     assert!(

@@ -229,10 +229,7 @@ fn particle_shifting_matches_cpu_twin() {
         .unwrap();
     let after = solver.data().read(&gpu).unwrap();
     let cpu = gradients_cpu(&c, &before);
-    let u_max = (0..before.len())
-        .filter(|&i| cpu[i].is_some())
-        .map(|i| before.vel[i].iter().map(|x| x * x).sum::<f64>().sqrt())
-        .fold(0.0, f64::max);
+    let u_max = common::largest_fluid_speed(&before);
     let (mut dr, mut du, mut drho) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..before.len() {
         let Some(g) = cpu[i] else { continue };

@@ -119,6 +119,15 @@ pub fn max_err(pairs: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
     })
 }
 
+/// Largest fluid speed of `set`: ‖u‖max of Joubert eq. (17), as the gradient pass finds it.
+#[allow(dead_code)] // not every test binary that includes `common` shifts
+pub fn largest_fluid_speed(set: &ParticleSet) -> f64 {
+    (0..set.len())
+        .filter(|&i| set.kinds.kind(set.id[i]) == couplet_fluid::Kind::Fluid)
+        .map(|i| set.vel[i].iter().map(|x| x * x).sum::<f64>().sqrt())
+        .fold(0.0, f64::max)
+}
+
 /// Body 0 at rest at `position`, unrotated, dynamic (`motion` 2), of unit mass and
 /// volume: the state a test hands the fluid beside its markers.
 pub fn body_at_rest(position: [f64; 3]) -> BodyState {
