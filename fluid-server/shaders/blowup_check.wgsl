@@ -14,8 +14,9 @@
 @group(0) @binding(2) var<storage, read> rho: array<f32>;
 @group(0) @binding(3) var<storage, read> press: array<f32>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
-// [0] smallest bad id (0xffffffff: none).
-@group(3) @binding(1) var<storage, read_write> status: array<atomic<u32>, 4>;
+// [0] smallest bad id (0xffffffff: none); [1], [2] the gradient pass's counts, [3], [4]
+// the body counts (body_non_penetration.wgsl, particle_shifting_surface.wgsl).
+@group(3) @binding(1) var<storage, read_write> status: array<atomic<u32>, 5>;
 // The bad particle: (pos, ρ), (vel, p), (mass, 0, 0, 0).
 @group(3) @binding(2) var<storage, read_write> bad_values: array<vec4<f32>, 3>;
 

@@ -53,7 +53,7 @@ fn nearest_surface_marker(p_i: vec3<f32>) -> NearestSurface {
 @group(0) @binding(1) var<storage, read_write> vel: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
 @group(2) @binding(0) var<storage, read> markers_in: array<Marker>;
-@group(3) @binding(1) var<storage, read_write> status: array<atomic<u32>, 4>;
+@group(3) @binding(1) var<storage, read_write> status: array<atomic<u32>, 5>;
 
 // Fluid threads write only their own particle and read only markers: no race.
 @compute @workgroup_size(WORKGROUP_SIZE)

@@ -9,11 +9,13 @@
 // shift may not carry a particle toward its nearest surface marker (within δ) closer
 // than δ/2 in front of the marker's tangent plane, where the carve-out leaves the first
 // fluid layer: the part of δr along the inward normal beyond that is dropped, before
-// eq. (18)'s Taylor corrections are taken along the δr that remains.
+// eq. (18)'s Taylor corrections are taken along the δr that remains. Each shift cut
+// short is counted in status[4], read at the window's end and reported (`shift_limited`).
 // Needs: prelude, SPH constants, StepParams, grid_common, marker_update (library),
 // body_non_penetration (library).
 
 @group(2) @binding(0) var<storage, read> markers_in: array<Marker>;
+@group(3) @binding(1) var<storage, read_write> status: array<atomic<u32>, 5>;
 
 fn limit_shift(p_i: vec3<f32>, dr: vec3<f32>) -> vec3<f32> {
     let m = nearest_surface_marker(p_i);
@@ -22,5 +24,9 @@ fn limit_shift(p_i: vec3<f32>, dr: vec3<f32>) -> vec3<f32> {
         return dr;
     }
     let allowed = max(dot(m.r, m.normal) - 0.5 * SPACING, 0.0);
-    return dr + (inward - min(inward, allowed)) * m.normal;
+    let back = inward - min(inward, allowed);
+    if back > 0.0 {
+        atomicAdd(&status[4], 1u);
+    }
+    return dr + back * m.normal;
 }

@@ -15,7 +15,8 @@
 //! (17)'s sum has an unstable equilibrium in front of a plane of markers a spacing
 //! apart, and drew fluid onto the leading faces of Joubert's cross (ARCHITECTURE.md,
 //! "Joubert's cross at δ = 0.25 mm runs with Γ = 4"). The kernel with that rule is bound
-//! once bodies exist ([`kernel`] with a grid layout).
+//! once bodies exist ([`kernel`] with a grid layout); it counts the shifts it cuts short,
+//! reported per window as `shift_limited` (`SideReport`, `/run/windows`, the run summary).
 //! WGSL: `shaders/particle_shifting.wgsl`, `shaders/particle_shifting_surface.wgsl`.
 
 use crate::body_non_penetration::BODY_NON_PENETRATION_WGSL;
@@ -56,6 +57,12 @@ pub fn kernel(
         (pb::GRADS, Access::Read),
     ];
     let params: &[(u32, Access)] = &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::Read)];
+    // With bodies, the count of shifts cut short (status[4]).
+    let params_surface: &[(u32, Access)] = &[
+        (qb::PARAMS, Access::Uniform),
+        (qb::STATUS, Access::ReadWrite),
+        (qb::DIAG, Access::Read),
+    ];
     match grid_layout {
         None => SphKernel::new(
             gpu,
@@ -88,7 +95,7 @@ pub fn kernel(
             &[
                 (PARTICLES, particles),
                 (BODIES, &[(bb::MARKERS_IN, Access::Read)]),
-                (PARAMS, params),
+                (PARAMS, params_surface),
             ],
             Some(grid),
         ),

@@ -237,6 +237,7 @@ pub fn serve(
             dt_limit: limits.dt,
             near_singular: solver.near_singular(),
             reflected: solver.reflected(),
+            shift_limited: solver.shift_limited(),
             kind: CommandKind::Advance as u32,
             kinetic_energy: solver.stats().kinetic_energy,
             max_speed: solver.stats().max_speed,

@@ -391,11 +391,13 @@ impl SphData {
         let status = storage_init(
             gpu,
             "sph: blow-up status",
-            // [bad id, near-singular counts ×2, particles kept out of bodies].
+            // [bad id, near-singular counts ×2, particles kept out of bodies, shifts cut
+            // short in front of a body].
             bytemuck::cast_slice(&[
                 blowup_check::NO_BAD_ID,
                 blowup_check::NO_BAD_ID,
                 blowup_check::NO_BAD_ID,
+                0,
                 0,
             ]),
         );
@@ -810,6 +812,12 @@ impl SphData {
         Ok(gpu.read_buffer::<u32>(&self.status, 3, 1)?[0])
     }
 
+    /// Shifts cut short in front of a body's surface since the window's start
+    /// (status[4]; tests).
+    pub fn read_shift_limited(&self, gpu: &Gpu) -> Result<u32, FluidError> {
+        Ok(gpu.read_buffer::<u32>(&self.status, 4, 1)?[0])
+    }
+
     /// The gradient pass's diagnostics word, `None` without the pass.
     pub fn read_diag(&self, gpu: &Gpu) -> Result<Option<[u32; 4]>, FluidError> {
         let Some(g) = &self.gradients else {
@@ -872,6 +880,9 @@ pub struct FluidSolver {
     /// Fluid particle-steps of the last window mirrored back out of a body
     /// ([`crate::body_non_penetration`]); recomputed every window, not checkpointed.
     reflected: u32,
+    /// Fluid particle-steps of the last window whose shift was cut short in front of a
+    /// body ([`crate::particle_shifting::limit_toward_surface`]); not checkpointed.
+    shift_limited: u32,
     /// The fluid's kinetic energy, largest speed and density error at the end of the
     /// last window.
     stats: WindowStats,
@@ -986,6 +997,7 @@ impl FluidSolver {
             loads_ready: false,
             near_singular: 0,
             reflected: 0,
+            shift_limited: 0,
             stats: WindowStats::default(),
             wall_frames,
             grains,
@@ -1044,6 +1056,13 @@ impl FluidSolver {
     /// wall face and were mirrored back ([`crate::body_non_penetration`]).
     pub fn reflected(&self) -> u32 {
         self.reflected
+    }
+
+    /// Fluid particle-steps of the last window whose shift (Joubert eq. 17) the surface
+    /// rule cut short δ/2 in front of a body
+    /// ([`crate::particle_shifting::limit_toward_surface`]).
+    pub fn shift_limited(&self) -> u32 {
+        self.shift_limited
     }
 
     /// Everything that carries this solver from one window to the next (see
@@ -1395,8 +1414,9 @@ impl FluidSolver {
             encoder.clear_buffer(&b.marker_load, 0, None);
             encoder.clear_buffer(&b.marker_load_c, 0, None);
         }
-        // status[3]: the window's count of particles kept out of bodies.
-        encoder.clear_buffer(&self.data.status, 12, Some(4));
+        // status[3], status[4]: the window's counts of particles kept out of bodies and
+        // of shifts cut short in front of them.
+        encoder.clear_buffer(&self.data.status, 12, Some(8));
     }
 
     /// Runs `ops` once with substep `dt` and load weight `load_weight` after resetting the
@@ -1471,7 +1491,11 @@ impl FluidSolver {
         self.time += window;
         self.steps += u64::from(substeps);
         self.loads_ready = self.data.bodies.is_some();
-        (self.near_singular, self.reflected, self.stats) = self.check(gpu)?;
+        (
+            self.near_singular,
+            [self.reflected, self.shift_limited],
+            self.stats,
+        ) = self.check(gpu)?;
         Ok(substeps)
     }
 
@@ -1479,10 +1503,11 @@ impl FluidSolver {
     /// particles outside the grid. Returns the window's near-singular particle-steps of
     /// the gradient pass and of Joubert's boundary values (0 without the pass), copied
     /// into `status[1..3]` so that one readback serves both; the particle-steps kept out
-    /// of bodies (`status[3]`); and the window's telemetry.
-    fn check(&self, gpu: &Gpu) -> Result<(u32, u32, WindowStats), FluidError> {
+    /// of bodies (`status[3]`) and those whose shift was cut short in front of one
+    /// (`status[4]`); and the window's telemetry.
+    fn check(&self, gpu: &Gpu) -> Result<(u32, [u32; 2], WindowStats), FluidError> {
         let d = &self.data;
-        // status[3] holds the window's non-penetration count: left alone.
+        // status[3], status[4] hold the window's body counts: left alone.
         gpu.queue.write_buffer(
             &d.status,
             0,
@@ -1503,7 +1528,7 @@ impl FluidSolver {
             encoder.copy_buffer_to_buffer(&g.diag, 4, &d.status, 4, 8);
         }
         gpu.queue.submit([encoder.finish()]);
-        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 4)?;
+        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 5)?;
         // Gradient-pass fallbacks per step, plus the one-sided matrices of Joubert
         // boundary particles and of the markers' corrected ∇u (each counted at both of
         // the step's rate evaluations).
@@ -1579,7 +1604,7 @@ impl FluidSolver {
         )?;
         Ok((
             near_singular,
-            status[3],
+            [status[3], status[4]],
             WindowStats::from_partials(&partials),
         ))
     }

@@ -117,7 +117,8 @@ fn surface_points(points: &[CouplingPoint]) -> Vec<SurfacePoint> {
 /// 0.3δ and more off its surface; one gradient pass and one shift with Δt = 1e-3 s.
 /// Reference: the twins (`gradients_cpu`, `shift_cpu` with `nearest_surface_marker_cpu`)
 /// on the GPU's state before the pass; without the rule the twin moves particles inside
-/// δ/2 that the rule holds.
+/// δ/2 that the rule holds. The kernel's count of shifts cut short (`shift_limited`) is
+/// the twin's, but for shifts within 2e-8 m of the rule's edge.
 #[test]
 fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
@@ -151,11 +152,15 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
         .run_ops(&gpu, &[Op::Gradients, Op::Shift], dt, 1.0)
         .unwrap();
     let after = solver.data().read(&gpu).unwrap();
+    let count = solver.data().read_shift_limited(&gpu).unwrap();
     let markers = surface_points(&points);
     let surface = surface_markers(&before, &markers);
     let cpu = gradients_cpu(&c, &before);
     let u_max = common::largest_fluid_speed(&before);
     let (mut pairs, mut held, mut worst_gap) = (Vec::new(), 0, f64::INFINITY);
+    // Shifts the rule cuts short, by its own test (inward part beyond the allowed one),
+    // and those within f32's resolution of positions near 0.1 m of that test's edge.
+    let (mut limited, mut borderline) = (0u32, 0u32);
     let mut largest_hold = 0.0f64;
     for i in 0..before.len() {
         let Some(g) = cpu[i] else { continue };
@@ -171,6 +176,10 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
             pairs.push((after.pos[i][k] - s0.pos[k], twin.pos[k] - s0.pos[k]));
         }
         if let Some((j, r, n)) = near {
+            let inward = -dot(sub(free.pos, s0.pos), n);
+            let allowed = (dot(r, n) - 0.5 * d).max(0.0);
+            limited += u32::from(inward > allowed);
+            borderline += u32::from((inward - allowed).abs() < 2e-8);
             let (gap0, gap_free) = (dot(r, n), dot(sub(free.pos, before.pos[j]), n));
             if gap_free < gap0.min(0.5 * d) - 1e-9 {
                 held += 1;
@@ -184,7 +193,7 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
     }
     let (e, m) = common::max_err(pairs.into_iter());
     println!(
-        "shift δr: max |GPU − twin| = {e:e} of {m:e}; {held} particles held off, by up to {largest_hold:e} m; worst gap {worst_gap:e} m"
+        "shift δr: max |GPU − twin| = {e:e} of {m:e}; {held} particles held off, by up to {largest_hold:e} m; worst gap {worst_gap:e} m; shifts cut short: GPU {count}, twin {limited} ({borderline} borderline)"
     );
     // f32 positions near 0.1 m resolve 1e-8 m.
     let tolerance = 1e-3 * m + 2e-8;
@@ -197,6 +206,11 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
     assert!(
         worst_gap >= -2e-8,
         "a particle shifted inside δ/2: {worst_gap:e} m"
+    );
+    // The kernel counts what it cut short (status[4], reported as `shift_limited`).
+    assert!(
+        limited >= 5 && count.abs_diff(limited) <= borderline,
+        "shifts cut short: GPU counted {count}, the twin {limited} ({borderline} borderline)"
     );
 }
 

@@ -538,6 +538,12 @@ fn summary_text(s: &RunSummary) -> String {
             s.reflected
         );
     }
+    if s.shift_limited > 0 {
+        t += &format!(
+            "bodies: {} fluid particle-steps had their shift cut short δ/2 in front of a body's surface (per window in /run/windows)\n",
+            s.shift_limited
+        );
+    }
     if let Some(r) = &s.recording {
         t += &format!("recording: {}\n", r.display());
     }

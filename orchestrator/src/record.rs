@@ -9,7 +9,7 @@
 //! | `/bodies/poses` | `foxglove.PosesInFrame` (protobuf), one pose per body, frame `world`, the order of `/bodies/states` | every recorded body time |
 //! | `/bodies/states` | `couplet.BodyStates` (JSON): `time` (s), `bodies[]`: `body`, `name`, `position` (m), `orientation` `[x,y,z,w]`, `velocity` (m/s), `angular_velocity` (rad/s), `mass` (kg) | every recorded body time |
 //! | `/bodies/loads` | `couplet.BodyLoads` (JSON): `time` (s, the window's start), `loads[]`: `body`, fluid `force` (N), `moment` about the centre of mass (N·m) | every recorded body time of a scene whose fluid sends loads |
-//! | `/run/windows` | `couplet.Window` (JSON): `step`, `time` (window start, s), `window` (s), `fluid` and `dem` (null for a side that does not run): `substeps`, `compute_us`, `wait_us`, `exchange_us`, `near_singular`, `reflected`, and the fluid's `kinetic_energy` (J), `max_speed` (m/s), `max_density_error` at the window's end | every window |
+//! | `/run/windows` | `couplet.Window` (JSON): `step`, `time` (window start, s), `window` (s), `fluid` and `dem` (null for a side that does not run): `substeps`, `compute_us`, `wait_us`, `exchange_us`, `near_singular`, `reflected`, `shift_limited`, and the fluid's `kinetic_energy` (J), `max_speed` (m/s), `max_density_error` at the window's end | every window |
 //!
 //! "Every recorded body time" is every window's end, or `time.body_output_interval`'s
 //! thinning of it. The JSON channels are Foxglove's time series: its Plot panel reads
@@ -189,6 +189,7 @@ pub fn window_schema() -> Value {
             "exchange_us": {"type": "number"},
             "near_singular": {"type": "integer", "minimum": 0, "description": "fluid particle-steps that kept the uncorrected gradient (Joubert eq. 10)"},
             "reflected": {"type": "integer", "minimum": 0, "description": "fluid particle-steps that ended behind a resolved body's surface and were mirrored back out"},
+            "shift_limited": {"type": "integer", "minimum": 0, "description": "fluid particle-steps whose shift (Joubert eq. 17) was cut short δ/2 in front of a resolved body's surface"},
             "kinetic_energy": {"type": "number", "minimum": 0, "description": "fluid at the window's end: Σ ½ m |u|², J (0 for the DEM)"},
             "max_speed": {"type": "number", "minimum": 0, "description": "fluid at the window's end: largest particle speed, m/s (0 for the DEM)"},
             "max_density_error": {"type": "number", "minimum": 0, "description": "fluid at the window's end: largest |ρ/(ε ρ0) − 1| (0 for the DEM)"},
@@ -521,6 +522,7 @@ impl Recorder {
                 json!({
                     "substeps": r.substeps, "compute_us": r.compute_us, "wait_us": r.wait_us,
                     "exchange_us": r.exchange_us, "near_singular": r.near_singular, "reflected": r.reflected,
+                    "shift_limited": r.shift_limited,
                     "kinetic_energy": r.kinetic_energy, "max_speed": r.max_speed,
                     "max_density_error": r.max_density_error,
                 })

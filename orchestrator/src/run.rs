@@ -115,6 +115,9 @@ pub struct RunSummary {
     pub near_singular: u64,
     /// Fluid particle-steps mirrored back out of a resolved body, over the run.
     pub reflected: u64,
+    /// Fluid particle-steps whose shift was cut short δ/2 in front of a resolved body's
+    /// surface (couplet_fluid::particle_shifting::limit_toward_surface), over the run.
+    pub shift_limited: u64,
     /// Last body states received.
     pub final_states: Vec<BodyState>,
     /// Every window's states of body 0 (time, height, vertical velocity) for validation.
@@ -826,6 +829,7 @@ impl CoupledRun {
             summary.fluid_substeps += r.substeps as u64;
             summary.near_singular += u64::from(r.near_singular);
             summary.reflected += u64::from(r.reflected);
+            summary.shift_limited += u64::from(r.shift_limited);
         }
 
         // Drain what crossed this window; record it (bodies and loads every window, or

@@ -8,7 +8,7 @@ use iceoryx2::prelude::ZeroCopySend;
 
 /// Bumped whenever a payload layout or the meaning of a field changes; a peer with
 /// another version is refused at the handshake.
-pub const PROTOCOL_VERSION: u32 = 2;
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// User header of every windowed sample: which coupling window the slice belongs to.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
@@ -268,6 +268,10 @@ pub struct SideReport {
     /// Fluid: particle-steps of the window that ended behind a resolved body's surface
     /// and were mirrored back out (couplet_fluid::body_non_penetration); 0 for the DEM.
     pub reflected: u32,
+    /// Fluid: particle-steps of the window whose shift (Joubert eq. 17) was cut short
+    /// δ/2 in front of a resolved body's surface
+    /// (couplet_fluid::particle_shifting::limit_toward_surface); 0 for the DEM.
+    pub shift_limited: u32,
     /// Fluid at the end of the window: kinetic energy Σ ½ m |u|², J; largest speed,
     /// m/s; largest density error |ρ/(ε ρ0) − 1| (ε the grains' porosity, 1 without
     /// grains). Zero for the DEM and in acknowledgements.
@@ -299,5 +303,5 @@ const _: () = {
     assert!(core::mem::size_of::<BodyLoad>() == 56);
     assert!(core::mem::size_of::<WindowHeader>() == 40);
     assert!(core::mem::size_of::<Command>() == 88);
-    assert!(core::mem::size_of::<SideReport>() == 88);
+    assert!(core::mem::size_of::<SideReport>() == 96);
 };
