@@ -158,8 +158,8 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
     let cpu = gradients_cpu(&c, &before);
     let u_max = common::largest_fluid_speed(&before);
     let (mut pairs, mut held, mut worst_gap) = (Vec::new(), 0, f64::INFINITY);
-    // Shifts the rule cuts short, by its own test (inward part beyond the allowed one),
-    // and those within f32's resolution of positions near 0.1 m of that test's edge.
+    // Shifts the rule cuts short (the free shift goes past where the rule stops it), and
+    // those within f32's resolution of positions near 0.1 m of that edge.
     let (mut limited, mut borderline) = (0u32, 0u32);
     let mut largest_hold = 0.0f64;
     for i in 0..before.len() {
@@ -176,19 +176,20 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
             pairs.push((after.pos[i][k] - s0.pos[k], twin.pos[k] - s0.pos[k]));
         }
         if let Some((j, r, n)) = near {
-            let inward = -dot(sub(free.pos, s0.pos), n);
-            let allowed = (dot(r, n) - 0.5 * d).max(0.0);
-            limited += u32::from(inward > allowed);
-            borderline += u32::from((inward - allowed).abs() < 2e-8);
-            let (gap0, gap_free) = (dot(r, n), dot(sub(free.pos, before.pos[j]), n));
-            if gap_free < gap0.min(0.5 * d) - 1e-9 {
+            // Where the rule stops the particle in front of the marker's plane, and how
+            // far past that the shift without the rule would carry it.
+            let floor = dot(r, n).min(0.5 * d);
+            let excess = floor - dot(sub(free.pos, before.pos[j]), n);
+            limited += u32::from(excess > 0.0);
+            borderline += u32::from(excess.abs() < 2e-8);
+            if excess > 1e-9 {
                 held += 1;
                 let e = sub(free.pos, twin.pos);
                 largest_hold = largest_hold.max(dot(e, e).sqrt());
             }
             // The GPU's particle after the shift, against the same marker's plane.
             let gap = dot(sub(after.pos[i], before.pos[j]), n);
-            worst_gap = worst_gap.min(gap - gap0.min(0.5 * d));
+            worst_gap = worst_gap.min(gap - floor);
         }
     }
     let (e, m) = common::max_err(pairs.into_iter());
