@@ -6,7 +6,12 @@
 //! --variant "water, ε = 0.8"`, reduced for CI: the column cut to 8 lattice spacings
 //! across (the shortest period the neighbour grid takes at support 3δ), to t = 6 ms.
 //! The block's settling speed over the second half must be within Robinson §6.2's 5 %
-//! of eq. (35) as printed.
+//! of eq. (35) as printed, and the report's other judged rows must pass, among them the
+//! fluid's largest speed: its growth across the judged stretch (≤ 2) and its level
+//! against the block's speed (≤ 10), which a run past the lower face's instability
+//! fails (ARCHITECTURE.md, "The constant-porosity block's lower face grows an
+//! instability"; 2026-11-27: growth 1.198, level 0.346 — 1.024e-3 m/s against
+//! 2.9614e-3).
 //!
 //! Measured 2026-11-24 (8 across, to 8 ms): 2.9674e-3 m/s against 2.9573e-3 (0.34 %);
 //! the mean over 3–6 ms of the same run 0.14 %. The quick version (10 across, to 12 ms)
