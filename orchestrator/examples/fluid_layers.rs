@@ -9,13 +9,7 @@
 //!
 //! `cargo run --release -p couplet-orchestrator --example fluid_layers -- OUT/run.mcap
 //! [--at MS [--layer M] [--particles Y]]`
-use couplet_orchestrator::record::{Particle, read_recording};
-
-fn speed(p: &Particle) -> f64 {
-    f64::from(p[4])
-        .hypot(f64::from(p[5]))
-        .hypot(f64::from(p[6]))
-}
+use couplet_orchestrator::record::{Particle, particle_speed as speed, read_recording};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();

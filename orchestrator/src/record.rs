@@ -631,6 +631,13 @@ pub struct LoadSample {
 /// A particle of a `/fluid/particles` snapshot: x y z pressure vx vy vz density.
 pub type Particle = [f32; 8];
 
+/// A snapshot particle's speed |(vx, vy, vz)|, m/s.
+pub fn particle_speed(p: &Particle) -> f64 {
+    f64::from(p[4])
+        .hypot(f64::from(p[5]))
+        .hypot(f64::from(p[6]))
+}
+
 /// What a recording holds, decoded.
 #[derive(Debug, Default)]
 pub struct Recording {

@@ -2480,11 +2480,7 @@ fn constant_porosity_block(
             below_series.push((*t, b.0 / b.1 as f64));
         }
         let top_speed = (snap.iter())
-            .map(|p| {
-                f64::from(p[4])
-                    .hypot(f64::from(p[5]))
-                    .hypot(f64::from(p[6]))
-            })
+            .map(crate::record::particle_speed)
             .fold(0.0, f64::max);
         fastest.push((*t, top_speed));
         if *t >= 0.5 * t_end {
