@@ -22,6 +22,11 @@
 // P_j/(Ω_j ρ_j²) ∇W(h_j); the viscous terms take the mean of ∇W(h_i) and ∇W(h_j).
 // Without it smoothing_length() is H, omega() 1, and all of this compiles to the fixed-h
 // code.
+// With POROSITY_PAIR (coupling.porosity_pressure = "energy-pair", porosity.rs) the
+// pressure sums take P ε in place of P (pressure_porosity), and the particle gains
+// (P_i/ρ_i) ∇ε_i (porosity_gradient): with the EOS on ρ/ε (Robinson eq. 15) these are the
+// terms that conserve energy; each grain gets the opposite of the ∇ε term
+// (unresolved_coupling.wgsl). Otherwise pressure_porosity is 1 and the gradient 0.
 // One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
@@ -45,6 +50,7 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     let u_i = vel[i].xyz;
     let rho_i = rho[i];
     let pr_i = press[i];
+    let pe_i = pr_i * pressure_porosity(i);
     let c_i = cell_coord(p_i);
     let b_i = b_matrix(i);
     // The free-surface zone takes the standard forms (effects.free_surface).
@@ -86,17 +92,18 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 let u_ij = u_i - vel[j].xyz;
                 let rho_j = rho[j];
                 let m_j = pos[j].w;
+                let pe_j = press[j] * pressure_porosity(j);
                 if CORRECTED_CONTINUITY && corrected_i {
                     drho_i += corrected_continuity_term(m_j, rho_i, rho_j, u_ij, b_i * grad_w);
                 } else {
                     drho_i += continuity_term(m_j, u_ij, grad_w) / omega_i;
                 }
                 if GRADIENT_CORRECTION && corrected_i {
-                    acc += corrected_pressure_term(m_j, pr_i, rho_i, press[j], rho_j, b_i * grad_w);
+                    acc += corrected_pressure_term(m_j, pe_i, rho_i, pe_j, rho_j, b_i * grad_w);
                 } else if VARIABLE_H {
-                    acc += robinson_pressure_term(m_j, pr_i / omega_i, rho_i, press[j] / omega(j), rho_j, grad_w, grad_w_j);
+                    acc += robinson_pressure_term(m_j, pe_i / omega_i, rho_i, pe_j / omega(j), rho_j, grad_w, grad_w_j);
                 } else {
-                    acc += pressure_term(m_j, pr_i, rho_i, press[j], rho_j, grad_w);
+                    acc += pressure_term(m_j, pe_i, rho_i, pe_j, rho_j, grad_w);
                 }
                 if MASS_CORRECTION {
                     let r = sqrt(r2);
@@ -136,6 +143,9 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     }
     if LAPLACIAN_CORRECTION {
         acc += 2.0 * NU * (lap_a - lap_d * (transpose(b_i) * lap_q));
+    }
+    if POROSITY_PAIR {
+        acc += (pr_i / rho_i) * porosity_gradient(i);
     }
     if MASS_CORRECTION {
         let l15 = 2.0 * (mc_a - dot(mc_q, grad_p(i)));

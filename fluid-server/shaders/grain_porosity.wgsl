@@ -5,7 +5,9 @@
 // (2^-31: a solid fraction up to 2 fits a u32; integer adds commute, so the sums are
 // exact and independent of thread order). porosity(a) = 1 − the sum
 // (grain_porosity_read.wgsl), held over the window.
-// Needs: prelude, SPH constants, StepParams, grid_common, kernel.
+// With coupling.porosity_pressure = "energy-pair" it also sums ∇ε (add_porosity_gradient,
+// porosity.rs; a no-op otherwise).
+// Needs: prelude, SPH constants, StepParams, grid_common, kernel, add_porosity_gradient.
 
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
@@ -47,8 +49,10 @@ fn grain_solid_fraction(@builtin(workgroup_id) wid: vec3<u32>,
                 if r2 >= SUPPORT_RADIUS2 {
                     continue;
                 }
-                // Robinson eq. (9).
-                atomicAdd(&solid[a], u32(round(v * kernel_w(sqrt(r2)) * SOLID_COUNTS)));
+                // Robinson eq. (9), and with energy-pair its gradient (porosity.rs).
+                let r_abs = sqrt(r2);
+                atomicAdd(&solid[a], u32(round(v * kernel_w(r_abs) * SOLID_COUNTS)));
+                add_porosity_gradient(a, v, r, r_abs);
             }
         }
     }

@@ -4,7 +4,7 @@
 
 use crate::error::FluidError;
 use crate::kernel::SmoothingKernel;
-use couplet_protocol::{KernelKind, Scene, ViscosityModel, WallKind, WallModel};
+use couplet_protocol::{KernelKind, PorosityPressure, Scene, ViscosityModel, WallKind, WallModel};
 
 /// Scene-fixed parameters of the standard WCSPH scheme, in SI units (`f64`; the WGSL
 /// constants are the same numbers rounded to `f32`).
@@ -100,6 +100,11 @@ pub struct SphConstants {
     /// Unresolved grains push back on the fluid (`coupling.two_way`, Robinson eqs.
     /// 26–27): the reaction buffer and its kernels exist.
     pub grain_reaction: bool,
+    /// `coupling.porosity_pressure = "energy-pair"` among unresolved grains: the fluid's
+    /// pressure term takes P ε and adds (P/ρ) ∇ε (the gradient summed beside the solid
+    /// fraction), each grain gets the exact opposite of that term, and only the drag is
+    /// spread back ([`crate::porosity`], [`crate::unresolved_coupling`]).
+    pub porosity_pair: bool,
     /// `effects.variable_smoothing_length`: `Some(largest h / h)` (Robinson eq. 19,
     /// `fluid.max_smoothing_ratio`), `None` for one h. See [`crate::robinson_variable_h`].
     pub variable_h: Option<f64>,
@@ -190,6 +195,8 @@ impl SphConstants {
             density_diffusion: scene.effects.density_diffusion,
             grains: !scene.grains().is_empty(),
             grain_reaction: scene.coupling.two_way && !scene.grains().is_empty(),
+            porosity_pair: scene.coupling.porosity_pressure == PorosityPressure::EnergyPair
+                && !scene.grains().is_empty(),
             variable_h: scene
                 .effects
                 .variable_smoothing_length
@@ -322,6 +329,7 @@ impl SphConstants {
              const DENSITY_DIFFUSION: bool = {diffusion};\n\
              const DIFFUSION_DELTA: f32 = {delta:e};\n\
              const VARIABLE_H: bool = {variable_h};\n\
+             const POROSITY_PAIR: bool = {porosity_pair};\n\
              const MAX_H: f32 = {max_h:e};\n\
              const WALL_LO: vec3<f32> = vec3<f32>({wall_lo});\n\
              const WALL_HI: vec3<f32> = vec3<f32>({wall_hi});\n\
@@ -364,6 +372,7 @@ impl SphConstants {
             diffusion = self.density_diffusion > 0.0,
             delta = self.density_diffusion,
             variable_h = self.variable_h.is_some(),
+            porosity_pair = self.porosity_pair,
             max_h = k.h * self.variable_h.unwrap_or(1.0),
             wall_lo = wgsl_faces(self.wall_faces.map(|f| f[0])),
             wall_hi = wgsl_faces(self.wall_faces.map(|f| f[1])),

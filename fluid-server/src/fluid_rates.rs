@@ -11,6 +11,7 @@ use crate::kernel::kernel_library;
 use crate::momentum::{MOMENTUM_WGSL, momentum_cpu};
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet};
+use crate::porosity::porosity_pair_wgsl;
 use crate::robinson_variable_h::smoothing_wgsl;
 use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 
@@ -122,6 +123,8 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     let g = if grads { GRADS_WGSL } else { NO_GRADS_WGSL };
     let (smoothing, smoothing_binding) = smoothing_wgsl(c);
     bindings.extend(smoothing_binding);
+    let (pair, pair_bindings) = porosity_pair_wgsl(c);
+    bindings.extend(pair_bindings);
     SphKernel::new(
         gpu,
         "sph: fluid_rates",
@@ -137,6 +140,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             g,
             wall_velocity,
             smoothing,
+            &pair,
             FLUID_RATES_WGSL,
         ],
         "fluid_rates",
@@ -152,18 +156,53 @@ pub fn fluid_rates_cpu(
     set: &ParticleSet,
     dt: f64,
 ) -> Vec<Option<(f64, [f64; 3])>> {
+    fluid_rates_among_grains_cpu(c, set, dt, None)
+}
+
+/// ε and ∇ε at every entry of a set (`PorosityField::porosity` and `::gradient`).
+pub struct PorosityAt<'a> {
+    pub porosity: &'a [f64],
+    pub gradient: &'a [[f64; 3]],
+}
+
+/// CPU twin among unresolved grains: as [`fluid_rates_cpu`], and with
+/// `coupling.porosity_pressure = "energy-pair"` ([`SphConstants::porosity_pair`]) the
+/// pressure sums take P ε (they are the sums of a set whose pressures are P ε) and each
+/// fluid entry gains (P/ρ) ∇ε, from `porosity` (required then).
+pub fn fluid_rates_among_grains_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    dt: f64,
+    porosity: Option<PorosityAt>,
+) -> Vec<Option<(f64, [f64; 3])>> {
     let grads = if c.density_diffusion > 0.0 || c.mass_correction > 0.0 {
         gradients_cpu(c, set)
     } else {
         Vec::new()
     };
+    let pair = porosity.filter(|_| c.porosity_pair).map(|e| {
+        let mut scaled = set.clone();
+        for (p, eps) in scaled.press.iter_mut().zip(e.porosity) {
+            *p *= eps;
+        }
+        (scaled, e.gradient)
+    });
+    assert!(
+        pair.is_some() || !c.porosity_pair,
+        "energy-pair rates need the porosity"
+    );
     (0..set.len())
         .map(|i| {
             (set.kinds.kind(set.id[i]) == Kind::Fluid).then(|| {
-                (
-                    continuity_cpu(c, set, i, &grads, dt),
-                    momentum_cpu(c, set, i),
-                )
+                let acc = match &pair {
+                    Some((scaled, grad)) => {
+                        let a = momentum_cpu(c, scaled, i);
+                        let s = set.press[i] / set.rho[i];
+                        std::array::from_fn(|k| a[k] + s * grad[i][k])
+                    }
+                    None => momentum_cpu(c, set, i),
+                };
+                (continuity_cpu(c, set, i, &grads, dt), acc)
             })
         })
         .collect()

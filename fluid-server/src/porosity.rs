@@ -91,12 +91,81 @@ pub fn boundary_state_cpu(c: &SphConstants, p: f64, eps: f64) -> (f64, f64) {
     (eps * c.density(p), eps * c.mass)
 }
 
-/// Compiles `grain_solid_fraction` (Robinson eq. 9 at the fluid particles).
+/// `energy-pair` (`coupling.porosity_pressure`): `grain_solid_fraction` also sums the
+/// porosity's gradient at each fluid and wall particle,
+///
+/// ∇ε_a = −Σ_j V_j ∇_a W_aj = Σ_j V_j F(r_aj) (x_j − x_a)   (the gradient of eq. 9),
+///
+/// in i32 counts of 2^-24/h per component (`solid_grad`, four per particle, permuted
+/// like the solid fraction): integer adds commute, so the sums do not depend on the
+/// order in which grains reach a particle. Range 2^7/h, against |∇ε| ≤ 2/h or so for a
+/// lattice; a count is 6e-8/h, some 1e-7 of a block face's gradient. CPU twin:
+/// [`PorosityField::gradient`].
+const POROSITY_GRADIENT_ADD_WGSL: &str = "@group(0) @binding(18) var<storage, read_write> solid_grad: array<atomic<i32>>;
+const POROSITY_GRADIENT_COUNTS: f32 = 16777216.0 * H;
+// r = x_j − x_a (grain minus particle), at distance r_abs.
+fn add_porosity_gradient(a: u32, v: f32, r: vec3<f32>, r_abs: f32) {
+    let counts = round(v * kernel_grad_factor(r_abs) * POROSITY_GRADIENT_COUNTS * r);
+    atomicAdd(&solid_grad[4u * a], i32(counts.x));
+    atomicAdd(&solid_grad[4u * a + 1u], i32(counts.y));
+    atomicAdd(&solid_grad[4u * a + 2u], i32(counts.z));
+}
+";
+const NO_POROSITY_GRADIENT_ADD_WGSL: &str =
+    "fn add_porosity_gradient(a: u32, v: f32, r: vec3<f32>, r_abs: f32) {}
+";
+
+/// The fluid's pressure terms under `energy-pair`: `pressure_porosity(i)` (the ε that
+/// multiplies P in the pair sum) and `porosity_gradient(i)` (∇ε_i, read from the sums
+/// of [`POROSITY_GRADIENT_ADD_WGSL`]); 1 and 0 otherwise, so the terms are Robinson's.
+/// Returns the WGSL and the bindings to add to group 0.
+pub fn porosity_pair_wgsl(c: &SphConstants) -> (String, Vec<(u32, Access)>) {
+    if c.porosity_pair {
+        (
+            format!("{POROSITY_READ_WGSL}{POROSITY_GRADIENT_READ_WGSL}"),
+            vec![(pb::SOLID, Access::Read), (pb::SOLID_GRAD, Access::Read)],
+        )
+    } else {
+        (NO_POROSITY_PAIR_WGSL.to_owned(), Vec::new())
+    }
+}
+
+const POROSITY_GRADIENT_READ_WGSL: &str = "@group(0) @binding(18) var<storage, read> solid_grad: array<i32>;
+fn pressure_porosity(i: u32) -> f32 {
+    return porosity(i);
+}
+fn porosity_gradient(i: u32) -> vec3<f32> {
+    let k = 4u * i;
+    return vec3<f32>(f32(solid_grad[k]), f32(solid_grad[k + 1u]), f32(solid_grad[k + 2u]))
+        * (INV_H / 16777216.0);
+}
+";
+const NO_POROSITY_PAIR_WGSL: &str = "fn pressure_porosity(i: u32) -> f32 {
+    return 1.0;
+}
+fn porosity_gradient(i: u32) -> vec3<f32> {
+    return vec3<f32>(0.0);
+}
+";
+
+/// Compiles `grain_solid_fraction` (Robinson eq. 9 at the fluid particles, and with
+/// `energy-pair` its gradient).
 pub fn solid_fraction_kernel(
     gpu: &Gpu,
     c: &SphConstants,
     grid_layout: &wgpu::BindGroupLayout,
 ) -> SphKernel {
+    let mut particles = vec![
+        (pb::POS, Access::Read),
+        (pb::ID, Access::Read),
+        (pb::SOLID, Access::ReadWrite),
+    ];
+    let gradient = if c.porosity_pair {
+        particles.push((pb::SOLID_GRAD, Access::ReadWrite));
+        POROSITY_GRADIENT_ADD_WGSL
+    } else {
+        NO_POROSITY_GRADIENT_ADD_WGSL
+    };
     SphKernel::new(
         gpu,
         "sph: grain_solid_fraction",
@@ -105,18 +174,12 @@ pub fn solid_fraction_kernel(
             STEP_PARAMS_WGSL,
             GRID_COMMON_WGSL,
             KERNEL_WGSL,
+            gradient,
             GRAIN_POROSITY_WGSL,
         ],
         "grain_solid_fraction",
         &[
-            (
-                PARTICLES,
-                &[
-                    (pb::POS, Access::Read),
-                    (pb::ID, Access::Read),
-                    (pb::SOLID, Access::ReadWrite),
-                ],
-            ),
+            (PARTICLES, &particles),
             (
                 BODIES,
                 &[
@@ -204,57 +267,94 @@ impl PorosityField {
         })
     }
 
-    /// ε at each of `points` (Robinson eq. 9), from `solids`.
-    pub fn porosity(&self, points: &[[f64; 3]], solids: &[Solid]) -> Vec<f64> {
+    /// Calls `visit(r_pj, j)` for every solid j within the support of `p`, with
+    /// r_pj = p − x_j the nearest image.
+    fn each_solid_near(
+        &self,
+        cells: &HashMap<[i64; 3], Vec<usize>>,
+        solids: &[Solid],
+        p: [f64; 3],
+        mut visit: impl FnMut([f64; 3], usize),
+    ) {
+        let n = self.periodic_cells();
+        let r2max = self.support * self.support;
+        let c = self.cell(p, n);
+        // The neighbour cells per axis, each once (a period of one or two cells would
+        // otherwise visit a cell twice).
+        let axis = |k: usize| -> Vec<i64> {
+            let mut v: Vec<i64> = (-1..=1)
+                .map(|d| {
+                    if n[k] > 0 {
+                        (c[k] + d).rem_euclid(n[k])
+                    } else {
+                        c[k] + d
+                    }
+                })
+                .collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let (ax, ay, az) = (axis(0), axis(1), axis(2));
+        for &x in &ax {
+            for &y in &ay {
+                for &z in &az {
+                    for &j in cells.get(&[x, y, z]).into_iter().flatten() {
+                        let r = self.separation(p, solids[j].position);
+                        if r[0] * r[0] + r[1] * r[1] + r[2] * r[2] < r2max {
+                            visit(r, j);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn cells(&self, solids: &[Solid]) -> HashMap<[i64; 3], Vec<usize>> {
         let n = self.periodic_cells();
         let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
         for (j, s) in solids.iter().enumerate() {
             cells.entry(self.cell(s.position, n)).or_default().push(j);
         }
-        let r2max = self.support * self.support;
-        points
-            .iter()
+        cells
+    }
+
+    /// ε at each of `points` (Robinson eq. 9), from `solids`.
+    pub fn porosity(&self, points: &[[f64; 3]], solids: &[Solid]) -> Vec<f64> {
+        let cells = self.cells(solids);
+        (points.iter())
             .map(|&p| {
-                let c = self.cell(p, n);
-                // The neighbour cells per axis, each once (a period of one or two cells
-                // would otherwise visit a cell twice).
-                let axis = |k: usize| -> Vec<i64> {
-                    let mut v: Vec<i64> = (-1..=1)
-                        .map(|d| {
-                            if n[k] > 0 {
-                                (c[k] + d).rem_euclid(n[k])
-                            } else {
-                                c[k] + d
-                            }
-                        })
-                        .collect();
-                    v.sort_unstable();
-                    v.dedup();
-                    v
-                };
-                let (ax, ay, az) = (axis(0), axis(1), axis(2));
                 let mut solid = 0.0;
-                for &x in &ax {
-                    for &y in &ay {
-                        for &z in &az {
-                            let Some(list) = cells.get(&[x, y, z]) else {
-                                continue;
-                            };
-                            for &j in list {
-                                let r = self.separation(p, solids[j].position);
-                                let r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-                                if r2 < r2max {
-                                    // Robinson eq. (9).
-                                    solid += self.kernel.w(r2.sqrt()) * solids[j].volume;
-                                }
-                            }
-                        }
-                    }
-                }
+                self.each_solid_near(&cells, solids, p, |r, j| {
+                    // Robinson eq. (9).
+                    solid += self.kernel.w(norm(r)) * solids[j].volume;
+                });
                 1.0 - solid
             })
             .collect()
     }
+
+    /// ∇ε at each of `points`, the gradient of eq. (9): −Σ_j V_j ∇W(x − x_j) (CPU twin of
+    /// the `energy-pair` sums in `grain_solid_fraction`).
+    pub fn gradient(&self, points: &[[f64; 3]], solids: &[Solid]) -> Vec<[f64; 3]> {
+        let cells = self.cells(solids);
+        (points.iter())
+            .map(|&p| {
+                let mut g = [0.0; 3];
+                self.each_solid_near(&cells, solids, p, |r, j| {
+                    let f = self.kernel.grad_factor(norm(r)) * solids[j].volume;
+                    for k in 0..3 {
+                        g[k] -= f * r[k];
+                    }
+                });
+                g
+            })
+            .collect()
+    }
+}
+
+fn norm(r: [f64; 3]) -> f64 {
+    (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()
 }
 
 #[cfg(test)]

@@ -260,6 +260,9 @@ pub struct SphData {
     /// The grains' solid fraction per particle (u32 counts of 2^-31, permuted; Robinson
     /// eq. 9), in scenes with grains.
     pub solid: Option<wgpu::Buffer>,
+    /// ∇ε per particle (i32 counts, four per particle, permuted), with
+    /// `coupling.porosity_pressure = "energy-pair"`.
+    pub solid_grad: Option<wgpu::Buffer>,
     /// The grains' reaction per particle (permuted), with two-way grains.
     pub reaction: Option<crate::unresolved_coupling::ReactionBuffers>,
     /// (h_i, Ω_i) of Robinson's variable smoothing length, one vec2 per particle
@@ -423,6 +426,12 @@ impl SphData {
             grid.register(gpu, &dvel, 16)?;
             grid.register(gpu, s, 4)?;
         }
+        let solid_grad = c
+            .porosity_pair
+            .then(|| storage_init(gpu, "sph: grain porosity gradient", &zeros16));
+        if let Some(s) = &solid_grad {
+            grid.register(gpu, s, 16)?;
+        }
         let reaction = c
             .grain_reaction
             .then(|| crate::unresolved_coupling::ReactionBuffers {
@@ -495,6 +504,7 @@ impl SphData {
                     pb::BOUNDARY_FRAME => boundary_frame.as_ref()?,
                     pb::BHAT => gradients.as_ref()?.bhat.as_ref()?,
                     pb::SOLID => solid.as_ref()?,
+                    pb::SOLID_GRAD => solid_grad.as_ref()?,
                     pb::SMOOTHING => smoothing.as_ref()?,
                     pb::REACTION_LO => &reaction.as_ref()?.lo,
                     pb::REACTION_HI => &reaction.as_ref()?.hi,
@@ -660,6 +670,7 @@ impl SphData {
             wall_vel,
             boundary_frame,
             solid,
+            solid_grad,
             reaction,
             smoothing,
             bound,

@@ -63,6 +63,10 @@ pub mod particle_binding {
     /// (h_i, Ω_i) of Robinson's variable smoothing length (eqs. 11, 19), one vec2 per
     /// particle, written after every sort (not permuted); only with variable h.
     pub const SMOOTHING: u32 = 17;
+    /// ∇ε of the grains' porosity at each particle (the gradient of Robinson eq. 9),
+    /// i32 counts of 2^-24/h, four per particle, permuted by the sort; only with
+    /// `coupling.porosity_pressure = "energy-pair"` ([`crate::porosity`]).
+    pub const SOLID_GRAD: u32 = 18;
 }
 
 /// Bodies and markers, group 2.

@@ -79,7 +79,9 @@ pub struct GrainSample {
     /// Shepard denominator Σ V_b W: 1 inside the fluid, less near a free surface or a
     /// wall, 0 with no fluid in reach (then every force is 0).
     pub shepard: f64,
-    /// `V (−∇P + ∇·τ)` at the grain, Robinson eqs. (23)–(25), N.
+    /// `V (−∇P + ∇·τ)` at the grain, Robinson eqs. (23)–(25), N; with
+    /// `coupling.porosity_pressure = "energy-pair"` the pressure force
+    /// `−V_j Σ_b V_b P_b ∇_j W_jb`, the exact opposite of the fluid's ∇ε terms.
     pub resolved: [f64; 3],
     /// Drag of the scene's law, N.
     pub drag: [f64; 3],
@@ -89,6 +91,17 @@ impl GrainSample {
     /// The fluid's whole force on the grain, Robinson eq. (23), N.
     pub fn force(&self) -> [f64; 3] {
         std::array::from_fn(|k| self.resolved[k] + self.drag[k])
+    }
+
+    /// The part spread back on the fluid (Robinson eqs. 26–27): the whole force, or
+    /// with `energy-pair` the drag only (the fluid's rates already hold the opposite of
+    /// the pressure force).
+    pub fn spread_force(&self, c: &SphConstants) -> [f64; 3] {
+        if c.porosity_pair {
+            self.drag
+        } else {
+            self.force()
+        }
     }
 }
 
@@ -110,6 +123,7 @@ pub fn kernel(
         (pb::POS, Access::Read),
         (pb::VEL, Access::Read),
         (pb::RHO, Access::Read),
+        (pb::PRESS, Access::Read),
         (pb::ID, Access::Read),
         (pb::DVEL, Access::Read),
     ];
@@ -230,7 +244,7 @@ pub fn reaction_unit(c: &SphConstants, samples: &[GrainSample]) -> f64 {
     let rho_min = c.rho0 * (1.0 - crate::blowup_check::BLOWUP_DENSITY_DEVIATION);
     let bound: f64 = (samples.iter())
         .filter(|s| s.shepard > 0.0)
-        .map(|s| s.force().iter().fold(0.0f64, |m, f| m.max(f.abs())) / s.shepard)
+        .map(|s| (s.spread_force(c).iter()).fold(0.0f64, |m, f| m.max(f.abs())) / s.shepard)
         .sum::<f64>()
         * c.kernel.w(0.0)
         / rho_min;
@@ -258,7 +272,7 @@ pub fn grain_reaction_cpu(
         if s.shepard == 0.0 {
             continue;
         }
-        let f = s.force();
+        let f = s.spread_force(c);
         for a in (0..set.len()).filter(|a| set.kinds.kind(set.id[*a]) == Kind::Fluid) {
             let r2: f64 = (0..3)
                 .map(|k| (g.position[k] - set.pos[a][k]).powi(2))
@@ -414,7 +428,7 @@ pub fn sample_grains_cpu(
     grains
         .iter()
         .map(|g| {
-            let (mut s, mut u, mut t) = (0.0, [0.0; 3], [0.0; 3]);
+            let (mut s, mut u, mut t, mut pair) = (0.0, [0.0; 3], [0.0; 3], [0.0; 3]);
             for b in (0..set.len()).filter(|b| set.kinds.kind(set.id[*b]) == Kind::Fluid) {
                 let r: [f64; 3] = std::array::from_fn(|k| g.position[k] - set.pos[b][k]);
                 let r2 = r.iter().map(|x| x * x).sum::<f64>();
@@ -422,12 +436,15 @@ pub fn sample_grains_cpu(
                     continue;
                 }
                 let w = c.kernel.w(r2.sqrt());
-                let vw = set.mass[b] / set.rho[b] * w;
-                s += vw;
+                let v_b = set.mass[b] / set.rho[b];
+                s += v_b * w;
+                let f = v_b * set.press[b] * c.kernel.grad_factor(r2.sqrt());
                 for k in 0..3 {
-                    u[k] += vw * set.vel[b][k];
+                    u[k] += v_b * w * set.vel[b][k];
                     // Robinson eq. (24).
                     t[k] += set.mass[b] * w * (dvel[b][k] - g_fluid[k]);
+                    // energy-pair: ∇_j W_jb = F(r) r, r = x_j − x_b.
+                    pair[k] += f * r[k];
                 }
             }
             if s == 0.0 {
@@ -447,7 +464,11 @@ pub fn sample_grains_cpu(
             GrainSample {
                 fluid_velocity: u_f,
                 shepard: s,
-                resolved: t.map(|x| g.volume * x / s),
+                resolved: if c.porosity_pair {
+                    pair.map(|x| -g.volume * x)
+                } else {
+                    t.map(|x| g.volume * x / s)
+                },
                 drag,
             }
         })
@@ -557,6 +578,7 @@ impl GrainCoupling {
                         pb::POS => Some(&data.pos),
                         pb::VEL => Some(&data.vel),
                         pb::RHO => Some(&data.rho),
+                        pb::PRESS => Some(&data.press),
                         pb::ID => Some(&data.id),
                         pb::DVEL => Some(&data.dvel),
                         pb::REACTION_LO => data.reaction.as_ref().map(|r| &r.lo),
@@ -617,6 +639,7 @@ impl GrainCoupling {
                         pb::POS => Some(&data.pos),
                         pb::ID => Some(&data.id),
                         pb::SOLID => Some(solid_buffer),
+                        pb::SOLID_GRAD => data.solid_grad.as_ref(),
                         _ => None,
                     },
                     BODIES => self.buffers.binding(b),
@@ -632,6 +655,9 @@ impl GrainCoupling {
             bytemuck::cast_slice(&[tau as f32, 0.0, 0.0, 0.0]),
         );
         encoder.clear_buffer(solid_buffer, 0, None);
+        if let Some(g) = &data.solid_grad {
+            encoder.clear_buffer(g, 0, None);
+        }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("sph: grain_solid_fraction"),
             timestamp_writes: None,

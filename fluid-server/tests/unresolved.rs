@@ -12,21 +12,25 @@ use couplet_fluid::porosity::{PorosityField, Solid, boundary_state_cpu};
 use couplet_fluid::unresolved_coupling::{
     Grain, GrainBuffers, GrainSample, grain_reaction_cpu, kernel, sample_grains_cpu,
 };
+use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleSet, SphConstants};
 use couplet_protocol::{BodyState, Scene};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// Runs the sort and the rates on `set`, then `sample_grains` on `grains`; returns the
-/// GPU samples, the CPU twin's, and the set as the GPU holds it.
+/// Runs the sort and the rates on `set`, then `sample_grains` on `grains` (with
+/// `energy-pair`'s pressure force when `pair`); returns the GPU samples and the CPU
+/// twin's.
 fn sample(
     gpu: &Gpu,
     s: &Scene,
     set: ParticleSet,
     law: DragLaw,
     grains: &[Grain],
+    pair: bool,
 ) -> (Vec<GrainSample>, Vec<GrainSample>) {
-    let c = SphConstants::from_scene(s).unwrap();
+    let mut c = SphConstants::from_scene(s).unwrap();
+    c.porosity_pair = pair;
     let mut solver = FluidSolver::from_particles(gpu, s, set).unwrap();
     solver
         .run_ops(
@@ -47,6 +51,7 @@ fn sample(
                     0 => Some(&data.pos),
                     1 => Some(&data.vel),
                     2 => Some(&data.rho),
+                    3 => Some(&data.press),
                     4 => Some(&data.id),
                     6 => Some(&data.dvel),
                     _ => None,
@@ -103,19 +108,21 @@ fn grains_inside(
 }
 
 /// Parity on 2744 jittered particles (30 % walls, random velocities, rates from the
-/// real `fluid_rates` pass) and 60 grains, for every drag law: u_f, V ρθ̄ and the drag
-/// each within 1e-4 of their largest magnitude (f32 sums of O(100) terms, as the pair
-/// kernels' parity bound).
+/// real `fluid_rates` pass) and 60 grains, for every drag law, and once more with
+/// `coupling.porosity_pressure = "energy-pair"` (the resolved force is then
+/// −V_j Σ_b V_b P_b ∇_j W_jb): u_f, the resolved force and the drag each within 1e-4 of
+/// their largest magnitude (f32 sums of O(100) terms, as the pair kernels' parity bound).
 #[test]
 fn sample_grains_matches_cpu_twin() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
     let s = scene("kernel = \"wendland-c2\"", "");
     let c = SphConstants::from_scene(&s).unwrap();
     let origin = [0.1; 3]; // the domain centre: the solver's origin
-    for (k, law) in DragLaw::ALL.into_iter().enumerate() {
+    let runs = (DragLaw::ALL.into_iter().map(|l| (l, false))).chain([(DragLaw::DiFelice, true)]);
+    for (k, (law, pair)) in runs.enumerate() {
         let set = random_set(&c, 14, 0.3, 0.2, 0.5, 10 + k as u64);
         let grains = grains_inside(&set, origin, c.support_radius(), 60, k as u64);
-        let (got, want) = sample(&gpu, &s, set, law, &grains);
+        let (got, want) = sample(&gpu, &s, set, law, &grains, pair);
         for (name, f) in [
             (
                 "u_f",
@@ -128,10 +135,10 @@ fn sample_grains_matches_cpu_twin() {
                 let (a, b) = (f(g), f(w));
                 (0..3).map(move |i| (a[i], b[i]))
             }));
-            println!("{law:?} {name}: max |Δ| = {e:e} of {m:e}");
+            println!("{law:?} (energy-pair {pair}) {name}: max |Δ| = {e:e} of {m:e}");
             assert!(
                 m > 0.0 && e <= 1e-4 * m,
-                "{law:?} {name}: max |Δ| {e:e} of {m:e}"
+                "{law:?} (energy-pair {pair}) {name}: max |Δ| {e:e} of {m:e}"
             );
         }
         let (e, _) = max_err(got.iter().zip(&want).map(|(g, w)| (g.shepard, w.shepard)));
@@ -152,7 +159,7 @@ fn shepard_interpolation_of_a_constant_field_is_exact() {
     let mut set = random_set(&c, 14, 0.0, 0.2, 0.0, 5);
     set.vel.iter_mut().for_each(|v| *v = u);
     let grains = grains_inside(&set, [0.1; 3], c.support_radius(), 40, 9);
-    let (got, _) = sample(&gpu, &s, set, DragLaw::Stokes, &grains);
+    let (got, _) = sample(&gpu, &s, set, DragLaw::Stokes, &grains, false);
     let mu = c.rho0 * c.nu;
     for (g, x) in grains.iter().zip(&got) {
         for k in 0..3 {
@@ -183,8 +190,8 @@ fn shepard_interpolation_of_a_constant_field_is_exact() {
 /// unresolved grains (radius 3 mm, 2500 kg/m³, Stokes drag), periodic on every axis
 /// (no walls: nothing outside the two phases exerts a force), no gravity, the
 /// soft-sphere engine (rapier takes no grain on a periodic axis); `two_way` sets
-/// `coupling.two_way`.
-fn grain_scene(n: usize, two_way: bool) -> Scene {
+/// `coupling.two_way`, `pressure` `coupling.porosity_pressure`.
+fn grain_scene(n: usize, two_way: bool, pressure: &str) -> Scene {
     let mut text = format!(
         r#"
 [meta]
@@ -207,6 +214,7 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, 0.2, 0.2] }}]
 [coupling]
 drag = "stokes"
 two_way = {two_way}
+porosity_pressure = "{pressure}"
 [dem]
 engine = "soft-sphere"
 [dem.soft_sphere]
@@ -292,6 +300,123 @@ fn grain_reaction_twin_balances_the_grains_exactly() {
     }
 }
 
+/// `energy-pair` (`coupling.porosity_pressure`) balances by construction: the fluid's
+/// (P_a/ρ_a) ∇ε_a terms, ∇ε_a = −Σ_j V_j ∇_a W_aj, are summed from the same pairs as the
+/// grains' −V_j Σ_a V_a P_a ∇_j W_ja, so Σ_a m_a (P_a/ρ_a) ∇ε_a = −Σ_j F_j. The CPU twins
+/// (f64: `PorosityField::gradient`, `sample_grains_cpu`) on a jittered set with walls
+/// and 60 grains: to 1e-12 of Σ|F_j| (f64 round-off), and the sums are not zero.
+#[test]
+fn energy_pair_pressure_forces_balance_exactly() {
+    let s = scene("kernel = \"wendland-c2\"", "");
+    let mut c = SphConstants::from_scene(&s).unwrap();
+    c.porosity_pair = true;
+    let set = random_set(&c, 14, 0.3, 0.2, 0.5, 23);
+    let grains = grains_inside(&set, [0.0; 3], 0.5 * c.support_radius(), 60, 5);
+    let dvel = vec![[0.0; 3]; set.len()];
+    let samples = sample_grains_cpu(&c, DragLaw::DiFelice, &set, &dvel, &grains);
+    let solids: Vec<Solid> = (grains.iter())
+        .map(|g| Solid {
+            position: g.position,
+            volume: g.volume,
+        })
+        .collect();
+    let fluid: Vec<usize> = (0..set.len())
+        .filter(|i| set.kinds.kind(set.id[*i]) == Kind::Fluid)
+        .collect();
+    let points: Vec<[f64; 3]> = fluid.iter().map(|&i| set.pos[i]).collect();
+    // The scene is closed: the field has no periodic images, like the twin's sums.
+    let grad = PorosityField::of_scene(&c, &s).gradient(&points, &solids);
+    let scale: f64 = (samples.iter())
+        .map(|s| s.resolved.iter().map(|f| f.abs()).sum::<f64>())
+        .sum();
+    for k in 0..3 {
+        let on_fluid: f64 = (fluid.iter().zip(&grad))
+            .map(|(&a, g)| set.mass[a] * set.press[a] / set.rho[a] * g[k])
+            .sum();
+        let on_grains: f64 = samples.iter().map(|s| s.resolved[k]).sum();
+        println!("axis {k}: fluid {on_fluid:e} N, grains {on_grains:e} N of {scale:e}");
+        assert!(
+            scale > 0.0 && on_fluid.abs() > 1e-3 * scale,
+            "axis {k}: nothing to balance"
+        );
+        assert!(
+            (on_fluid + on_grains).abs() < 1e-12 * scale,
+            "axis {k}: fluid {on_fluid:e} + grains {on_grains:e} of {scale:e}"
+        );
+    }
+}
+
+/// `fluid_rates` under `energy-pair` against its CPU twin (`fluid_rates_among_grains_cpu`
+/// with ε and ∇ε from `PorosityField`): 20 grains in the periodic box, the fluid at
+/// random velocities and densities, du/dt of every fluid particle a support inside the
+/// box (the twin's sums have no periodic images) within 1e-4 of the largest (the pair
+/// kernels' parity bound), and the ∇ε term not negligible in it (its largest is more
+/// than 1 % of the largest du/dt: the parity sees it).
+#[test]
+fn energy_pair_rates_match_cpu_twin() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = grain_scene(20, true, "energy-pair");
+    let c = SphConstants::from_scene(&s).unwrap();
+    assert!(c.porosity_pair);
+    let mut set = couplet_fluid::initial_particles(&s, &c).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    for i in 0..set.len() {
+        set.vel[i] = std::array::from_fn(|_| rng.random_range(-0.05..0.05));
+        set.rho[i] *= 1.0 + rng.random_range(-0.005..0.005);
+    }
+    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    let origin = solver.origin();
+    let set0 = solver.data().read(&gpu).unwrap();
+    let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], 0.0, 20, 9)
+        .into_iter()
+        .map(|g| Grain {
+            volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
+            ..g
+        })
+        .collect();
+    solver
+        .grain_loads(&gpu, &states(&grains, origin, 2500.0))
+        .unwrap();
+    solver.run_ops(&gpu, &[Op::FluidRates], 1e-4, 1.0).unwrap();
+    let set = solver.data().read(&gpu).unwrap();
+    let (_, dvel) = solver.data().read_rates(&gpu).unwrap();
+    let solids: Vec<Solid> = (grains.iter())
+        .map(|g| Solid {
+            position: std::array::from_fn(|k| g.position[k] + origin[k]),
+            volume: g.volume,
+        })
+        .collect();
+    let field = PorosityField::of_scene(&c, &s);
+    let world: Vec<[f64; 3]> = (set.pos.iter())
+        .map(|p| std::array::from_fn(|k| p[k] + origin[k]))
+        .collect();
+    let porosity = field.porosity(&world, &solids);
+    let gradient = field.gradient(&world, &solids);
+    let want = fluid_rates_among_grains_cpu(
+        &c,
+        &set,
+        1e-4,
+        Some(PorosityAt {
+            porosity: &porosity,
+            gradient: &gradient,
+        }),
+    );
+    let r = c.support_radius();
+    let inside = |p: [f64; 3]| p.iter().all(|x| x.abs() < 0.1 - 1.01 * r);
+    let (mut e, mut m, mut term) = (0.0f64, 0.0f64, 0.0f64);
+    for i in (0..set.len()).filter(|i| inside(set.pos[*i])) {
+        let Some((_, w)) = want[i] else { continue };
+        for k in 0..3 {
+            e = e.max((dvel[i][k] - w[k]).abs());
+            m = m.max(w[k].abs());
+            term = term.max((set.press[i] / set.rho[i] * gradient[i][k]).abs());
+        }
+    }
+    println!("energy-pair du/dt: max |Δ| = {e:e} of {m:e} m/s², largest ∇ε term {term:e}");
+    assert!(term > 0.01 * m, "the ∇ε term is lost in du/dt: {term:e} of {m:e}");
+    assert!(m > 0.0 && e <= 1e-4 * m, "max |Δ| {e:e} of {m:e}");
+}
+
 /// `spread_grain_reaction` + `add_grain_reaction` against the CPU twin: 20 grains with
 /// random velocities in the periodic box at rest, the fluid's du/dt before and after
 /// `add_grain_reaction` differ by the twin's acceleration to 1e-4 of its largest
@@ -299,7 +424,7 @@ fn grain_reaction_twin_balances_the_grains_exactly() {
 #[test]
 fn grain_reaction_matches_cpu_twin() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = grain_scene(20, true);
+    let s = grain_scene(20, true, "robinson");
     let c = SphConstants::from_scene(&s).unwrap();
     let mut solver = FluidSolver::new(&gpu, &s).unwrap();
     let origin = solver.origin();
@@ -360,8 +485,8 @@ fn grain_reaction_matches_cpu_twin() {
 #[test]
 fn two_way_coupling_conserves_momentum() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    for two_way in [true, false] {
-        let s = grain_scene(1, two_way);
+    for (two_way, pressure) in [(true, "robinson"), (false, "robinson"), (true, "energy-pair")] {
+        let s = grain_scene(1, two_way, pressure);
         let mut solver = FluidSolver::new(&gpu, &s).unwrap();
         let origin = solver.origin();
         let volume = 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3);
@@ -399,7 +524,7 @@ fn two_way_coupling_conserves_momentum() {
         let pf = fluid_momentum(&solver);
         let total: [f64; 3] = std::array::from_fn(|k| pf[k] + m * grain.velocity[k]);
         println!(
-            "two_way {two_way}: fluid {pf:?}, grain {:e}, total {total:?} of {p0:e} kg m/s",
+            "two_way {two_way}, {pressure}: fluid {pf:?}, grain {:e}, total {total:?} of {p0:e} kg m/s",
             m * grain.velocity[0]
         );
         let lost = p0 - m * grain.velocity[0];
@@ -431,7 +556,7 @@ fn two_way_coupling_conserves_momentum() {
 #[test]
 fn grain_sampling_reads_rates_in_sorted_order() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = grain_scene(20, false);
+    let s = grain_scene(20, false, "robinson");
     let c = SphConstants::from_scene(&s).unwrap();
     let set = random_set(&c, 20, 0.0, 0.2, 0.5, 4);
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
@@ -478,7 +603,7 @@ fn grain_sampling_reads_rates_in_sorted_order() {
 #[test]
 fn fluid_porosity_matches_cpu_twin() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = grain_scene(20, true);
+    let s = grain_scene(20, true, "robinson");
     let c = SphConstants::from_scene(&s).unwrap();
     let mut solver = FluidSolver::new(&gpu, &s).unwrap();
     let origin = solver.origin();

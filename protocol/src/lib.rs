@@ -9,6 +9,7 @@ pub use payload::{
 };
 pub use scene::{
     BodySpec, ContactLaw, CouplingMode, CouplingScheme, DemSpec, Domain, DragLawName, EffectsSpec,
+    PorosityPressure,
     FluidBlock, FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta, Motion, OutputSpec, Scene,
     SceneError, Shape, SoftSphereSpec, TimeSpec, ViscosityModel, WallKind, WallModel,
 };

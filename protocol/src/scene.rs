@@ -838,6 +838,27 @@ pub struct CouplingSpec {
     /// suspension that Robinson §5.1 compares against.
     #[serde(default = "default_two_way")]
     pub two_way: bool,
+    /// How the fluid's pressure acts between the fluid and unresolved grains:
+    /// `"robinson"` (Robinson eqs. 12, 23–27 as written: the fluid's pressure term on its
+    /// superficial density, each grain's resolved force `V ρθ̄` sampled from the fluid's
+    /// rates and spread back with the drag) or `"energy-pair"` (the pressure terms that
+    /// conserve energy for the EOS on ρ/ε, eq. 15: the fluid's pair term on P ε plus
+    /// (P/ρ) ∇ε, ∇ε summed from the grains beside eq. 9, and on each grain exactly the
+    /// opposite of that ∇ε term, `−V_j Σ_a V_a P_a ∇_j W_ja`; only the drag is spread).
+    /// Both are −∇P/ρ_f on the fluid and −V ∇P on a grain in the continuum; they differ
+    /// where the porosity varies within a support (a block's faces). Default
+    /// `"robinson"`. See ARCHITECTURE.md, "The constant-porosity block's lower face".
+    #[serde(default)]
+    pub porosity_pressure: PorosityPressure,
+}
+
+/// `coupling.porosity_pressure`: see [`CouplingSpec::porosity_pressure`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PorosityPressure {
+    #[default]
+    Robinson,
+    EnergyPair,
 }
 
 fn default_two_way() -> bool {
@@ -873,6 +894,7 @@ impl Default for CouplingSpec {
             window_substeps: default_window_substeps(),
             drag: default_drag(),
             two_way: default_two_way(),
+            porosity_pressure: PorosityPressure::default(),
         }
     }
 }
