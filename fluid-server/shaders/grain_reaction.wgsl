@@ -54,12 +54,8 @@ fn spread_grain_reaction(@builtin(workgroup_id) wid: vec3<u32>,
         // No fluid within reach: the grain felt no force, the fluid gets none.
         return;
     }
-    // Robinson eq. (23): the resolved part plus the drag; with POROSITY_PAIR the drag
-    // only (the pressure force's opposite is already in the fluid's rates).
-    var f = grain_sample[3u * g + 2u].xyz;
-    if !POROSITY_PAIR {
-        f += grain_sample[3u * g + 1u].xyz;
-    }
+    // Robinson eq. (23): the resolved part plus the drag.
+    let f = grain_sample[3u * g + 1u].xyz + grain_sample[3u * g + 2u].xyz;
     let p = grain_pos[g].xyz;
     let c = cell_coord(p);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {

@@ -8,16 +8,14 @@
 // porosity. Needs: prelude, SPH constants, StepParams, grid_common, kernel, drag,
 // DRAG_LAW and FLUID_MU (unresolved_coupling.rs), `grain_reaction(j)`
 // (grain_reaction_read.wgsl, or zero one-way).
-// With POROSITY_PAIR (coupling.porosity_pressure = "energy-pair") the resolved force is
-// instead the exact opposite of the fluid's (P/ρ) ∇ε terms on this grain's account,
-//     −V_j Σ_b (m_b/ρ_b) P_b ∇_j W_jb,
-// −V ∇P in the continuum (the buoyancy with a hydrostatic P), and only the drag is
-// spread back (grain_reaction.wgsl).
+// With POROSITY_PAIR (coupling.porosity_pressure = "energy-pair") sample_grains leaves the
+// resolved force 0, so that only the drag is spread back (grain_reaction.wgsl), and
+// grain_pressure_force below gives each grain the exact opposite of the fluid's
+// (P/ρ) ∇ε terms on its account, accumulated over the window as the fluid takes them.
 
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> vel: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> rho: array<f32>;
-@group(0) @binding(3) var<storage, read> press: array<f32>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
 @group(0) @binding(6) var<storage, read> dvel: array<vec4<f32>>;
 // Per grain: xyz position relative to the solver origin, w volume V (m³).
@@ -26,8 +24,7 @@
 @group(2) @binding(8) var<storage, read> grain_vel: array<vec4<f32>>;
 // Per grain: porosity ε at the grain.
 @group(2) @binding(9) var<storage, read> grain_porosity: array<f32>;
-// Three vec4 per grain: (u_f, Σ V_b W), (V ρθ̄ or the energy-pair pressure force, 0),
-// (drag, 0).
+// Three vec4 per grain: (u_f, Σ V_b W), (V ρθ̄, 0; 0 under energy-pair), (drag, 0).
 @group(2) @binding(10) var<storage, read_write> grain_sample: array<vec4<f32>>;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -43,7 +40,6 @@ fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
     var shepard = 0.0;
     var u = vec3<f32>(0.0);
     var theta = vec3<f32>(0.0);
-    var pair = vec3<f32>(0.0);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
             let rs = row_ranges(c, dy, dz);
@@ -57,15 +53,11 @@ fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
                 if r2 >= SUPPORT_RADIUS2 {
                     continue;
                 }
-                let r_abs = sqrt(r2);
-                let w = kernel_w(r_abs);
-                let v_b = pos[j].w / rho[j];
-                shepard += v_b * w;
-                u += (v_b * w) * vel[j].xyz;
-                if POROSITY_PAIR {
-                    // r = x_grain − x_b: ∇_j W_jb = F(r) r.
-                    pair += (v_b * press[j] * kernel_grad_factor(r_abs)) * r;
-                } else {
+                let w = kernel_w(sqrt(r2));
+                let vw = pos[j].w / rho[j] * w;
+                shepard += vw;
+                u += vw * vel[j].xyz;
+                if !POROSITY_PAIR {
                     // Robinson eq. (24): Σ m_b θ_b W / Σ (m_b/ρ_b) W.
                     theta += pos[j].w * w * (dvel[j].xyz - params.gravity.xyz - grain_reaction(j));
                 }
@@ -80,10 +72,7 @@ fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
         return;
     }
     let u_f = u / shepard;
-    var resolved = grain_pos[g].w * theta / shepard;
-    if POROSITY_PAIR {
-        resolved = -grain_pos[g].w * pair;
-    }
+    let resolved = grain_pos[g].w * theta / shepard;
     let drag = drag_force(DRAG_LAW, grain_porosity[g], grain_vel[g].w, RHO0, FLUID_MU,
                           u_f - grain_vel[g].xyz);
     grain_sample[3u * g] = vec4<f32>(u_f, shepard);

@@ -201,9 +201,11 @@ pub fn serve(
         }
 
         let compute = Instant::now();
-        // Unresolved grains: the force at t_n, held over the window like the markers' loads.
-        let grain_loads = solver.grain_loads(&gpu, &states)?;
+        // Unresolved grains: the force at t_n, held over the window like the markers' loads
+        // (with energy-pair, plus the pressure force averaged over the window's stages).
+        let mut grain_loads = solver.grain_loads(&gpu, &states)?;
         let substeps = solver.advance(&gpu, cmd.window, None)?;
+        solver.add_grain_pressure_forces(&gpu, &mut grain_loads)?;
         let mut compute_us = compute.elapsed().as_secs_f64() * 1e6;
 
         if coupled {

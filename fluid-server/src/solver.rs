@@ -1404,6 +1404,9 @@ impl FluidSolver {
         for update in [Op::Predict, Op::Correct] {
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::BoundaryPressure);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::FluidRates);
+            if let Some(g) = &self.grains {
+                g.queue_pressure_force(gpu, encoder, d)?;
+            }
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::GrainReaction);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerLoads);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), update);
@@ -1644,6 +1647,30 @@ impl FluidSolver {
             g.spread(gpu, &self.data)?;
         }
         Ok(loads)
+    }
+
+    /// After [`FluidSolver::advance`]: the grain loads [`FluidSolver::grain_loads`] gave
+    /// at the window's start, with `coupling.porosity_pressure = "energy-pair"`'s
+    /// pressure force added, averaged over the window's stages exactly as the fluid took
+    /// its opposite ([`crate::unresolved_coupling`]). Unchanged otherwise.
+    pub fn add_grain_pressure_forces(
+        &self,
+        gpu: &Gpu,
+        loads: &mut [BodyLoad],
+    ) -> Result<(), FluidError> {
+        match &self.grains {
+            Some(g) => g.add_pressure_forces(gpu, loads),
+            None => Ok(()),
+        }
+    }
+
+    /// One `grain_pressure_force` at the present state, with the load weight the last
+    /// [`FluidSolver::run_ops`] set (tests); empty without grains.
+    pub fn grain_pressure_forces_now(&self, gpu: &Gpu) -> Result<Vec<[f64; 3]>, FluidError> {
+        match &self.grains {
+            Some(g) => g.pressure_forces_now(gpu, &self.data),
+            None => Ok(Vec::new()),
+        }
     }
 
     pub fn loads(&mut self, gpu: &Gpu) -> Result<Vec<BodyLoad>, FluidError> {

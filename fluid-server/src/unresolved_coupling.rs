@@ -35,6 +35,7 @@ pub const UNRESOLVED_COUPLING_WGSL: &str = include_str!("../shaders/unresolved_c
 pub const GRAIN_REACTION_WGSL: &str = include_str!("../shaders/grain_reaction.wgsl");
 pub const GRAIN_REACTION_READ_WGSL: &str = include_str!("../shaders/grain_reaction_read.wgsl");
 pub const GRAIN_REACTION_ADD_WGSL: &str = include_str!("../shaders/grain_reaction_add.wgsl");
+pub const GRAIN_PRESSURE_WGSL: &str = include_str!("../shaders/grain_pressure.wgsl");
 /// One-way: no reaction buffer, nothing to subtract from θ.
 const NO_GRAIN_REACTION_WGSL: &str = "fn grain_reaction(i: u32) -> vec3<f32> {
     return vec3<f32>(0.0);
@@ -56,6 +57,8 @@ pub mod grain_binding {
     /// Uniform vec4: x the time since the window's start, s (the solid fraction moves
     /// the grains by v τ).
     pub const TAU: u32 = 11;
+    /// Per grain vec4: the window's weighted sum of the `energy-pair` pressure force.
+    pub const PRESSURE: u32 = 12;
 }
 
 /// One grain as the fluid sees it.
@@ -79,9 +82,9 @@ pub struct GrainSample {
     /// Shepard denominator Σ V_b W: 1 inside the fluid, less near a free surface or a
     /// wall, 0 with no fluid in reach (then every force is 0).
     pub shepard: f64,
-    /// `V (−∇P + ∇·τ)` at the grain, Robinson eqs. (23)–(25), N; with
-    /// `coupling.porosity_pressure = "energy-pair"` the pressure force
-    /// `−V_j Σ_b V_b P_b ∇_j W_jb`, the exact opposite of the fluid's ∇ε terms.
+    /// `V (−∇P + ∇·τ)` at the grain, Robinson eqs. (23)–(25), N; 0 with
+    /// `coupling.porosity_pressure = "energy-pair"`, whose pressure force comes from the
+    /// window instead ([`grain_pressure_force_cpu`]).
     pub resolved: [f64; 3],
     /// Drag of the scene's law, N.
     pub drag: [f64; 3],
@@ -91,17 +94,6 @@ impl GrainSample {
     /// The fluid's whole force on the grain, Robinson eq. (23), N.
     pub fn force(&self) -> [f64; 3] {
         std::array::from_fn(|k| self.resolved[k] + self.drag[k])
-    }
-
-    /// The part spread back on the fluid (Robinson eqs. 26–27): the whole force, or
-    /// with `energy-pair` the drag only (the fluid's rates already hold the opposite of
-    /// the pressure force).
-    pub fn spread_force(&self, c: &SphConstants) -> [f64; 3] {
-        if c.porosity_pair {
-            self.drag
-        } else {
-            self.force()
-        }
     }
 }
 
@@ -123,7 +115,6 @@ pub fn kernel(
         (pb::POS, Access::Read),
         (pb::VEL, Access::Read),
         (pb::RHO, Access::Read),
-        (pb::PRESS, Access::Read),
         (pb::ID, Access::Read),
         (pb::DVEL, Access::Read),
     ];
@@ -236,6 +227,78 @@ pub fn add_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
     )
 }
 
+/// Compiles `grain_pressure_force` (`coupling.porosity_pressure = "energy-pair"`, after
+/// each `fluid_rates`).
+pub fn pressure_kernel(
+    gpu: &Gpu,
+    c: &SphConstants,
+    grid_layout: &wgpu::BindGroupLayout,
+) -> SphKernel {
+    SphKernel::new(
+        gpu,
+        "sph: grain_pressure_force",
+        &[
+            &c.wgsl(),
+            STEP_PARAMS_WGSL,
+            GRID_COMMON_WGSL,
+            KERNEL_WGSL,
+            GRAIN_PRESSURE_WGSL,
+        ],
+        "grain_pressure_force",
+        &[
+            (
+                PARTICLES,
+                &[
+                    (pb::POS, Access::Read),
+                    (pb::RHO, Access::Read),
+                    (pb::PRESS, Access::Read),
+                    (pb::ID, Access::Read),
+                ],
+            ),
+            (
+                BODIES,
+                &[
+                    (grain_binding::POS, Access::Read),
+                    (grain_binding::VEL, Access::Read),
+                    (grain_binding::TAU, Access::Uniform),
+                    (grain_binding::PRESSURE, Access::ReadWrite),
+                ],
+            ),
+            (PARAMS, &[(0, Access::Uniform)]),
+        ],
+        Some(grid_layout),
+    )
+}
+
+/// CPU twin of one `grain_pressure_force` (load weight 1, grains where `grains` has
+/// them): f_j = −V_j Σ_a (m_a/ρ_a) P_a ∇_j W_ja over the fluid entries of `set`, all
+/// pairs, closed domain. Opposite, summed over j, to Σ_a m_a (P_a/ρ_a) ∇ε_a with ∇ε from
+/// [`crate::porosity::PorosityField::gradient`].
+pub fn grain_pressure_force_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    grains: &[Grain],
+) -> Vec<[f64; 3]> {
+    let r2max = c.support_radius().powi(2);
+    (grains.iter())
+        .map(|g| {
+            let mut sum = [0.0; 3];
+            for a in (0..set.len()).filter(|a| set.kinds.kind(set.id[*a]) == Kind::Fluid) {
+                let r: [f64; 3] = std::array::from_fn(|k| g.position[k] - set.pos[a][k]);
+                let r2 = r.iter().map(|x| x * x).sum::<f64>();
+                if r2 >= r2max {
+                    continue;
+                }
+                let f = set.mass[a] / set.rho[a] * set.press[a] * c.kernel.grad_factor(r2.sqrt());
+                for k in 0..3 {
+                    sum[k] += f * r[k];
+                }
+            }
+            sum.map(|x| -g.volume * x)
+        })
+        .collect()
+}
+
 /// The fixed-point unit of the window's reaction sums, m/s² per count: no fluid
 /// particle's sum can exceed `W(0) Σ_j |f_j|∞ / (S_j ρ_min)` per component, with ρ_min the
 /// lowest intrinsic density the blow-up check lets through; that bound is
@@ -244,7 +307,7 @@ pub fn reaction_unit(c: &SphConstants, samples: &[GrainSample]) -> f64 {
     let rho_min = c.rho0 * (1.0 - crate::blowup_check::BLOWUP_DENSITY_DEVIATION);
     let bound: f64 = (samples.iter())
         .filter(|s| s.shepard > 0.0)
-        .map(|s| (s.spread_force(c).iter()).fold(0.0f64, |m, f| m.max(f.abs())) / s.shepard)
+        .map(|s| s.force().iter().fold(0.0f64, |m, f| m.max(f.abs())) / s.shepard)
         .sum::<f64>()
         * c.kernel.w(0.0)
         / rho_min;
@@ -272,7 +335,7 @@ pub fn grain_reaction_cpu(
         if s.shepard == 0.0 {
             continue;
         }
-        let f = s.spread_force(c);
+        let f = s.force();
         for a in (0..set.len()).filter(|a| set.kinds.kind(set.id[*a]) == Kind::Fluid) {
             let r2: f64 = (0..3)
                 .map(|k| (g.position[k] - set.pos[a][k]).powi(2))
@@ -325,6 +388,9 @@ pub struct GrainBuffers {
     pub porosity: wgpu::Buffer,
     pub sample: wgpu::Buffer,
     pub tau: wgpu::Buffer,
+    /// The `energy-pair` pressure force's window sum, one vec4 per grain (exact size:
+    /// its length is the grain count the kernel sees).
+    pub pressure: wgpu::Buffer,
     pub count: u32,
 }
 
@@ -370,6 +436,14 @@ impl GrainBuffers {
                     contents: &[0u8; 16],
                     usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 }),
+            pressure: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("grain pressure force"),
+                size: 16 * grains.len().max(1) as u64,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
             count: grains.len() as u32,
         }
     }
@@ -382,6 +456,7 @@ impl GrainBuffers {
             grain_binding::POROSITY => Some(&self.porosity),
             grain_binding::SAMPLE => Some(&self.sample),
             grain_binding::TAU => Some(&self.tau),
+            grain_binding::PRESSURE => Some(&self.pressure),
             _ => None,
         }
     }
@@ -396,6 +471,12 @@ impl GrainBuffers {
             .write_buffer(&self.vel, 0, bytemuck::cast_slice(&vel));
         gpu.queue
             .write_buffer(&self.porosity, 0, bytemuck::cast_slice(&eps));
+    }
+
+    /// Reads the `energy-pair` pressure forces' window sums back, in grain order, N.
+    pub fn read_pressure(&self, gpu: &Gpu) -> Result<Vec<[f64; 3]>, GpuError> {
+        let s: Vec<[f32; 4]> = gpu.read_buffer(&self.pressure, 0, u64::from(self.count))?;
+        Ok(s.iter().map(|a| [0, 1, 2].map(|k| f64::from(a[k]))).collect())
     }
 
     /// Reads the samples back, in grain order.
@@ -428,7 +509,7 @@ pub fn sample_grains_cpu(
     grains
         .iter()
         .map(|g| {
-            let (mut s, mut u, mut t, mut pair) = (0.0, [0.0; 3], [0.0; 3], [0.0; 3]);
+            let (mut s, mut u, mut t) = (0.0, [0.0; 3], [0.0; 3]);
             for b in (0..set.len()).filter(|b| set.kinds.kind(set.id[*b]) == Kind::Fluid) {
                 let r: [f64; 3] = std::array::from_fn(|k| g.position[k] - set.pos[b][k]);
                 let r2 = r.iter().map(|x| x * x).sum::<f64>();
@@ -436,15 +517,12 @@ pub fn sample_grains_cpu(
                     continue;
                 }
                 let w = c.kernel.w(r2.sqrt());
-                let v_b = set.mass[b] / set.rho[b];
-                s += v_b * w;
-                let f = v_b * set.press[b] * c.kernel.grad_factor(r2.sqrt());
+                let vw = set.mass[b] / set.rho[b] * w;
+                s += vw;
                 for k in 0..3 {
-                    u[k] += v_b * w * set.vel[b][k];
+                    u[k] += vw * set.vel[b][k];
                     // Robinson eq. (24).
                     t[k] += set.mass[b] * w * (dvel[b][k] - g_fluid[k]);
-                    // energy-pair: ∇_j W_jb = F(r) r, r = x_j − x_b.
-                    pair[k] += f * r[k];
                 }
             }
             if s == 0.0 {
@@ -465,7 +543,7 @@ pub fn sample_grains_cpu(
                 fluid_velocity: u_f,
                 shepard: s,
                 resolved: if c.porosity_pair {
-                    pair.map(|x| -g.volume * x)
+                    [0.0; 3]
                 } else {
                     t.map(|x| g.volume * x / s)
                 },
@@ -485,6 +563,8 @@ pub struct GrainCoupling {
     field: PorosityField,
     /// `spread_grain_reaction`, with `coupling.two_way`.
     spread: Option<SphKernel>,
+    /// `grain_pressure_force`, with `coupling.porosity_pressure = "energy-pair"`.
+    pressure: Option<SphKernel>,
     buffers: GrainBuffers,
     bodies: Vec<u32>,
     diameters: Vec<f64>,
@@ -523,6 +603,7 @@ impl GrainCoupling {
             solid: solid_fraction_kernel(gpu, c, grid_layout),
             field: PorosityField::of_scene(c, scene),
             spread: c.grain_reaction.then(|| spread_kernel(gpu, c, grid_layout)),
+            pressure: c.porosity_pair.then(|| pressure_kernel(gpu, c, grid_layout)),
             buffers: GrainBuffers::new(gpu, &grains),
             bodies: bodies.into_iter().map(|i| i as u32).collect(),
             diameters,
@@ -578,7 +659,6 @@ impl GrainCoupling {
                         pb::POS => Some(&data.pos),
                         pb::VEL => Some(&data.vel),
                         pb::RHO => Some(&data.rho),
-                        pb::PRESS => Some(&data.press),
                         pb::ID => Some(&data.id),
                         pb::DVEL => Some(&data.dvel),
                         pb::REACTION_LO => data.reaction.as_ref().map(|r| &r.lo),
@@ -604,6 +684,8 @@ impl GrainCoupling {
         self.queue_solid_fraction(gpu, &mut encoder, data, 0.0)?;
         // The window's pressures at the new porosity (Robinson eq. 15).
         data.queue_op(gpu, &mut encoder, None, Op::TaitEos);
+        // energy-pair: the window's pressure force starts from 0.
+        encoder.clear_buffer(&self.buffers.pressure, 0, None);
         gpu.queue.submit([encoder.finish()]);
         let samples = self.buffers.read(gpu)?;
         let loads = (self.bodies.iter().zip(&samples))
@@ -664,6 +746,78 @@ impl GrainCoupling {
         });
         solid.dispatch(&mut pass, self.buffers.count);
         Ok(())
+    }
+
+    /// Adds this stage's `energy-pair` pressure force, times `params.load_weight`, to
+    /// the window's sums (after a `fluid_rates`, in the same encoder as the step's
+    /// [`GrainCoupling::queue_solid_fraction`], whose τ it shares). Nothing otherwise.
+    pub fn queue_pressure_force(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        data: &SphData,
+    ) -> Result<(), FluidError> {
+        let Some(kernel) = &self.pressure else {
+            return Ok(());
+        };
+        let bound = kernel
+            .bind(
+                gpu,
+                |g, b| match g {
+                    PARTICLES => match b {
+                        pb::POS => Some(&data.pos),
+                        pb::RHO => Some(&data.rho),
+                        pb::PRESS => Some(&data.press),
+                        pb::ID => Some(&data.id),
+                        _ => None,
+                    },
+                    BODIES => self.buffers.binding(b),
+                    PARAMS => Some(&data.params),
+                    _ => None,
+                },
+                Some(data.grid.bind_group()),
+            )
+            .ok_or_else(|| missing("grain_pressure_force"))?;
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("sph: grain_pressure_force"),
+            timestamp_writes: None,
+        });
+        bound.dispatch(&mut pass, self.buffers.count);
+        Ok(())
+    }
+
+    /// `loads` (one per grain, as [`GrainCoupling::sample`] gave them) with the window's
+    /// `energy-pair` pressure force added: its weighted sum over the window's stages,
+    /// which is the window's average (the weights sum to 1). Unchanged otherwise.
+    pub fn add_pressure_forces(
+        &self,
+        gpu: &Gpu,
+        loads: &mut [BodyLoad],
+    ) -> Result<(), FluidError> {
+        if self.pressure.is_none() {
+            return Ok(());
+        }
+        for (l, f) in loads.iter_mut().zip(self.buffers.read_pressure(gpu)?) {
+            for k in 0..3 {
+                l.force[k] += f[k];
+            }
+        }
+        Ok(())
+    }
+
+    /// One `grain_pressure_force` at the present state, with the load weight and τ as
+    /// last written (`FluidSolver::run_ops` sets the weight), read back (tests: the
+    /// pass against its CPU twin).
+    pub fn pressure_forces_now(
+        &self,
+        gpu: &Gpu,
+        data: &SphData,
+    ) -> Result<Vec<[f64; 3]>, FluidError> {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        encoder.clear_buffer(&self.buffers.pressure, 0, None);
+        self.queue_pressure_force(gpu, &mut encoder, data)?;
+        gpu.queue.submit([encoder.finish()]);
+        Ok(self.buffers.read_pressure(gpu)?)
     }
 
     /// Replaces the fluid's reaction with that of the last [`GrainCoupling::sample`]

@@ -10,7 +10,8 @@ use couplet_fluid::drag::DragLaw;
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::porosity::{PorosityField, Solid, boundary_state_cpu};
 use couplet_fluid::unresolved_coupling::{
-    Grain, GrainBuffers, GrainSample, grain_reaction_cpu, kernel, sample_grains_cpu,
+    Grain, GrainBuffers, GrainSample, grain_pressure_force_cpu, grain_reaction_cpu, kernel,
+    sample_grains_cpu,
 };
 use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleSet, SphConstants};
@@ -18,19 +19,16 @@ use couplet_protocol::{BodyState, Scene};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// Runs the sort and the rates on `set`, then `sample_grains` on `grains` (with
-/// `energy-pair`'s pressure force when `pair`); returns the GPU samples and the CPU
-/// twin's.
+/// Runs the sort and the rates on `set`, then `sample_grains` on `grains`; returns the
+/// GPU samples and the CPU twin's.
 fn sample(
     gpu: &Gpu,
     s: &Scene,
     set: ParticleSet,
     law: DragLaw,
     grains: &[Grain],
-    pair: bool,
 ) -> (Vec<GrainSample>, Vec<GrainSample>) {
-    let mut c = SphConstants::from_scene(s).unwrap();
-    c.porosity_pair = pair;
+    let c = SphConstants::from_scene(s).unwrap();
     let mut solver = FluidSolver::from_particles(gpu, s, set).unwrap();
     solver
         .run_ops(
@@ -51,7 +49,6 @@ fn sample(
                     0 => Some(&data.pos),
                     1 => Some(&data.vel),
                     2 => Some(&data.rho),
-                    3 => Some(&data.press),
                     4 => Some(&data.id),
                     6 => Some(&data.dvel),
                     _ => None,
@@ -108,21 +105,19 @@ fn grains_inside(
 }
 
 /// Parity on 2744 jittered particles (30 % walls, random velocities, rates from the
-/// real `fluid_rates` pass) and 60 grains, for every drag law, and once more with
-/// `coupling.porosity_pressure = "energy-pair"` (the resolved force is then
-/// −V_j Σ_b V_b P_b ∇_j W_jb): u_f, the resolved force and the drag each within 1e-4 of
-/// their largest magnitude (f32 sums of O(100) terms, as the pair kernels' parity bound).
+/// real `fluid_rates` pass) and 60 grains, for every drag law: u_f, V ρθ̄ and the drag
+/// each within 1e-4 of their largest magnitude (f32 sums of O(100) terms, as the pair
+/// kernels' parity bound).
 #[test]
 fn sample_grains_matches_cpu_twin() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
     let s = scene("kernel = \"wendland-c2\"", "");
     let c = SphConstants::from_scene(&s).unwrap();
     let origin = [0.1; 3]; // the domain centre: the solver's origin
-    let runs = (DragLaw::ALL.into_iter().map(|l| (l, false))).chain([(DragLaw::DiFelice, true)]);
-    for (k, (law, pair)) in runs.enumerate() {
+    for (k, law) in DragLaw::ALL.into_iter().enumerate() {
         let set = random_set(&c, 14, 0.3, 0.2, 0.5, 10 + k as u64);
         let grains = grains_inside(&set, origin, c.support_radius(), 60, k as u64);
-        let (got, want) = sample(&gpu, &s, set, law, &grains, pair);
+        let (got, want) = sample(&gpu, &s, set, law, &grains);
         for (name, f) in [
             (
                 "u_f",
@@ -135,10 +130,10 @@ fn sample_grains_matches_cpu_twin() {
                 let (a, b) = (f(g), f(w));
                 (0..3).map(move |i| (a[i], b[i]))
             }));
-            println!("{law:?} (energy-pair {pair}) {name}: max |Δ| = {e:e} of {m:e}");
+            println!("{law:?} {name}: max |Δ| = {e:e} of {m:e}");
             assert!(
                 m > 0.0 && e <= 1e-4 * m,
-                "{law:?} (energy-pair {pair}) {name}: max |Δ| {e:e} of {m:e}"
+                "{law:?} {name}: max |Δ| {e:e} of {m:e}"
             );
         }
         let (e, _) = max_err(got.iter().zip(&want).map(|(g, w)| (g.shepard, w.shepard)));
@@ -159,7 +154,7 @@ fn shepard_interpolation_of_a_constant_field_is_exact() {
     let mut set = random_set(&c, 14, 0.0, 0.2, 0.0, 5);
     set.vel.iter_mut().for_each(|v| *v = u);
     let grains = grains_inside(&set, [0.1; 3], c.support_radius(), 40, 9);
-    let (got, _) = sample(&gpu, &s, set, DragLaw::Stokes, &grains, false);
+    let (got, _) = sample(&gpu, &s, set, DragLaw::Stokes, &grains);
     let mu = c.rho0 * c.nu;
     for (g, x) in grains.iter().zip(&got) {
         for k in 0..3 {
@@ -303,17 +298,15 @@ fn grain_reaction_twin_balances_the_grains_exactly() {
 /// `energy-pair` (`coupling.porosity_pressure`) balances by construction: the fluid's
 /// (P_a/ρ_a) ∇ε_a terms, ∇ε_a = −Σ_j V_j ∇_a W_aj, are summed from the same pairs as the
 /// grains' −V_j Σ_a V_a P_a ∇_j W_ja, so Σ_a m_a (P_a/ρ_a) ∇ε_a = −Σ_j F_j. The CPU twins
-/// (f64: `PorosityField::gradient`, `sample_grains_cpu`) on a jittered set with walls
-/// and 60 grains: to 1e-12 of Σ|F_j| (f64 round-off), and the sums are not zero.
+/// (f64: `PorosityField::gradient`, `grain_pressure_force_cpu`) on a jittered set with
+/// walls and 60 grains: to 1e-12 of Σ|F_j| (f64 round-off), and the sums are not zero.
 #[test]
 fn energy_pair_pressure_forces_balance_exactly() {
     let s = scene("kernel = \"wendland-c2\"", "");
-    let mut c = SphConstants::from_scene(&s).unwrap();
-    c.porosity_pair = true;
+    let c = SphConstants::from_scene(&s).unwrap();
     let set = random_set(&c, 14, 0.3, 0.2, 0.5, 23);
     let grains = grains_inside(&set, [0.0; 3], 0.5 * c.support_radius(), 60, 5);
-    let dvel = vec![[0.0; 3]; set.len()];
-    let samples = sample_grains_cpu(&c, DragLaw::DiFelice, &set, &dvel, &grains);
+    let forces = grain_pressure_force_cpu(&c, &set, &grains);
     let solids: Vec<Solid> = (grains.iter())
         .map(|g| Solid {
             position: g.position,
@@ -326,14 +319,14 @@ fn energy_pair_pressure_forces_balance_exactly() {
     let points: Vec<[f64; 3]> = fluid.iter().map(|&i| set.pos[i]).collect();
     // The scene is closed: the field has no periodic images, like the twin's sums.
     let grad = PorosityField::of_scene(&c, &s).gradient(&points, &solids);
-    let scale: f64 = (samples.iter())
-        .map(|s| s.resolved.iter().map(|f| f.abs()).sum::<f64>())
+    let scale: f64 = (forces.iter())
+        .map(|f| f.iter().map(|x| x.abs()).sum::<f64>())
         .sum();
     for k in 0..3 {
         let on_fluid: f64 = (fluid.iter().zip(&grad))
             .map(|(&a, g)| set.mass[a] * set.press[a] / set.rho[a] * g[k])
             .sum();
-        let on_grains: f64 = samples.iter().map(|s| s.resolved[k]).sum();
+        let on_grains: f64 = forces.iter().map(|f| f[k]).sum();
         println!("axis {k}: fluid {on_fluid:e} N, grains {on_grains:e} N of {scale:e}");
         assert!(
             scale > 0.0 && on_fluid.abs() > 1e-3 * scale,
@@ -346,12 +339,14 @@ fn energy_pair_pressure_forces_balance_exactly() {
     }
 }
 
-/// `fluid_rates` under `energy-pair` against its CPU twin (`fluid_rates_among_grains_cpu`
-/// with ε and ∇ε from `PorosityField`): 20 grains in the periodic box, the fluid at
-/// random velocities and densities, du/dt of every fluid particle a support inside the
-/// box (the twin's sums have no periodic images) within 1e-4 of the largest (the pair
-/// kernels' parity bound), and the ∇ε term not negligible in it (its largest is more
-/// than 1 % of the largest du/dt: the parity sees it).
+/// `fluid_rates` and `grain_pressure_force` under `energy-pair` against their CPU twins
+/// (`fluid_rates_among_grains_cpu` with ε and ∇ε from `PorosityField`,
+/// `grain_pressure_force_cpu`): 20 grains a support inside the periodic box, the fluid
+/// at random velocities and densities; du/dt of every fluid particle a support inside
+/// the box (the twins' sums have no periodic images) and each grain's pressure force
+/// within 1e-4 of their largest (the pair kernels' parity bound), and the ∇ε term not
+/// negligible in du/dt (its largest is more than 1 % of the largest du/dt: the parity
+/// sees it).
 #[test]
 fn energy_pair_rates_match_cpu_twin() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
@@ -367,7 +362,7 @@ fn energy_pair_rates_match_cpu_twin() {
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
     let origin = solver.origin();
     let set0 = solver.data().read(&gpu).unwrap();
-    let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], 0.0, 20, 9)
+    let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], c.support_radius(), 20, 9)
         .into_iter()
         .map(|g| Grain {
             volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
@@ -415,6 +410,11 @@ fn energy_pair_rates_match_cpu_twin() {
     println!("energy-pair du/dt: max |Δ| = {e:e} of {m:e} m/s², largest ∇ε term {term:e}");
     assert!(term > 0.01 * m, "the ∇ε term is lost in du/dt: {term:e} of {m:e}");
     assert!(m > 0.0 && e <= 1e-4 * m, "max |Δ| {e:e} of {m:e}");
+    let got = solver.grain_pressure_forces_now(&gpu).unwrap();
+    let want = grain_pressure_force_cpu(&c, &set, &grains);
+    let (e, m) = max_err(got.iter().zip(&want).flat_map(|(g, w)| (0..3).map(move |k| (g[k], w[k]))));
+    println!("energy-pair grain pressure force: max |Δ| = {e:e} of {m:e} N");
+    assert!(m > 0.0 && e <= 1e-4 * m, "grain force: max |Δ| {e:e} of {m:e}");
 }
 
 /// `spread_grain_reaction` + `add_grain_reaction` against the CPU twin: 20 grains with
@@ -511,11 +511,13 @@ fn two_way_coupling_conserves_momentum() {
             p
         };
         for _ in 0..20 {
-            let f = solver
+            let mut loads = solver
                 .grain_loads(&gpu, &states(&[grain], origin, 2500.0))
-                .unwrap()[0]
-                .force;
+                .unwrap();
             solver.advance(&gpu, window, None).unwrap();
+            // energy-pair: the pressure force of the window just taken.
+            solver.add_grain_pressure_forces(&gpu, &mut loads).unwrap();
+            let f = loads[0].force;
             for k in 0..3 {
                 grain.velocity[k] += f[k] / m * window;
                 grain.position[k] += grain.velocity[k] * window;
