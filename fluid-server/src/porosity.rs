@@ -11,6 +11,9 @@
 //! density; the fluid particles' porosity during a run comes from the GPU
 //! (`grain_solid_fraction`, [`crate::unresolved_coupling`]), with this as its twin.
 //!
+//! With `coupling.porosity_pressure = "energy-pair"` the GPU pass also sums ∇ε at each
+//! particle (twin: [`PorosityField::gradient`]) for the fluid's pressure terms.
+//!
 //! Grains are binned in a hash of cells one support wide; on a periodic axis the cells
 //! divide the period and distances are minimum images.
 

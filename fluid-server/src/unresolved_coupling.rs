@@ -17,6 +17,14 @@
 //! every rate evaluation of the window. The sums are 64-bit fixed point, exact and
 //! independent of thread order; [`reaction_unit`] sets their unit. CPU twin:
 //! [`grain_reaction_cpu`].
+//!
+//! With `coupling.porosity_pressure = "energy-pair"` the pressure is exchanged as the
+//! energy-conserving pair instead (ARCHITECTURE.md): the fluid's rates hold
+//! (P_a/ρ_a) ∇ε_a ([`crate::porosity`], `fluid_rates.wgsl`), `sample_grains` leaves
+//! V ρθ̄ out (so only the drag is spread back), and `grain_pressure_force`
+//! (`shaders/grain_pressure.wgsl`, twin [`grain_pressure_force_cpu`]) sums each grain's
+//! exact opposite after every rate evaluation of the window, which
+//! [`GrainCoupling::add_pressure_forces`] adds to the loads sent after it.
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::drag::{DRAG_WGSL, DragInput, DragLaw, drag_force, law_constants_wgsl};
