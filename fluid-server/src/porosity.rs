@@ -104,7 +104,8 @@ pub fn boundary_state_cpu(c: &SphConstants, p: f64, eps: f64) -> (f64, f64) {
 /// order in which grains reach a particle. Range 2^7/h, against |∇ε| ≤ 2/h or so for a
 /// lattice; a count is 6e-8/h, some 1e-7 of a block face's gradient. CPU twin:
 /// [`PorosityField::gradient`].
-const POROSITY_GRADIENT_ADD_WGSL: &str = "@group(0) @binding(18) var<storage, read_write> solid_grad: array<atomic<i32>>;
+const POROSITY_GRADIENT_ADD_WGSL: &str =
+    "@group(0) @binding(18) var<storage, read_write> solid_grad: array<atomic<i32>>;
 const POROSITY_GRADIENT_COUNTS: f32 = 16777216.0 * H;
 // r = x_j − x_a (grain minus particle), at distance r_abs.
 fn add_porosity_gradient(a: u32, v: f32, r: vec3<f32>, r_abs: f32) {
@@ -133,7 +134,8 @@ pub fn porosity_pair_wgsl(c: &SphConstants) -> (String, Vec<(u32, Access)>) {
     }
 }
 
-const POROSITY_GRADIENT_READ_WGSL: &str = "@group(0) @binding(18) var<storage, read> solid_grad: array<i32>;
+const POROSITY_GRADIENT_READ_WGSL: &str =
+    "@group(0) @binding(18) var<storage, read> solid_grad: array<i32>;
 fn pressure_porosity(i: u32) -> f32 {
     return porosity(i);
 }
@@ -454,7 +456,10 @@ mod tests {
             }
         }
         println!("∇ε: max |Δ| = {worst:e} of {largest:e} 1/m");
-        assert!(largest > 0.0 && worst < 1e-5 * largest, "{worst:e} of {largest:e}");
+        assert!(
+            largest > 0.0 && worst < 1e-5 * largest,
+            "{worst:e} of {largest:e}"
+        );
     }
 
     /// The hashed sum equals the all-pairs sum with minimum images, on a box periodic in

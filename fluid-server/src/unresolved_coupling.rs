@@ -484,7 +484,9 @@ impl GrainBuffers {
     /// Reads the `energy-pair` pressure forces' window sums back, in grain order, N.
     pub fn read_pressure(&self, gpu: &Gpu) -> Result<Vec<[f64; 3]>, GpuError> {
         let s: Vec<[f32; 4]> = gpu.read_buffer(&self.pressure, 0, u64::from(self.count))?;
-        Ok(s.iter().map(|a| [0, 1, 2].map(|k| f64::from(a[k]))).collect())
+        Ok(s.iter()
+            .map(|a| [0, 1, 2].map(|k| f64::from(a[k])))
+            .collect())
     }
 
     /// Reads the samples back, in grain order.
@@ -611,7 +613,9 @@ impl GrainCoupling {
             solid: solid_fraction_kernel(gpu, c, grid_layout),
             field: PorosityField::of_scene(c, scene),
             spread: c.grain_reaction.then(|| spread_kernel(gpu, c, grid_layout)),
-            pressure: c.porosity_pair.then(|| pressure_kernel(gpu, c, grid_layout)),
+            pressure: c
+                .porosity_pair
+                .then(|| pressure_kernel(gpu, c, grid_layout)),
             buffers: GrainBuffers::new(gpu, &grains),
             bodies: bodies.into_iter().map(|i| i as u32).collect(),
             diameters,
@@ -797,11 +801,7 @@ impl GrainCoupling {
     /// `loads` (one per grain, as [`GrainCoupling::sample`] gave them) with the window's
     /// `energy-pair` pressure force added: its weighted sum over the window's stages,
     /// which is the window's average (the weights sum to 1). Unchanged otherwise.
-    pub fn add_pressure_forces(
-        &self,
-        gpu: &Gpu,
-        loads: &mut [BodyLoad],
-    ) -> Result<(), FluidError> {
+    pub fn add_pressure_forces(&self, gpu: &Gpu, loads: &mut [BodyLoad]) -> Result<(), FluidError> {
         if self.pressure.is_none() {
             return Ok(());
         }

@@ -7,13 +7,13 @@ mod common;
 
 use common::{max_err, random_set, scene};
 use couplet_fluid::drag::DragLaw;
+use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::porosity::{PorosityField, Solid, boundary_state_cpu};
 use couplet_fluid::unresolved_coupling::{
     Grain, GrainBuffers, GrainSample, grain_pressure_force_cpu, grain_reaction_cpu, kernel,
     sample_grains_cpu,
 };
-use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleSet, SphConstants};
 use couplet_protocol::{BodyState, Scene};
 use rand::{Rng, SeedableRng};
@@ -408,13 +408,23 @@ fn energy_pair_rates_match_cpu_twin() {
         }
     }
     println!("energy-pair du/dt: max |Δ| = {e:e} of {m:e} m/s², largest ∇ε term {term:e}");
-    assert!(term > 0.01 * m, "the ∇ε term is lost in du/dt: {term:e} of {m:e}");
+    assert!(
+        term > 0.01 * m,
+        "the ∇ε term is lost in du/dt: {term:e} of {m:e}"
+    );
     assert!(m > 0.0 && e <= 1e-4 * m, "max |Δ| {e:e} of {m:e}");
     let got = solver.grain_pressure_forces_now(&gpu).unwrap();
     let want = grain_pressure_force_cpu(&c, &set, &grains);
-    let (e, m) = max_err(got.iter().zip(&want).flat_map(|(g, w)| (0..3).map(move |k| (g[k], w[k]))));
+    let (e, m) = max_err(
+        got.iter()
+            .zip(&want)
+            .flat_map(|(g, w)| (0..3).map(move |k| (g[k], w[k]))),
+    );
     println!("energy-pair grain pressure force: max |Δ| = {e:e} of {m:e} N");
-    assert!(m > 0.0 && e <= 1e-4 * m, "grain force: max |Δ| {e:e} of {m:e}");
+    assert!(
+        m > 0.0 && e <= 1e-4 * m,
+        "grain force: max |Δ| {e:e} of {m:e}"
+    );
 }
 
 /// `spread_grain_reaction` + `add_grain_reaction` against the CPU twin: 20 grains with
@@ -485,7 +495,11 @@ fn grain_reaction_matches_cpu_twin() {
 #[test]
 fn two_way_coupling_conserves_momentum() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    for (two_way, pressure) in [(true, "robinson"), (false, "robinson"), (true, "energy-pair")] {
+    for (two_way, pressure) in [
+        (true, "robinson"),
+        (false, "robinson"),
+        (true, "energy-pair"),
+    ] {
         let s = grain_scene(1, two_way, pressure);
         let mut solver = FluidSolver::new(&gpu, &s).unwrap();
         let origin = solver.origin();

@@ -9,9 +9,9 @@ pub use payload::{
 };
 pub use scene::{
     BodySpec, ContactLaw, CouplingMode, CouplingScheme, DemSpec, Domain, DragLawName, EffectsSpec,
-    PorosityPressure,
-    FluidBlock, FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta, Motion, OutputSpec, Scene,
-    SceneError, Shape, SoftSphereSpec, TimeSpec, ViscosityModel, WallKind, WallModel,
+    FluidBlock, FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta, Motion, OutputSpec,
+    PorosityPressure, Scene, SceneError, Shape, SoftSphereSpec, TimeSpec, ViscosityModel, WallKind,
+    WallModel,
 };
 pub use service::{ServiceLeaf, service_name};
 pub use validate::{ValidationError, validate_loads, validate_points, validate_states};

@@ -2066,16 +2066,17 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
             Scene::parse(
                 &format!("{MINIMAL}{}", grain("shape.sphere.radius = 0.01", "")).replace(
                     "[fluid]",
-                    &format!(
-                        "[coupling]\nporosity_pressure = \"energy-pair\"\n{effects}\n[fluid]"
-                    ),
+                    &format!("[coupling]\nporosity_pressure = \"energy-pair\"\n{effects}\n[fluid]"),
                 ),
                 Path::new("t.toml"),
             )
             .unwrap()
         };
         let plain = pair("");
-        assert_eq!(plain.coupling.porosity_pressure, PorosityPressure::EnergyPair);
+        assert_eq!(
+            plain.coupling.porosity_pressure,
+            PorosityPressure::EnergyPair
+        );
         assert!(!plain.warnings().iter().any(|w| w.contains("energy-pair")));
         let corrected = pair("[effects]\ngradient_correction = true\n");
         assert!(
