@@ -416,16 +416,13 @@ mod tests {
         }
     }
 
-    /// `gradient` is the derivative of `porosity` (eq. 9): against central differences
-    /// of ε with a step of 1e-4 h, at 200 random points of a periodic box holding 300
-    /// random grains, to 1e-5 of the largest |∇ε| (the differences' truncation, O(step²),
-    /// and their round-off, 1e-16/step, are both far below it).
-    #[test]
-    fn gradient_is_the_derivative_of_the_porosity() {
-        let s = field([0.0; 3]).support;
-        let period = [3.1 * s, 2.2 * s, 3.1 * s];
-        let f = field(period);
-        let mut seed = 777u64;
+    /// 300 grains (V = 1e-13 m³) at random points of the box `period`, and 200 points
+    /// reaching `overhang` periods beyond it on each side; seeded (an LCG).
+    fn random_grains_and_points(
+        period: [f64; 3],
+        overhang: f64,
+        mut seed: u64,
+    ) -> (Vec<Solid>, Vec<[f64; 3]>) {
         let mut rnd = || {
             seed = seed
                 .wrapping_mul(6364136223846793005)
@@ -438,9 +435,24 @@ mod tests {
                 volume: 1e-13,
             })
             .collect();
-        let points: Vec<[f64; 3]> = (0..200)
-            .map(|_| std::array::from_fn(|k| rnd() * period[k]))
+        let points = (0..200)
+            .map(|_| {
+                std::array::from_fn(|k| (rnd() * (1.0 + 2.0 * overhang) - overhang) * period[k])
+            })
             .collect();
+        (solids, points)
+    }
+
+    /// `gradient` is the derivative of `porosity` (eq. 9): against central differences
+    /// of ε with a step of 1e-4 h, at 200 random points of a periodic box holding 300
+    /// random grains, to 1e-5 of the largest |∇ε| (the differences' truncation, O(step²),
+    /// and their round-off, 1e-16/step, are both far below it).
+    #[test]
+    fn gradient_is_the_derivative_of_the_porosity() {
+        let s = field([0.0; 3]).support;
+        let period = [3.1 * s, 2.2 * s, 3.1 * s];
+        let f = field(period);
+        let (solids, points) = random_grains_and_points(period, 0.0, 777);
         let got = f.gradient(&points, &solids);
         let step = 1e-4 * f.kernel.h;
         let (mut worst, mut largest) = (0.0f64, 0.0f64);
@@ -471,22 +483,7 @@ mod tests {
         let s = field([0.0; 3]).support;
         let period = [3.1 * s, 2.2 * s, 3.1 * s];
         let f = field(period);
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let solids: Vec<Solid> = (0..300)
-            .map(|_| Solid {
-                position: std::array::from_fn(|k| rnd() * period[k]),
-                volume: 1e-13,
-            })
-            .collect();
-        let points: Vec<[f64; 3]> = (0..200)
-            .map(|_| std::array::from_fn(|k| (rnd() * 1.2 - 0.1) * period[k]))
-            .collect();
+        let (solids, points) = random_grains_and_points(period, 0.1, 12345);
         let got = f.porosity(&points, &solids);
         for (p, e) in points.iter().zip(got) {
             let mut solid = 0.0;

@@ -245,14 +245,19 @@ fn states(grains: &[Grain], origin: [f64; 3], density: f64) -> Vec<BodyState> {
         .collect()
 }
 
-/// `grains` (relative to `origin`) with their porosity, Robinson eq. (9) (`porosity.rs`).
-fn with_porosity(c: &SphConstants, s: &Scene, grains: Vec<Grain>, origin: [f64; 3]) -> Vec<Grain> {
-    let solids: Vec<Solid> = (grains.iter())
+/// `grains` (relative to `origin`) as the porosity sees them, in world coordinates.
+fn solids(grains: &[Grain], origin: [f64; 3]) -> Vec<Solid> {
+    (grains.iter())
         .map(|g| Solid {
             position: std::array::from_fn(|k| g.position[k] + origin[k]),
             volume: g.volume,
         })
-        .collect();
+        .collect()
+}
+
+/// `grains` (relative to `origin`) with their porosity, Robinson eq. (9) (`porosity.rs`).
+fn with_porosity(c: &SphConstants, s: &Scene, grains: Vec<Grain>, origin: [f64; 3]) -> Vec<Grain> {
+    let solids = solids(&grains, origin);
     let centres: Vec<[f64; 3]> = solids.iter().map(|s| s.position).collect();
     let eps = PorosityField::of_scene(c, s).porosity(&centres, &solids);
     (grains.into_iter().zip(eps))
@@ -307,12 +312,7 @@ fn energy_pair_pressure_forces_balance_exactly() {
     let set = random_set(&c, 14, 0.3, 0.2, 0.5, 23);
     let grains = grains_inside(&set, [0.0; 3], 0.5 * c.support_radius(), 60, 5);
     let forces = grain_pressure_force_cpu(&c, &set, &grains);
-    let solids: Vec<Solid> = (grains.iter())
-        .map(|g| Solid {
-            position: g.position,
-            volume: g.volume,
-        })
-        .collect();
+    let solids = solids(&grains, [0.0; 3]);
     let fluid: Vec<usize> = (0..set.len())
         .filter(|i| set.kinds.kind(set.id[*i]) == Kind::Fluid)
         .collect();
@@ -375,12 +375,7 @@ fn energy_pair_rates_match_cpu_twin() {
     solver.run_ops(&gpu, &[Op::FluidRates], 1e-4, 1.0).unwrap();
     let set = solver.data().read(&gpu).unwrap();
     let (_, dvel) = solver.data().read_rates(&gpu).unwrap();
-    let solids: Vec<Solid> = (grains.iter())
-        .map(|g| Solid {
-            position: std::array::from_fn(|k| g.position[k] + origin[k]),
-            volume: g.volume,
-        })
-        .collect();
+    let solids = solids(&grains, origin);
     let field = PorosityField::of_scene(&c, &s);
     let world: Vec<[f64; 3]> = (set.pos.iter())
         .map(|p| std::array::from_fn(|k| p[k] + origin[k]))
@@ -636,12 +631,7 @@ fn fluid_porosity_matches_cpu_twin() {
         .unwrap();
     let set = solver.data().read(&gpu).unwrap();
     let field = PorosityField::of_scene(&c, &s);
-    let solids: Vec<Solid> = (grains.iter())
-        .map(|g| Solid {
-            position: std::array::from_fn(|k| g.position[k] + origin[k]),
-            volume: g.volume,
-        })
-        .collect();
+    let solids = solids(&grains, origin);
     let fluid: Vec<usize> = (0..set.len())
         .filter(|i| set.kinds.kind(set.id[*i]) == Kind::Fluid)
         .collect();
