@@ -846,8 +846,11 @@ pub struct CouplingSpec {
     /// (P/ρ) ∇ε, ∇ε summed from the grains beside eq. 9, and on each grain exactly the
     /// opposite of that ∇ε term, `−V_j Σ_a V_a P_a ∇_j W_ja`; only the drag is spread).
     /// Both are −∇P/ρ_f on the fluid and −V ∇P on a grain in the continuum; they differ
-    /// where the porosity varies within a support (a block's faces). Default
-    /// `"robinson"`. See ARCHITECTURE.md, "The constant-porosity block's lower face".
+    /// where the porosity varies within a support (a block's faces). The pair needs
+    /// `effects.gradient_correction = false` (a warning says so). With `two_way = false`
+    /// the fluid keeps its ∇ε term (part of its own pressure force) and only the drag is
+    /// not spread. Default `"robinson"`: the paper as written. See ARCHITECTURE.md,
+    /// "Among grains the pressure terms can be the energy-conserving pair".
     #[serde(default)]
     pub porosity_pressure: PorosityPressure,
 }
