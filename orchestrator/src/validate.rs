@@ -448,7 +448,7 @@ static CASES: [Case; 17] = [
             "time.output_interval=1e-3",
             "time.body_output_interval=2e-4",
         ],
-        quick_why: "each column cut to 8–10 lattice spacings (1.1–1.4 mm) across at the same resolution, to t = 12 ms (the plateau from about 5 ms): 2700–4300 fluid particles and 800–2100 grains, 2–6 minutes per variant on lavapipe. In water the fluid at the block's lower face grows an instability, ×e about every 1.5 ms, from about 7 ms at ε = 0.7 and 14 ms at ε = 0.8 (ARCHITECTURE.md, \"The constant-porosity block's lower face grows an instability\"); two rows on the fluid's largest speed judge it (2026-11-27: water ε = 0.7 grows ×11.8 over 6–12 ms and fails, settling 5.54 % fast; ε = 0.8 ×0.93, 0.34 of the block's speed, settling 0.49 % fast)",
+        quick_why: "each column cut to 8–10 lattice spacings (1.1–1.4 mm) across at the same resolution, to t = 12 ms (the plateau from about 5 ms): 2700–4300 fluid particles and 800–2100 grains, 2–6 minutes per variant on lavapipe. The scene's energy-conserving pressure terms (coupling.porosity_pressure = \"energy-pair\") hold the block's faces, where Robinson's terms grew a mode ×e per 1.5 ms in water; two rows on the fluid's largest speed judge such growth (ARCHITECTURE.md, \"Among grains the pressure terms can be the energy-conserving pair\"). 2026-11-27, water: ε = 0.6 +2.33 %, 0.7 +1.48 %, 0.9 −2.48 %, each steady; ε = 0.8 −4.92 % and its fluid speed grows ×2.5 over 6–12 ms (the column's pressure drifting negative, ARCHITECTURE.md), failing the growth row",
         sweep_spacings: &[],
         sweep_schemes: &[],
         sweep_thin_axes: &[],
