@@ -104,6 +104,16 @@ pub fn boundary_state_cpu(c: &SphConstants, p: f64, eps: f64) -> (f64, f64) {
 /// order in which grains reach a particle. Range 2^7/h, against |∇ε| ≤ 2/h or so for a
 /// lattice; a count is 6e-8/h, some 1e-7 of a block face's gradient. CPU twin:
 /// [`PorosityField::gradient`].
+/// The unit of the ∇ε sums: this many counts make 1/h (`POROSITY_GRADIENT_COUNTS` and
+/// `porosity_gradient` below write it as 16777216.0).
+pub const POROSITY_GRADIENT_COUNTS_PER_INV_H: f64 = 16_777_216.0;
+
+/// ∇ε as the `solid_grad` buffer holds it for one particle (tests read it back).
+pub fn porosity_gradient_from_counts(c: &SphConstants, counts: [i32; 4]) -> [f64; 3] {
+    let unit = 1.0 / (POROSITY_GRADIENT_COUNTS_PER_INV_H * c.kernel.h);
+    [0, 1, 2].map(|k| f64::from(counts[k]) * unit)
+}
+
 const POROSITY_GRADIENT_ADD_WGSL: &str =
     "@group(0) @binding(18) var<storage, read_write> solid_grad: array<atomic<i32>>;
 const POROSITY_GRADIENT_COUNTS: f32 = 16777216.0 * H;

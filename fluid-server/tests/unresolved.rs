@@ -9,7 +9,9 @@ use common::{max_err, random_set, scene};
 use couplet_fluid::drag::DragLaw;
 use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
-use couplet_fluid::porosity::{PorosityField, Solid, boundary_state_cpu};
+use couplet_fluid::porosity::{
+    PorosityField, Solid, boundary_state_cpu, porosity_gradient_from_counts,
+};
 use couplet_fluid::unresolved_coupling::{
     Grain, GrainBuffers, GrainSample, grain_pressure_force_cpu, grain_reaction_cpu, kernel,
     sample_grains_cpu,
@@ -343,8 +345,8 @@ fn energy_pair_pressure_forces_balance_exactly() {
 /// (`fluid_rates_among_grains_cpu` with ε and ∇ε from `PorosityField`,
 /// `grain_pressure_force_cpu`): 20 grains a support inside the periodic box, the fluid
 /// at random velocities and densities; du/dt of every fluid particle a support inside
-/// the box (the twins' sums have no periodic images) and each grain's pressure force
-/// within 1e-4 of their largest (the pair kernels' parity bound), and the ∇ε term not
+/// the box (the twins' sums have no periodic images), each grain's pressure force and
+/// every particle's ∇ε sums within 1e-4 of their largest (the pair kernels' parity bound), and the ∇ε term not
 /// negligible in du/dt (its largest is more than 1 % of the largest du/dt: the parity
 /// sees it).
 #[test]
@@ -382,6 +384,21 @@ fn energy_pair_rates_match_cpu_twin() {
         .collect();
     let porosity = field.porosity(&world, &solids);
     let gradient = field.gradient(&world, &solids);
+    // The ∇ε sums of `grain_solid_fraction` themselves (every particle: the field and the
+    // GPU both take periodic images), to 1e-4 of the largest.
+    let counts: Vec<[i32; 4]> = gpu
+        .read_buffer(
+            solver.data().solid_grad.as_ref().unwrap(),
+            0,
+            set.len() as u64,
+        )
+        .unwrap();
+    let (e, m) = max_err(counts.iter().zip(&gradient).flat_map(|(n, w)| {
+        let g = porosity_gradient_from_counts(&c, *n);
+        (0..3).map(move |k| (g[k], w[k]))
+    }));
+    println!("energy-pair ∇ε: max |Δ| = {e:e} of {m:e} 1/m");
+    assert!(m > 0.0 && e <= 1e-4 * m, "∇ε: max |Δ| {e:e} of {m:e}");
     let want = fluid_rates_among_grains_cpu(
         &c,
         &set,
