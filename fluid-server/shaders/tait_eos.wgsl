@@ -1,25 +1,26 @@
 // ---- tait_eos.wgsl: Joubert eq. (4) (CPU twin: tait_eos.rs) ----
 
-// p = ρ0 c²/γ ((ρ/ρ0)^γ − 1): Joubert eq. (4). With e = (ρ − ρ0)/ρ0 (the difference
+// p = ρ0 c²/γ ((ρ/ρ0)^γ − 1) + P_b: Joubert eq. (4), with the scene's background
+// pressure P_b (BACKGROUND_PRESSURE, fluid.background_pressure; 0 by default). With e = (ρ − ρ0)/ρ0 (the difference
 // exact in f32) the bracket is (1 + e)^γ − 1, summed as Σ C(γ, k) e^k by Horner's rule
 // near ρ0, where pow(ρ/ρ0, γ) − 1 would cancel (TAIT_SERIES_LIMIT, constants.rs).
 fn tait_pressure(rho: f32) -> f32 {
     let e = (rho - RHO0) / RHO0;
     if abs(e) >= TAIT_SERIES_LIMIT {
-        return TAIT_B * (pow(1.0 + e, GAMMA) - 1.0);
+        return TAIT_B * (pow(1.0 + e, GAMMA) - 1.0) + BACKGROUND_PRESSURE;
     }
     var c = TAIT_SERIES;
     var s = 0.0;
     for (var k = TAIT_SERIES_TERMS - 1; k >= 0; k = k - 1) {
         s = (s + c[k]) * e;
     }
-    return TAIT_B * s;
+    return TAIT_B * s + BACKGROUND_PRESSURE;
 }
 
-// Joubert eq. (4) inverted: ρ = ρ0 (1 + p/B)^(1/γ); the base is bounded below by
+// Joubert eq. (4) inverted: ρ = ρ0 (1 + (p − P_b)/B)^(1/γ); the base is bounded below by
 // MIN_TAIT_BASE (constants.rs) so a wall with a nearly empty support stays finite.
 fn tait_density(p: f32) -> f32 {
-    return RHO0 * pow(max(1.0 + p / TAIT_B, MIN_TAIT_BASE), 1.0 / GAMMA);
+    return RHO0 * pow(max(1.0 + (p - BACKGROUND_PRESSURE) / TAIT_B, MIN_TAIT_BASE), 1.0 / GAMMA);
 }
 
 // ---- kernels ----

@@ -19,6 +19,9 @@ pub struct SphConstants {
     pub sound_speed: f64,
     /// Tait exponent γ.
     pub gamma: f64,
+    /// Background pressure P_b, Pa (`fluid.background_pressure`): the EOS's pressure at
+    /// ρ0, added to Joubert eq. (4).
+    pub background_pressure: f64,
     /// Kinematic viscosity ν, m²/s.
     pub nu: f64,
     /// Lattice mass m = ρ0 δ³, kg: every wall and marker particle's, and a fluid
@@ -166,6 +169,7 @@ impl SphConstants {
             rho0: f.density,
             sound_speed: f.sound_speed,
             gamma: f.gamma,
+            background_pressure: f.background_pressure,
             nu: f.kinematic_viscosity,
             mass: f.density * f.spacing.powi(3),
             gravity_fluid: g,
@@ -209,9 +213,9 @@ impl SphConstants {
         self.rho0 * self.sound_speed * self.sound_speed / self.gamma
     }
 
-    /// Joubert eq. (4).
+    /// Joubert eq. (4), plus the background pressure.
     pub fn pressure(&self, rho: f64) -> f64 {
-        self.tait_b() * ((rho / self.rho0).powf(self.gamma) - 1.0)
+        self.tait_b() * ((rho / self.rho0).powf(self.gamma) - 1.0) + self.background_pressure
     }
 
     /// The binomial coefficients C(γ, k), k = 1 … [`TAIT_SERIES_TERMS`], of
@@ -227,10 +231,10 @@ impl SphConstants {
         c
     }
 
-    /// Joubert eq. (4) inverted (wall and marker densities).
+    /// Joubert eq. (4) inverted (wall and marker densities, the initial state).
     pub fn density(&self, p: f64) -> f64 {
         self.rho0
-            * (1.0 + p / self.tait_b())
+            * (1.0 + (p - self.background_pressure) / self.tait_b())
                 .max(MIN_TAIT_BASE)
                 .powf(1.0 / self.gamma)
     }
@@ -307,6 +311,7 @@ impl SphConstants {
              const SOUND_SPEED: f32 = {c:e};\n\
              const GAMMA: f32 = {gamma:e};\n\
              const TAIT_B: f32 = {b:e};\n\
+             const BACKGROUND_PRESSURE: f32 = {p_b:e};\n\
              const MIN_TAIT_BASE: f32 = {min_base:e};\n\
              const TAIT_SERIES_LIMIT: f32 = {series_limit:e};\n\
              const TAIT_SERIES_TERMS: i32 = {series_n};\n\
@@ -345,6 +350,7 @@ impl SphConstants {
             c = self.sound_speed,
             gamma = self.gamma,
             b = self.tait_b(),
+            p_b = self.background_pressure,
             min_base = MIN_TAIT_BASE,
             series_limit = TAIT_SERIES_LIMIT,
             series_n = TAIT_SERIES_TERMS,

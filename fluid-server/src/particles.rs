@@ -324,7 +324,8 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
             // Mass depth: the lattice holds ρ0 per unit volume, so the weight above the
             // particle is exactly ρ0 g s.
             let s = (surface - p[1]).max(0.0);
-            let p_h = c.rho0 * g * s;
+            // The column's pressure is P_b (fluid.background_pressure) at its top.
+            let p_h = c.background_pressure + c.rho0 * g * s;
             *r = c.density(p_h);
             // Compress the column towards its bottom so that each particle's volume m/ρ
             // matches its density: compressed depth d(s) = ∫₀ˢ ρ0/ρ ds'.
@@ -361,7 +362,8 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
                 u0 * (k * x).sin() * (k * y).cos(),
                 0.0,
             ];
-            let p = -c.rho0 * u0 * u0 / 4.0 * ((2.0 * k * x).cos() + (2.0 * k * y).cos());
+            let p = c.background_pressure
+                - c.rho0 * u0 * u0 / 4.0 * ((2.0 * k * x).cos() + (2.0 * k * y).cos());
             rho[i] = c.density(p);
         }
     }

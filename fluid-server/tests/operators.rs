@@ -140,6 +140,72 @@ fn boundary_pressure_matches_cpu_twin() {
     }
 }
 
+/// `fluid.background_pressure` P_b: the EOS and its inverse shift by P_b on both sides.
+/// The initial state keeps its densities (those of P_b = 0, bit for bit) and its
+/// pressures are P_b above them (reference: the definition, p = B((ρ/ρ0)^γ − 1) + P_b);
+/// the GPU's EOS (`tait_pressure`) and wall densities (`tait_density`) match their CPU
+/// twins at P_b = 300 Pa within the tolerances of `tait_eos_matches_cpu_twin` and
+/// `boundary_pressure_matches_cpu_twin`.
+#[test]
+fn background_pressure_shifts_the_eos_and_keeps_the_initial_densities() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let p_b = 300.0;
+    // A closed box: an open top refuses a background pressure (Scene::validate).
+    let closed = |p_b: f64| {
+        let mut s = scene("", "");
+        s.domain.closed_top = true;
+        s.fluid.as_mut().unwrap().background_pressure = p_b;
+        s
+    };
+    let (s0, s) = (closed(0.0), closed(p_b));
+    let (c0, c) = (
+        SphConstants::from_scene(&s0).unwrap(),
+        SphConstants::from_scene(&s).unwrap(),
+    );
+    for rho in [0.99 * c.rho0, c.rho0, 1.01 * c.rho0] {
+        let shift = c.pressure(rho) - c0.pressure(rho);
+        assert!((shift - p_b).abs() < 1e-9, "p(ρ) shifted by {shift}");
+        let back = c.density(c.pressure(rho));
+        assert!((back - rho).abs() < 1e-9 * rho, "ρ(p(ρ)) = {back} for ρ = {rho}");
+    }
+    let (a, b) = (
+        couplet_fluid::initial_particles(&s0, &c0).unwrap(),
+        couplet_fluid::initial_particles(&s, &c).unwrap(),
+    );
+    assert_eq!(a.rho, b.rho, "the initial densities changed with P_b");
+    let fluid: Vec<usize> = (0..b.len())
+        .filter(|&i| b.kinds.kind(b.id[i]) == Kind::Fluid)
+        .collect();
+    let worst = (fluid.iter())
+        .map(|&i| (b.press[i] - a.press[i] - p_b).abs())
+        .fold(0.0, f64::max);
+    let top = fluid.iter().map(|&i| b.press[i]).fold(f64::INFINITY, f64::min);
+    println!("P_b = {p_b} Pa: initial pressures off by ≤ {worst:e} Pa, top {top:.3} Pa");
+    assert!(worst < 1e-9 * p_b, "initial pressure shift off by {worst:e} Pa");
+    assert!(top >= p_b && top < p_b + c.rho0 * 9.81 * c.spacing, "top pressure {top}");
+
+    let (got, want) = eos_pass(&gpu, &s, &c, random_set(&c, 14, 0.3, 0.2, 0.5, 1));
+    let (e, m) = max_err(fluid_of(&got).map(|i| (got.press[i], want[i])));
+    println!("EOS with P_b: max |Δp| = {e:e} of {m:e}");
+    assert!(m > p_b && e <= 1e-4 * m, "max |Δp| = {e:e}, max |p| = {m:e}");
+
+    let mut solver = FluidSolver::from_particles(&gpu, &s, random_set(&c, 14, 0.3, 0.2, 0.5, 2))
+        .unwrap();
+    solver
+        .run_ops(&gpu, &[Op::Sort, Op::BoundaryPressure], 1e-4, 1.0)
+        .unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let want = boundary_pressure_cpu(&c, &got);
+    let walls: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
+    let (er, _) = max_err(walls.iter().map(|&i| (got.rho[i], want[i].unwrap().1)));
+    println!("walls with P_b: max |Δρ_w| = {er:e}");
+    assert!(walls.len() > 500 && er <= 1e-6 * c.rho0, "max |Δρ_w| = {er:e}");
+}
+
+fn fluid_of(set: &ParticleSet) -> impl Iterator<Item = usize> + '_ {
+    (0..set.len()).filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid)
+}
+
 fn check_rates(effects: &str, walls: &str, seed: u64) {
     check_rates_within(effects, walls, seed, [PAIR_RTOL; 2], 1e-4);
 }

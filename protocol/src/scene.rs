@@ -234,6 +234,22 @@ pub struct FluidSpec {
     /// Exponent γ of the Tait equation (Joubert eq. 4). Default 7 (Monaghan, via Joubert §2.1).
     #[serde(default = "default_gamma")]
     pub gamma: f64,
+    /// Background pressure P_b of the equation of state, Pa: the Tait pressure becomes
+    /// ρ0 c²/γ ((ρ/ρ0)^γ − 1) + P_b, so ρ0 is the density at P_b and every initial
+    /// pressure (the hydrostatic column, an `initial_flow`'s field) is P_b above its
+    /// gauge value; the initial densities do not change. In a closed or periodic domain
+    /// the level of the pressure is free, and the incompressible flow does not depend
+    /// on it, but the symmetric pair sum (no `effects.gradient_correction`) does: where
+    /// the pressure turns negative, pairs attract (the tensile instability), which a
+    /// background pressure prevents. Keep it small beside ρ0 c² (≲ 1 %): the sum form's
+    /// particle-scale forces grow with it. Among grains with `coupling.porosity_pressure
+    /// = "energy-pair"` the grains' forces feel the level: 200 Pa slowed the
+    /// constant-porosity block's quick by 25 % (the scene warns; ARCHITECTURE.md, "The
+    /// fluid's lattice must not be the grains'"). Recorded pressures include it. Refused
+    /// with an open top, where a free surface needs P = 0. Default 0: the pressure is
+    /// the gauge pressure, 0 at a free surface.
+    #[serde(default)]
+    pub background_pressure: f64,
     /// Boxes filled with fluid particles on a cubic lattice of `spacing`.
     pub blocks: Vec<FluidBlock>,
     /// `[fluid.initial_flow]`: an analytic velocity and pressure field the fluid starts
@@ -1230,6 +1246,17 @@ impl Scene {
                         .into(),
                 );
             }
+            if self.coupling.porosity_pressure == PorosityPressure::EnergyPair
+                && self.fluid.as_ref().is_some_and(|f| f.background_pressure > 0.0)
+            {
+                w.push(
+                    "coupling.porosity_pressure = \"energy-pair\" with \
+                     fluid.background_pressure: the pair's grain forces feel the pressure's \
+                     level, and 200 Pa slowed the constant-porosity block's quick by 25 % \
+                     (ARCHITECTURE.md, \"The fluid's lattice must not be the grains'\")"
+                        .into(),
+                );
+            }
         }
         let weighs = self.gravity.on_fluid && self.gravity.vector.iter().any(|g| *g != 0.0);
         if weighs && self.has_resolved_bodies() && !self.effects.gradient_correction {
@@ -1562,6 +1589,22 @@ impl Scene {
             pos("fluid.sound_speed", f.sound_speed)?;
             pos("fluid.spacing", f.spacing)?;
             pos("fluid.gamma", f.gamma)?;
+            if !(f.background_pressure >= 0.0 && f.background_pressure.is_finite()) {
+                return bad(
+                    "fluid.background_pressure".into(),
+                    f.background_pressure.to_string(),
+                    "must be a finite number ≥ 0",
+                );
+            }
+            if f.background_pressure > 0.0 && !d.closed_top && !d.periodic[1] {
+                return bad(
+                    "fluid.background_pressure".into(),
+                    f.background_pressure.to_string(),
+                    "needs a closed domain (domain.closed_top = true, or a periodic y): \
+                     at a free surface the pressure is 0, and a background pressure \
+                     there would push the surface particles out",
+                );
+            }
             if !(f.kinematic_viscosity >= 0.0 && f.kinematic_viscosity.is_finite()) {
                 return bad(
                     "fluid.kinematic_viscosity".into(),
@@ -1795,6 +1838,39 @@ sound_speed = 20.0
 spacing = 0.05
 blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
 "#;
+
+    /// `fluid.background_pressure`: finite and ≥ 0, and refused with an open top (a free
+    /// surface needs P = 0); a closed or a periodic-y domain takes it; the default is 0.
+    #[test]
+    fn background_pressure_needs_a_closed_domain() {
+        let parse = |domain: &str, fluid: &str| {
+            let text = MINIMAL
+                .replace("max = [1, 1, 1]\n", &format!("max = [1, 1, 1]\n{domain}\n"))
+                .replace("spacing = 0.05\n", &format!("spacing = 0.05\n{fluid}\n"));
+            Scene::parse(&text, Path::new("t.toml"))
+        };
+        let field = |r: Result<Scene, SceneError>| match r {
+            Err(SceneError::Invalid { field, .. }) => field,
+            other => panic!("expected an invalid field, got {other:?}"),
+        };
+        assert_eq!(parse("", "").unwrap().fluid.unwrap().background_pressure, 0.0);
+        let closed = parse("closed_top = true", "background_pressure = 200.0").unwrap();
+        assert_eq!(closed.fluid.unwrap().background_pressure, 200.0);
+        assert_eq!(
+            field(parse("", "background_pressure = 200.0")),
+            "fluid.background_pressure"
+        );
+        assert_eq!(
+            field(parse("closed_top = true", "background_pressure = -1.0")),
+            "fluid.background_pressure"
+        );
+        let tg = "[gravity]\nvector = [0.0, 0.0, 0.0]";
+        let periodic = MINIMAL
+            .replace("max = [1, 1, 1]\n", "max = [1, 1, 1]\nperiodic = [true, true, true]\n")
+            .replace("max = [1, 0.5, 1]", "max = [1, 1, 1]")
+            .replace("spacing = 0.05\n", "spacing = 0.05\nbackground_pressure = 50.0\n");
+        assert!(Scene::parse(&format!("{periodic}\n{tg}"), Path::new("t.toml")).is_ok());
+    }
 
     /// Variable h: the ratio needs it and is ≥ 1; the one-h stages refuse it; the
     /// default ratio is RCP's ε^(−1/3).
@@ -2086,6 +2162,23 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
             (corrected.warnings().iter()).any(|w| w.contains("energy-pair")),
             "{:?}",
             corrected.warnings()
+        );
+        let closed = |text: String| {
+            text.replace("max = [1, 1, 1]\n", "max = [1, 1, 1]\nclosed_top = true\n")
+                .replace("spacing = 0.05\n", "spacing = 0.05\nbackground_pressure = 200.0\n")
+        };
+        let level = Scene::parse(
+            &closed(format!("{MINIMAL}{}", grain("shape.sphere.radius = 0.01", "")).replace(
+                "[fluid]",
+                "[coupling]\nporosity_pressure = \"energy-pair\"\n[fluid]",
+            )),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        assert!(
+            (level.warnings().iter()).any(|w| w.contains("background_pressure")),
+            "{:?}",
+            level.warnings()
         );
         assert!(
             one_way
