@@ -4666,7 +4666,10 @@ mod tests {
                 );
                 let h_over_d = 1.5 * f.spacing / (2.0 * l.radius);
                 let lowest = if quick_08 { 1.87 } else { 2.0 };
-                assert!((lowest..=2.1).contains(&h_over_d), "{label}: h/d = {h_over_d}");
+                assert!(
+                    (lowest..=2.1).contains(&h_over_d),
+                    "{label}: h/d = {h_over_d}"
+                );
                 assert!(label.ends_with(&format!("ε = {}", l.porosity)), "{label}");
                 let rho = if label.starts_with("water-glycerol") {
                     1150.0

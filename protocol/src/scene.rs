@@ -1247,7 +1247,10 @@ impl Scene {
                 );
             }
             if self.coupling.porosity_pressure == PorosityPressure::EnergyPair
-                && self.fluid.as_ref().is_some_and(|f| f.background_pressure > 0.0)
+                && self
+                    .fluid
+                    .as_ref()
+                    .is_some_and(|f| f.background_pressure > 0.0)
             {
                 w.push(
                     "coupling.porosity_pressure = \"energy-pair\" with \
@@ -1853,7 +1856,10 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
             Err(SceneError::Invalid { field, .. }) => field,
             other => panic!("expected an invalid field, got {other:?}"),
         };
-        assert_eq!(parse("", "").unwrap().fluid.unwrap().background_pressure, 0.0);
+        assert_eq!(
+            parse("", "").unwrap().fluid.unwrap().background_pressure,
+            0.0
+        );
         let closed = parse("closed_top = true", "background_pressure = 200.0").unwrap();
         assert_eq!(closed.fluid.unwrap().background_pressure, 200.0);
         assert_eq!(
@@ -1866,9 +1872,15 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         );
         let tg = "[gravity]\nvector = [0.0, 0.0, 0.0]";
         let periodic = MINIMAL
-            .replace("max = [1, 1, 1]\n", "max = [1, 1, 1]\nperiodic = [true, true, true]\n")
+            .replace(
+                "max = [1, 1, 1]\n",
+                "max = [1, 1, 1]\nperiodic = [true, true, true]\n",
+            )
             .replace("max = [1, 0.5, 1]", "max = [1, 1, 1]")
-            .replace("spacing = 0.05\n", "spacing = 0.05\nbackground_pressure = 50.0\n");
+            .replace(
+                "spacing = 0.05\n",
+                "spacing = 0.05\nbackground_pressure = 50.0\n",
+            );
         assert!(Scene::parse(&format!("{periodic}\n{tg}"), Path::new("t.toml")).is_ok());
     }
 
@@ -2165,13 +2177,18 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         );
         let closed = |text: String| {
             text.replace("max = [1, 1, 1]\n", "max = [1, 1, 1]\nclosed_top = true\n")
-                .replace("spacing = 0.05\n", "spacing = 0.05\nbackground_pressure = 200.0\n")
+                .replace(
+                    "spacing = 0.05\n",
+                    "spacing = 0.05\nbackground_pressure = 200.0\n",
+                )
         };
         let level = Scene::parse(
-            &closed(format!("{MINIMAL}{}", grain("shape.sphere.radius = 0.01", "")).replace(
-                "[fluid]",
-                "[coupling]\nporosity_pressure = \"energy-pair\"\n[fluid]",
-            )),
+            &closed(
+                format!("{MINIMAL}{}", grain("shape.sphere.radius = 0.01", "")).replace(
+                    "[fluid]",
+                    "[coupling]\nporosity_pressure = \"energy-pair\"\n[fluid]",
+                ),
+            ),
             Path::new("t.toml"),
         )
         .unwrap();

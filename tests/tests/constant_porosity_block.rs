@@ -39,12 +39,7 @@ fn constant_porosity_block_settles_at_robinson_eq_35() {
         CLI,
         "constant-porosity-block",
         out.path(),
-        &[
-            "--variant",
-            "water, ε = 0.8",
-            "--set",
-            "time.end=0.006",
-        ],
+        &["--variant", "water, ε = 0.8", "--set", "time.end=0.006"],
     );
     let rows = report_rows(out.path());
     assert!(o.status.success(), "a judged row failed: {rows:?}");
