@@ -1,4 +1,5 @@
-//! Tait equation of state, Joubert eq. (4): `p = ρ0 c²/γ ((ρ/ρ0)^γ − 1)`.
+//! Tait equation of state, Joubert eq. (4): `p = ρ0 c²/γ ((ρ/ρ0)^γ − 1) + P_b`, with
+//! the scene's background pressure P_b (`fluid.background_pressure`, 0 by default).
 //! WGSL: `shaders/tait_eos.wgsl` (its library part is fused into the integrator and the
 //! boundary pressure; its kernel sets the pressures at the start of a run).
 
