@@ -2,8 +2,9 @@
 
 // p = ρ0 c²/γ ((ρ/ρ0)^γ − 1) + P_b: Joubert eq. (4), with the scene's background
 // pressure P_b (BACKGROUND_PRESSURE, fluid.background_pressure; 0 by default). With
-// e = (ρ − ρ0)/ρ0 (the difference exact in f32) the bracket is (1 + e)^γ − 1, summed as Σ C(γ, k) e^k by Horner's rule
-// near ρ0, where pow(ρ/ρ0, γ) − 1 would cancel (TAIT_SERIES_LIMIT, constants.rs).
+// e = (ρ − ρ0)/ρ0 (the difference exact in f32) the bracket is (1 + e)^γ − 1, summed
+// as Σ C(γ, k) e^k by Horner's rule near ρ0, where pow(ρ/ρ0, γ) − 1 would cancel
+// (TAIT_SERIES_LIMIT, constants.rs).
 fn tait_pressure(rho: f32) -> f32 {
     let e = (rho - RHO0) / RHO0;
     if abs(e) >= TAIT_SERIES_LIMIT {
