@@ -426,6 +426,44 @@ mod tests {
         }
     }
 
+    /// The lattice ripple of eq. (9) that made the CPB's aligned columns drift
+    /// (ARCHITECTURE.md, "The fluid's lattice must not be the grains'"): ε = 0.8 grains
+    /// on a cubic lattice, Wendland C2 at h = 1.5 Δr. Along a row through grain sites ε
+    /// runs from 0.79937 (at a site) to 0.79993 (halfway), ±2.8e-4; along a row midway
+    /// between rows of sites from 0.80016 to 0.80028, ±6e-5. Reference: the same sums
+    /// done independently in Python (9³ neighbouring cells) on 2026-11-28; bounds ±5e-6.
+    #[test]
+    fn lattice_porosity_ripples_with_the_lattice() {
+        let d: f64 = 1e-4;
+        let v = std::f64::consts::PI / 6.0 * d.powi(3);
+        let dr = (v / 0.2).cbrt();
+        let kernel = SmoothingKernel::new(KernelKind::WendlandC2, 1.5 * dr);
+        let f = PorosityField {
+            kernel,
+            support: kernel.radius(),
+            period: [0.0; 3],
+            origin: [0.0; 3],
+        };
+        let g: Vec<Solid> = (0..20 * 20 * 20)
+            .map(|n| Solid {
+                position: [n % 20, n / 20 % 20, n / 400].map(|i| i as f64 * dr),
+                volume: v,
+            })
+            .collect();
+        let at = |x: f64, y: f64| f.porosity(&[[x * dr, y * dr, x * dr]], &g)[0];
+        let (site, half) = (at(10.0, 10.0), at(10.0, 10.5));
+        let (between_lo, between_hi) = (at(10.5, 10.0), at(10.5, 10.5));
+        println!("ripple: on a row {site} … {half}, between rows {between_lo} … {between_hi}");
+        for (got, want) in [
+            (site, 0.799372),
+            (half, 0.799929),
+            (between_lo, 0.800158),
+            (between_hi, 0.800284),
+        ] {
+            assert!((got - want).abs() < 5e-6, "ε = {got}, want {want}");
+        }
+    }
+
     /// 300 grains (V = 1e-13 m³) at random points of the box `period`, and 200 points
     /// reaching `overhang` periods beyond it on each side; seeded (an LCG).
     fn random_grains_and_points(

@@ -45,11 +45,7 @@ fn tait_eos_matches_cpu_twin() {
     let s = scene("", "");
     let c = SphConstants::from_scene(&s).unwrap();
     let (got, want) = eos_pass(&gpu, &s, &c, random_set(&c, 14, 0.3, 0.2, 0.5, 1));
-    let (e, m) = max_err(
-        (0..got.len())
-            .filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid)
-            .map(|i| (got.press[i], want[i])),
-    );
+    let (e, m) = max_err(fluid_of(&got).map(|i| (got.press[i], want[i])));
     println!("EOS: max |Δp| = {e:e} of {m:e}");
     assert!(
         m > 0.0 && e <= 1e-4 * m,
@@ -168,9 +164,7 @@ fn background_pressure_shifts_the_eos_and_keeps_the_initial_densities() {
         couplet_fluid::initial_particles(&s, &c).unwrap(),
     );
     assert_eq!(a.rho, b.rho, "the initial densities changed with P_b");
-    let fluid: Vec<usize> = (0..b.len())
-        .filter(|&i| b.kinds.kind(b.id[i]) == Kind::Fluid)
-        .collect();
+    let fluid: Vec<usize> = fluid_of(&b).collect();
     let worst = (fluid.iter())
         .map(|&i| (b.press[i] - a.press[i] - p_b).abs())
         .fold(0.0, f64::max);

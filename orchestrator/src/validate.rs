@@ -4629,9 +4629,9 @@ mod tests {
     /// both lattices (a whole number of lattice spacings Δr(ε) and of fluid spacings δ
     /// across, the two counts different, 43 δ high) at h/d = 1.5 δ/d within 2.0–2.1
     /// (Robinson §6.2's h = 2d in his eq. 19; the quick ε = 0.8 47 δ high at h/d 1.88,
-    /// see CPB_QUICK_VARIANTS), with the porosity and the fluid its label names and the block's top
-    /// grains more than a kernel support below the lid; the quick list has the full
-    /// list's labels in its order.
+    /// see CPB_QUICK_VARIANTS), with the porosity and the fluid its label names and the
+    /// block's top grains more than a kernel support below the lid; the quick list has
+    /// the full list's labels in its order.
     #[test]
     fn cpb_variants_tile_their_periods() {
         let case = find("constant-porosity-block").unwrap();

@@ -392,6 +392,11 @@ impl Domain {
     pub fn is_symmetry_axis(&self, k: usize) -> bool {
         !self.periodic[k] && (self.symmetry[k] || self.walls == WallKind::FreeSlip)
     }
+
+    /// Whether the top is open (no lid, y not periodic): the fluid has a free surface.
+    pub fn open_top(&self) -> bool {
+        !self.closed_top && !self.periodic[1]
+    }
 }
 
 /// `domain.wall_model`.
@@ -1187,8 +1192,8 @@ impl Scene {
     /// when given, else on with the correction when the domain's top is open (see
     /// [`EffectsSpec::free_surface`]).
     pub fn free_surface_switch(&self) -> bool {
-        let open_top = !self.domain.closed_top && !self.domain.periodic[1];
-        self.effects.gradient_correction && self.effects.free_surface.unwrap_or(open_top)
+        self.effects.gradient_correction
+            && (self.effects.free_surface).unwrap_or(self.domain.open_top())
     }
 
     /// Indices of the unresolved grains, in body order.
@@ -1599,7 +1604,7 @@ impl Scene {
                     "must be a finite number ≥ 0",
                 );
             }
-            if f.background_pressure > 0.0 && !d.closed_top && !d.periodic[1] {
+            if f.background_pressure > 0.0 && d.open_top() {
                 return bad(
                     "fluid.background_pressure".into(),
                     f.background_pressure.to_string(),
