@@ -27,9 +27,12 @@ fn nearest_surface_marker(p_i: vec3<f32>) -> NearestSurface {
     let c_i = cell_coord(p_i);
     var best = SPACING * SPACING;
     var s = NearestSurface(false, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
-        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let rs = row_ranges(c_i, dy, dz);
+    // Only the cells within δ: at support 2.4 δ that is 27 of the 125 (DKT quick,
+    // 2026-11-28: body_non_penetration 8.07 ms a step before).
+    let reach = cells_within(SPACING);
+    for (var dz = -reach.z; dz <= reach.z; dz++) {
+        for (var dy = -reach.y; dy <= reach.y; dy++) {
+            let rs = row_ranges_within(c_i, dy, dz, reach.x);
             for (var k = 0u; k < row_length(rs); k++) {
                 let j = row_slot(rs, k);
                 if !is_marker(id[j]) {

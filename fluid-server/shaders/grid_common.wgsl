@@ -107,6 +107,11 @@ fn cell_range(ci: u32) -> vec2<u32> {
 // the row wraps around a periodic x axis. Rows beyond a closed face are empty; a
 // closed x axis clips the row to the grid.
 fn row_ranges(c: vec3<i32>, dy: i32, dz: i32) -> vec4<u32> {
+    return row_ranges_within(c, dy, dz, GRID_REACH);
+}
+
+// `row_ranges` over the cells c.x − reach ..= c.x + reach, reach ≤ GRID_REACH.
+fn row_ranges_within(c: vec3<i32>, dy: i32, dz: i32, reach: i32) -> vec4<u32> {
     let dims = vec3<i32>(grid.dims.xyz);
     let periodic = periodic_axes();
     var y = c.y + dy;
@@ -121,8 +126,8 @@ fn row_ranges(c: vec3<i32>, dy: i32, dz: i32) -> vec4<u32> {
         return vec4<u32>(0u);
     }
     let row = grid.dims.x * (u32(y) + grid.dims.y * u32(z));
-    var x0 = c.x - GRID_REACH;
-    var x1 = c.x + GRID_REACH;
+    var x0 = c.x - reach;
+    var x1 = c.x + reach;
     if periodic.x {
         // dims.x ≥ 2·GRID_REACH + 1, so at most one end wraps.
         if x0 < 0 {
@@ -142,6 +147,13 @@ fn row_ranges(c: vec3<i32>, dy: i32, dz: i32) -> vec4<u32> {
     let first = cell_start[row + u32(x0)];
     let last = cell_start[row + u32(x1) + 1u];
     return vec4<u32>(first, last, last, last);
+}
+
+// Cells on each side of a particle's own that hold every point within `d` of it
+// (d ≤ support): ceil(d / cell edge) per axis, as |⌊a⌋ − ⌊b⌋| ≤ ⌈|a − b|⌉. Searches
+// shorter than the support (the nearest marker within δ) loop over these, not GRID_REACH.
+fn cells_within(d: f32) -> vec3<i32> {
+    return min(vec3<i32>(ceil(d * grid.inv_cell_size.xyz)), vec3<i32>(GRID_REACH));
 }
 
 // Slots in the row of `row_ranges`.
