@@ -14,16 +14,56 @@
 //! 119.5° (past 90° at t = 0.458 s), overlap 1.4e-7 m. The quick before (a 20 × 40 mm
 //! box, the scene's 0.01 mm offset, to 0.6 s, 871 s of a 43-minute CI run): 33.35 %,
 //! 1.9350 mm at 0.371 s, 104.4° (past 90° at 0.560 s), overlap 4.8e-7 m.
+//!
+//! CI cuts the quick further (2026-11-28, when a clean-clone CI run took 54 minutes, the
+//! quick 793 s of them): the pair starts 2.5 mm apart (not 3) with the upper one 0.15 mm
+//! (0.3 δ) off the centre line, so it kisses and tumbles sooner, and as by then it has
+//! fallen only 10 mm the box is cut to 14 × 26 mm with the pair released 18 and 20.5 mm
+//! up, to t = 0.4 s: 55 % of the quick's particle-steps. Starting 2.5 mm apart the pair
+//! already meets the kissing row's 2r + δ, so the test also asserts that they came
+//! within 2r, nearer than 2r + δ: the 12-gons touch at 2r cos 15° = 1.932 mm. Measured
+//! (lavapipe, beside a build): drafting 38.75 %, kissing 1.9659 mm at t = 0.236 s,
+//! tumbling 106.2° (past 90° at 0.356 s), overlap 9.7e-8 m; the lower body's centre
+//! 7.6 mm above the floor at the end. The same start in the quick's box to 0.45 s: 39.46 %,
+//! 1.9662 mm at 0.237 s, past 90° at 0.352 s.
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
 
+/// The pair's radius (scenes/dkt.toml), m.
+const R: f64 = 1e-3;
+
 #[test]
 fn dkt_quick_validation_passes() {
     let out = tempfile::tempdir().unwrap();
-    let o = couplet_validate(CLI, "dkt", out.path(), &[]);
+    let o = couplet_validate(
+        CLI,
+        "dkt",
+        out.path(),
+        &[
+            "--set",
+            "domain.max=[0.014, 0.026, 0.003]",
+            "--set",
+            "fluid.blocks.0.max=[0.014, 0.026, 0.003]",
+            "--set",
+            "bodies.0.position=[0.007, 0.018, 0.0015]",
+            "--set",
+            "bodies.1.position=[0.00685, 0.0205, 0.0015]",
+            "--set",
+            "time.end=0.4",
+        ],
+    );
     let rows = report_rows(out.path());
+    let report = std::fs::read_to_string(out.path().join("report.md")).unwrap();
+    let closest: f64 = report
+        .lines()
+        .find(|l| l.starts_with("| kissing"))
+        .and_then(|l| l.split('|').nth(2))
+        .and_then(|m| m.trim().strip_suffix(" m"))
+        .and_then(|m| m.parse().ok())
+        .unwrap_or_else(|| panic!("no kissing row with a distance: {report}"));
+    assert!(closest < 2.0 * R, "closest centre distance {closest:e} m");
     assert_rows(
         &rows,
         "PASS",
