@@ -122,7 +122,11 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                 // Free-slip walls carry pressure but no shear.
                 let wall = is_wall(id[j]);
                 let viscous = NO_SLIP_WALLS || !wall;
-                let u_visc = select(u_ij, u_i - wall_velocity(j), wall);
+                // A branch, not select(): select loads wall_velocity(j) for every pair.
+                var u_visc = u_ij;
+                if wall {
+                    u_visc = u_i - wall_velocity(j);
+                }
                 if LAPLACIAN_CORRECTION && viscous {
                     let r = sqrt(r2);
                     let e = r_ij / r;
