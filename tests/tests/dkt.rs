@@ -24,7 +24,8 @@
 //! within 2r, nearer than 2r + δ: the 12-gons touch at 2r cos 15° = 1.932 mm. Measured
 //! (lavapipe, beside a build): drafting 38.75 %, kissing 1.9659 mm at t = 0.236 s,
 //! tumbling 106.2° (past 90° at 0.356 s), overlap 9.7e-8 m; the lower body's centre
-//! 7.6 mm above the floor at the end. The same start in the quick's box to 0.45 s: 39.46 %,
+//! 7.6 mm above the floor at the end; 392 s alone, 424 s in the next clean-clone CI run
+//! (44 min 36 s in all). The same start in the quick's box to 0.45 s: 39.46 %,
 //! 1.9662 mm at 0.237 s, past 90° at 0.352 s.
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};

@@ -12,7 +12,8 @@
 //! CI runs it to t = 10 s (2026-11-28, when a clean-clone CI run took 54 minutes; the
 //! quick to 15 s took 208 s there): the centrelines then change by 0.29 % (u) and
 //! 0.26 % (v) between the halves of the last 2 s, and measure 15.10 / 7.59 % largest,
-//! 4.96 / 3.81 % mean (147 s on lavapipe).
+//! 4.96 / 3.81 % mean (147 s on lavapipe; as a test 118 s alone, 132 s in the next
+//! clean-clone CI run).
 
 use couplet_tests::{couplet_validate, report_rows};
 

@@ -25,7 +25,8 @@
 //! diameters above the floor) then ends at t = 0.326 s, its last fifth well past the
 //! overshoot (the speed within 56.4–57.6 mm/s from 0.18 s on). Measured to 0.42 s
 //! (226 s on lavapipe, alone; the quick took 391 s in that CI run): force 0.12 % off,
-//! plateau change 0.33 %, Re 14.34.
+//! plateau change 0.33 %, Re 14.34; the test as cut, 181 s alone and 157 s in the next
+//! clean-clone CI run.
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
