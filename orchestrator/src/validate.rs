@@ -2175,11 +2175,11 @@ const RTI_VARIANTS: &[Variant] = &[
     ),
 ];
 
-/// The RTI's quick column: 8 lattice spacings Δr = 0.13782337 mm across (= 8 fluid
-/// spacings), the disturbance's wavelength the new width, 43 δ high as the full one.
-/// Nine fluid spacings across the eight lattice spacings (1.1025869870e-3 m), 48 high:
-/// with the fluid's lattice on the grains' the porosity's lattice ripple moves every fluid
-/// row alike (ARCHITECTURE.md, "The fluid's lattice must not be the grains'").
+/// The RTI's quick column: 8 lattice spacings Δr = 0.13782337 mm across (1.1025869870e-3
+/// m), the disturbance's wavelength the new width, with 9 fluid spacings across it and
+/// 48 δ high (5.88 mm, the full one's 5.93 mm to a whole δ). Not 8 fluid spacings: with
+/// the fluid's lattice on the grains' the porosity's lattice ripple moves every fluid row
+/// alike (ARCHITECTURE.md, "The fluid's lattice must not be the grains'").
 const RTI_QUICK: &[&str] = &[
     "fluid.spacing=1.2250966522e-04",
     "domain.max=[1.1025869870e-03, 5.8804639306e-03, 1.1025869870e-03]",
