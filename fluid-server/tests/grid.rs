@@ -130,10 +130,12 @@ fn scene(n: usize, seed: u64) -> Vec<[f32; 3]> {
 }
 
 const NEIGHBOUR_TEST_WGSL: &str = r#"
-struct TestParams { radius: f32, n: u32, _p0: u32, _p1: u32 }
+struct TestParams { radius: f32, n: u32, near: f32, _p1: u32 }
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-// Per particle: (count, Σ id, Σ id², count by the cell-by-cell loop).
+// Per particle, two entries: (count, Σ id, Σ id², count by the cell-by-cell loop)
+// within `radius`, then (count, Σ id, Σ id², 0) within `near` < radius by the short
+// search (`cells_within` and `row_ranges_within`, as `nearest_surface_marker` does).
 @group(0) @binding(2) var<storage, read_write> out: array<vec4<u32>>;
 @group(3) @binding(0) var<uniform> test: TestParams;
 
@@ -180,7 +182,22 @@ fn count_neighbours(
             }
         }
     }
-    out[i] = vec4<u32>(count, id_sum, id_sq, count_cells);
+    out[2u * i] = vec4<u32>(count, id_sum, id_sq, count_cells);
+    let near2 = test.near * test.near;
+    let reach = cells_within(test.near);
+    var near = vec4<u32>(0u);
+    for (var dz = -reach.z; dz <= reach.z; dz++) {
+        for (var dy = -reach.y; dy <= reach.y; dy++) {
+            let rs = row_ranges_within(c_i, dy, dz, reach.x);
+            for (var k = 0u; k < row_length(rs); k++) {
+                let j = row_slot(rs, k);
+                let r_ij = pair_vec(p_i, pos[j].xyz);
+                if dot(r_ij, r_ij) >= near2 || j == i { continue; }
+                near += vec4<u32>(1u, ids[j], ids[j] * ids[j], 0u);
+            }
+        }
+    }
+    out[2u * i + 1u] = near;
 }
 "#;
 
@@ -216,7 +233,9 @@ const TIE_BAND: f32 = 1e-6;
 ///
 /// Reference: brute force on the CPU over the *sorted* f32 positions read back from the
 /// GPU, with the same f32 test `r² < radius²`; radius = the support the grid was built
-/// for (GRID_REACH cells, the loop's limit).
+/// for (GRID_REACH cells, the loop's limit), and again a shorter one, δ at support 2.4 δ,
+/// searched as the nearest surface marker is (`cells_within`, `row_ranges_within`: one
+/// cell either side, so that the periodic test also checks rows that wrap at that reach).
 /// Per particle the neighbour set is compared by count, Σ id and Σ id² (wrapping u32)
 /// — exact for every particle without a tie (|r² − radius²| ≤ 1e-6 radius², not exact);
 /// particles with ties must lie between the sure count and sure + tied.
@@ -276,6 +295,9 @@ fn grid_periodic_neighbours_match_brute_force() {
 fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
     let n = 12_000;
     let h = 0.125;
+    // The short search's radius: δ at support 2.4 δ (the nearest surface marker's
+    // search, `body_non_penetration.wgsl`), one cell either side at GRID_REACH = 2.
+    let near = h / 2.4;
     let xyz = scene(n, seed);
     let parts = Particles::from_positions(&xyz);
     let bounds = GridBox {
@@ -294,7 +316,7 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
     // GPU pair count through grid_common.wgsl, groups 0 (particles), 1 (grid), 3 (params).
     let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("neighbour test out"),
-        size: n as u64 * 16,
+        size: n as u64 * 32,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
@@ -302,7 +324,12 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
         .device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("neighbour test params"),
-            contents: bytemuck::cast_slice(&[(h as f32).to_bits(), n as u32, 0, 0]),
+            contents: bytemuck::cast_slice(&[
+                (h as f32).to_bits(),
+                n as u32,
+                (near as f32).to_bits(),
+                0,
+            ]),
             usage: wgpu::BufferUsages::UNIFORM,
         });
     let particles_layout = gpu
@@ -355,57 +382,61 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
         shaders::dispatch_linear(&mut pass, n as u32);
     }
     gpu.queue.submit([encoder.finish()]);
-    let got: Vec<[u32; 4]> = gpu.read_buffer(&out, 0, n as u64).unwrap();
+    let got: Vec<[u32; 4]> = gpu.read_buffer(&out, 0, 2 * n as u64).unwrap();
 
-    let radius2 = (h as f32) * (h as f32);
-    let (lo, hi) = (radius2 * (1.0 - TIE_BAND), radius2 * (1.0 + TIE_BAND));
-    let mut tied_particles = 0;
-    let mut pairs = 0u64;
-    for i in 0..n {
-        let (mut sure, mut tied, mut id_sum, mut id_sq) = (0u32, 0u32, 0u32, 0u32);
-        for j in 0..n {
-            if j == i {
-                continue;
+    for (entry, radius) in [(0, h), (1, near)] {
+        let radius2 = (radius as f32) * (radius as f32);
+        let (lo, hi) = (radius2 * (1.0 - TIE_BAND), radius2 * (1.0 + TIE_BAND));
+        let mut tied_particles = 0;
+        let mut pairs = 0u64;
+        for i in 0..n {
+            let (mut sure, mut tied, mut id_sum, mut id_sq) = (0u32, 0u32, 0u32, 0u32);
+            for j in 0..n {
+                if j == i {
+                    continue;
+                }
+                let d = pair_vec(pos[i], pos[j], grid.params.period, grid.params.inv_period);
+                let d2 = r2(d);
+                if d2 < lo {
+                    sure += 1;
+                    id_sum = id_sum.wrapping_add(ids[j]);
+                    id_sq = id_sq.wrapping_add(ids[j].wrapping_mul(ids[j]));
+                } else if d2 < hi && !exact_r2(d) {
+                    tied += 1;
+                }
             }
-            let d = pair_vec(pos[i], pos[j], grid.params.period, grid.params.inv_period);
-            let d2 = r2(d);
-            if d2 < lo {
-                sure += 1;
-                id_sum = id_sum.wrapping_add(ids[j]);
-                id_sq = id_sq.wrapping_add(ids[j].wrapping_mul(ids[j]));
-            } else if d2 < hi && !exact_r2(d) {
-                tied += 1;
+            pairs += u64::from(sure);
+            let [count, gsum, gsq, count_cells] = got[2 * i + entry];
+            if entry == 0 {
+                assert_eq!(
+                    count, count_cells,
+                    "particle slot {i}: row loop and cell-by-cell loop disagree"
+                );
+            }
+            if tied == 0 {
+                assert_eq!(
+                    (count, gsum, gsq),
+                    (sure, id_sum, id_sq),
+                    "particle id {} at {:?}: GPU (count, Σid, Σid²) within {radius} vs brute force",
+                    ids[i],
+                    pos[i]
+                );
+            } else {
+                tied_particles += 1;
+                assert!(
+                    (sure..=sure + tied).contains(&count),
+                    "particle id {}: GPU count {count} within {radius} outside brute force [{sure}, {}]",
+                    ids[i],
+                    sure + tied
+                );
             }
         }
-        pairs += u64::from(sure);
-        let [count, gsum, gsq, count_cells] = got[i];
-        assert_eq!(
-            count, count_cells,
-            "particle slot {i}: row loop and cell-by-cell loop disagree"
+        println!(
+            "neighbours within {radius}: {n} particles, {pairs} ordered pairs (mean {:.1} per \
+             particle), {tied_particles} particle(s) with a tie at |r| = {radius}",
+            pairs as f64 / n as f64
         );
-        if tied == 0 {
-            assert_eq!(
-                (count, gsum, gsq),
-                (sure, id_sum, id_sq),
-                "particle id {} at {:?}: GPU (count, Σid, Σid²) vs brute force",
-                ids[i],
-                pos[i]
-            );
-        } else {
-            tied_particles += 1;
-            assert!(
-                (sure..=sure + tied).contains(&count),
-                "particle id {}: GPU count {count} outside brute force [{sure}, {}]",
-                ids[i],
-                sure + tied
-            );
-        }
     }
-    println!(
-        "neighbours: {n} particles, {pairs} ordered pairs (mean {:.1} per particle), \
-         {tied_particles} particle(s) with a tie at |r| = h",
-        pairs as f64 / n as f64
-    );
 }
 
 /// Every registered buffer is permuted by the same permutation; `cell_start` is a
