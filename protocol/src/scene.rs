@@ -439,7 +439,7 @@ pub struct GravitySpec {
     /// Whether gravity acts on the fluid. When false (Joubert §2.6), it acts on the
     /// bodies only, reduced by the buoyancy of Joubert eq. (28). When true, a resolved
     /// body's buoyancy is the hydrostatic pressure on its markers, which one layer of
-    /// markers holds only with `effects.gradient_correction` (`tests/tests/buoyancy.rs`:
+    /// markers holds only with `effects.gradient_correction` (`tests/tests/validation/buoyancy.rs`:
     /// a fixed sphere 2.5 δ in radius gets ρ V g within 1.9 % corrected, 13 % low
     /// uncorrected in a closed tank, 58 % high under a free surface); `couplet run`
     /// warns of the uncorrected combination ([`Scene::warnings`]).
@@ -1271,7 +1271,7 @@ impl Scene {
             w.push(
                 "resolved bodies in a fluid that carries gravity, without effects.gradient_correction: \
                  the uncorrected pressure on one layer of markers is not hydrostatic, and their \
-                 buoyancy is 13–58 % off (tests/tests/buoyancy.rs); switch the correction on, or \
+                 buoyancy is 13–58 % off (tests/tests/validation/buoyancy.rs); switch the correction on, or \
                  set gravity.on_fluid = false for Joubert eq. (28)"
                     .into(),
             );
@@ -1952,7 +1952,7 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
     }
 
     /// The uncorrected scheme with a resolved body in a fluid that carries gravity is
-    /// warned of (tests/tests/buoyancy.rs measures why); the corrected scheme, or gravity
+    /// warned of (tests/tests/validation/buoyancy.rs measures why); the corrected scheme, or gravity
     /// on the solid only (Joubert eq. 28), or a body the fluid does not see, are not.
     #[test]
     fn uncorrected_hydrostatic_buoyancy_is_warned_of() {

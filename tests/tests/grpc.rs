@@ -303,7 +303,7 @@ async fn a_run_driven_over_grpc_steps_pauses_resumes_and_reports_every_error() {
     // The frames carry the fluid's load: the same numbers as the recording's, and before
     // the live changes (window 2) the submerged box is pushed up (Archimedes: ρ g V =
     // 0.265 N; the uncorrected pressure on one marker layer is 13–58 % off,
-    // tests/tests/buoyancy.rs, so only the sign and the order of magnitude are asserted).
+    // tests/tests/validation/buoyancy.rs, so only the sign and the order of magnitude are asserted).
     let rec = read_recording(&std::path::Path::new(&end.output_dir).join("run.mcap")).unwrap();
     assert!(rec.has_summary);
     assert_eq!(rec.windows as u64, end.windows_total);

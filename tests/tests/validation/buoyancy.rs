@@ -29,7 +29,7 @@
 
 use couplet_tests::{couplet_run, read_recording, scene};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 /// The closed quick tank with the sphere to `end` s; `on_fluid` puts gravity on the
 /// fluid. The mean vertical fluid force over the last 0.1 s, N.

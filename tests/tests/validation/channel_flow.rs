@@ -20,7 +20,7 @@
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 fn passes(name: &str, extra: &[&str]) {
     let out = tempfile::tempdir().unwrap();

@@ -30,7 +30,7 @@
 use couplet_orchestrator::robinson_reference::cpb_terminal_velocity_mixture_buoyancy;
 use couplet_tests::{couplet_validate, read_recording, report_rows, track};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 #[test]
 fn constant_porosity_block_settles_at_robinson_eq_35() {

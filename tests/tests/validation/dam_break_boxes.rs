@@ -10,7 +10,7 @@ use couplet_tests::{couplet_run, read_recording, scene, track};
 use parry3d::math::{Pose, Rotation, Vector};
 use parry3d::shape::Cuboid;
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 /// Half extent of the boxes in the scene, m.
 const H: f64 = 0.015;
 /// Interpenetration rapier may leave between resting contacts (its allowed linear

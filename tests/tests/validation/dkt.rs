@@ -30,7 +30,7 @@
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 /// The pair's radius (scenes/dkt.toml), m.
 const R: f64 = 1e-3;

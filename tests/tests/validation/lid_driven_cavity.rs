@@ -17,7 +17,7 @@
 
 use couplet_tests::{couplet_validate, report_rows};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 #[test]
 fn lid_driven_cavity_quick_validation_passes() {

@@ -31,7 +31,7 @@
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 #[test]
 fn settling_sphere_quick_validation_passes() {

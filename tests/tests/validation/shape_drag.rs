@@ -36,7 +36,7 @@
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 /// Runs the shape-drag quick's `body` with `extra` overrides and checks its rows.
 fn reaches_terminal_velocity_carrying_its_submerged_weight(body: &str, extra: &[&str]) {

@@ -13,7 +13,7 @@
 
 use couplet_tests::{couplet_validate, report_rows};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 #[test]
 fn single_particle_sedimentation_quick_validation_passes() {

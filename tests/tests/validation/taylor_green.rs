@@ -10,7 +10,7 @@
 
 use couplet_tests::{assert_rows, couplet_validate, report_rows};
 
-const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+use crate::CLI;
 
 #[test]
 fn taylor_green_quick_validation_passes() {
