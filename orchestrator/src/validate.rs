@@ -2156,8 +2156,8 @@ const CPB_QUICK_VARIANTS: &[Variant] = &[
 
 /// Robinson §7's runs: water–glycerol with and without artificial viscosity (Fig. 14,
 /// both between the bounds in the paper) and water without it (Fig. 13; with it the
-/// paper's water growth falls below both bounds), to 0.15 s in water (n ≈ 26–44 1/s at
-/// λ = 4 mm).
+/// paper's water growth falls below both bounds), to 0.15 s in water (n ≈ 25.5–43.2 1/s
+/// at the scene's λ = 4.13 mm; water–glycerol 9.31–18.81 1/s).
 const RTI_VARIANTS: &[Variant] = &[
     ("water-glycerol, α = 0.1", &[]),
     (
@@ -2177,7 +2177,7 @@ const RTI_VARIANTS: &[Variant] = &[
 
 /// The RTI's quick column: 8 lattice spacings Δr = 0.13782337 mm across (1.1025869870e-3
 /// m), the disturbance's wavelength the new width, with 9 fluid spacings across it and
-/// 48 δ high (5.88 mm, the full one's 5.93 mm to a whole δ). Not 8 fluid spacings: with
+/// 48 δ high (5.88 mm; the full column is 43 of its δ, 5.74 mm). Not 8 fluid spacings: with
 /// the fluid's lattice on the grains' the porosity's lattice ripple moves every fluid row
 /// alike (ARCHITECTURE.md, "The fluid's lattice must not be the grains'").
 const RTI_QUICK: &[&str] = &[
