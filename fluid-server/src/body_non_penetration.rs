@@ -82,8 +82,8 @@ pub struct SurfacePoint {
 /// CPU twin: applies the correction to every fluid particle of `set` (entries in any
 /// order, positions relative to the solver origin as [`SphConstants::wall_faces`] are;
 /// `markers[k]` describes the marker of id `marker_base + k`), the body surfaces first,
-/// then the wall faces, and returns how many particles it moved. Nearest images are not
-/// taken (tests use closed boxes).
+/// then the wall faces, and returns how many particles it moved. A marker across a
+/// periodic face is seen as its nearest image, as the kernel sees it.
 pub fn non_penetration_cpu(
     c: &SphConstants,
     set: &mut ParticleSet,
@@ -135,7 +135,8 @@ pub fn surface_markers(set: &ParticleSet, markers: &[SurfacePoint]) -> Vec<usize
 
 /// CPU twin of `nearest_surface_marker` (body_non_penetration.wgsl): of `surface`
 /// ([`surface_markers`]), the marker nearest to entry `i` within δ, the first in set
-/// order on a tie, as its entry, `r = x_i − x_m` and its outward normal.
+/// order on a tie, as its entry, `r = x_i − x_m` (the nearest image) and its outward
+/// normal.
 pub fn nearest_surface_marker_cpu(
     c: &SphConstants,
     set: &ParticleSet,
@@ -146,7 +147,7 @@ pub fn nearest_surface_marker_cpu(
     let base = set.kinds.marker_base();
     surface
         .iter()
-        .map(|&j| (j, sub(set.pos[i], set.pos[j])))
+        .map(|&j| (j, c.pair_vec(set.pos[i], set.pos[j])))
         .filter(|(_, r)| dot(*r, *r) < c.spacing * c.spacing)
         .min_by(|a, b| dot(a.1, a.1).total_cmp(&dot(b.1, b.1)))
         .map(|(j, r)| (j, r, markers[set.id[j] as usize - base].normal))

@@ -63,6 +63,10 @@ pub struct SphConstants {
     /// non-penetration pass mirrors fluid back across them (see
     /// [`crate::body_non_penetration`]).
     pub wall_faces: [[f64; 2]; 3],
+    /// The period per axis, m (the domain's extent on a periodic axis, 0 elsewhere), for
+    /// the CPU twins' nearest images ([`Self::pair_vec`]); the kernels take theirs from
+    /// the grid (`grid_common.wgsl`'s `pair_vec`).
+    pub period: [f64; 3],
     /// `domain.wall_model = "joubert"`: one layer of boundary particles on the faces,
     /// their pressure from the Neumann condition of Joubert eq. (25) and, on symmetry
     /// planes, their velocity from eq. (27) ([`crate::joubert2020_boundary_values`]).
@@ -187,6 +191,14 @@ impl SphConstants {
                     && f.kinematic_viscosity > 0.0)
                     || scene.effects.artificial_viscosity > 0.0),
             wall_faces: wall_faces(&scene.domain),
+            period: std::array::from_fn(|k| {
+                let d = &scene.domain;
+                if d.periodic[k] {
+                    d.max[k] - d.min[k]
+                } else {
+                    0.0
+                }
+            }),
             joubert_walls,
             gradient_correction: scene.effects.gradient_correction,
             corrected_continuity: scene.effects.gradient_correction && scene.grains().is_empty(),
@@ -246,6 +258,16 @@ impl SphConstants {
             || self.uses_b_hat()
             || self.shifting_beta > 0.0
             || self.density_diffusion > 0.0
+    }
+
+    /// `a − b` as the nearest image on the periodic axes ([`Self::period`]): the CPU twin
+    /// of `pair_vec` in `grid_common.wgsl`, in f64.
+    pub fn pair_vec(&self, a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|k| {
+            let d = a[k] - b[k];
+            let p = self.period[k];
+            if p > 0.0 { d - p * (d / p).round() } else { d }
+        })
     }
 
     /// The axes across which a wall particle at `x` (relative to the solver origin, as

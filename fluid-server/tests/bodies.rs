@@ -278,6 +278,93 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
     }
 }
 
+/// The same across a periodic face. The box is periodic in x; the sphere (r = 5δ) moves
+/// δ along −x, to where its −x pole stands 0.3δ beyond x = 0, across the face. For each
+/// surface marker that ends beyond the face with the point 0.25δ behind its final
+/// tangent plane on this side, a fluid particle (taken from far off) starts at that
+/// point: at least 0.69δ in front of the surface before the move (the carve-out takes
+/// what is nearer than δ/2), behind it after, with its nearest marker across the face. The kernel finds it through `row_ranges_within`'s
+/// wrapped rows and `pair_vec`'s nearest image; the twin takes the nearest image too
+/// (`SphConstants::pair_vec`). Reference: the twin on the GPU's state before the pass;
+/// the particles behind a marker across the face are counted, so that the test shows
+/// it reaches them (with plain differences in the twin it fails).
+#[test]
+fn fluid_behind_a_body_across_a_periodic_face_is_mirrored_out_as_the_twin_does() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let mut s = common::scene("", "");
+    s.domain.periodic = [true, false, false];
+    let c = SphConstants::from_scene(&s).unwrap();
+    let d = c.spacing;
+    assert_eq!(c.period, [0.2, 0.0, 0.0]);
+    let (centre, r, shift) = ([5.7 * d, 0.1, 0.1], 5.0 * d, -d);
+    let (mut points, state) = filled_sphere(centre, r, 300, 0.9);
+    let mut set = initial_particles(&s, &c).unwrap();
+    // Fluid far from the sphere (beyond r + 3δ of its centre, also through the face).
+    let far: Vec<usize> = (0..set.len())
+        .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid)
+        .filter(|&i| {
+            let e = c.pair_vec(set.pos[i], centre);
+            dot(e, e).sqrt() > r + 3.0 * d
+        })
+        .collect();
+    let mut placed = 0;
+    for p in points.iter().filter(|p| p.measure > 0.0) {
+        let m = [
+            f64::from(p.position[0]) + shift,
+            f64::from(p.position[1]),
+            f64::from(p.position[2]),
+        ];
+        let n = p.normal.map(f64::from);
+        let x: [f64; 3] = std::array::from_fn(|k| m[k] - 0.25 * d * n[k]);
+        if !(m[0] < 0.0 && x[0] > 0.0) {
+            continue;
+        }
+        let i = far[placed];
+        set.pos[i] = x;
+        set.vel[i] = [0.0; 3];
+        placed += 1;
+    }
+    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
+    move_along_x(&gpu, &mut solver, &mut points, state, shift, -0.1);
+    solver
+        .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort], 1e-5, 1.0)
+        .unwrap();
+    let before = solver.data().read(&gpu).unwrap();
+    let markers = surface_points(&points);
+    let surface = surface_markers(&before, &markers);
+    let across = (0..before.len())
+        .filter(|&i| before.kinds.kind(before.id[i]) == Kind::Fluid)
+        .filter_map(|i| {
+            let (j, r, n) = nearest_surface_marker_cpu(&c, &before, &markers, &surface, i)?;
+            let far_side = (before.pos[i][0] - before.pos[j][0]).abs() > 0.5 * c.period[0];
+            (far_side && dot(r, n) < 0.0).then_some(i)
+        })
+        .count();
+    let (got, twin, count, twin_count) = non_penetration_pass(&gpu, &c, &mut solver, &points);
+    println!(
+        "placed {placed}; behind a marker across the face: {across}; mirrored out: GPU {count}, twin {twin_count}"
+    );
+    assert!(
+        across >= 5,
+        "fluid behind a marker across the face: {across}"
+    );
+    assert_eq!(count, twin_count);
+    let (mut dx, mut du) = (0.0f64, 0.0f64);
+    for i in 0..got.len() {
+        assert_eq!(got.id[i], twin.id[i]);
+        if got.kinds.kind(got.id[i]) == Kind::Fluid {
+            let e = c.pair_vec(got.pos[i], twin.pos[i]);
+            dx = dx.max(dot(e, e).sqrt());
+            let e = sub(got.vel[i], twin.vel[i]);
+            du = du.max(dot(e, e).sqrt());
+        }
+    }
+    println!("largest difference: position {dx:e} m, velocity {du:e} m/s");
+    assert!(dx <= 1e-6 * 0.2, "position {dx:e}");
+    assert!(du <= 1e-5 * 0.1, "velocity {du:e}");
+}
+
 /// Regression (settling-sphere quick with Γ = 2, 2026-11-26: a sphere landing on the
 /// floor pressed a fluid particle through it, where its density went to NaN): the
 /// non-penetration pass also mirrors fluid back across the domain's wall faces. In the
