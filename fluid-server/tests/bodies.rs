@@ -97,6 +97,25 @@ fn move_along_x(
     solver.set_bodies(gpu, &[moved], points, &[]).unwrap();
 }
 
+/// After a non-penetration pass: the same particles in the same order (the pass does
+/// not sort), fluid positions to f32 round-off of the 0.2 m domain (the nearest image on
+/// a periodic axis) and velocities to that of 0.1 m/s.
+fn assert_fluid_agrees(c: &SphConstants, got: &ParticleSet, twin: &ParticleSet) {
+    let (mut dx, mut du) = (0.0f64, 0.0f64);
+    for i in 0..got.len() {
+        assert_eq!(got.id[i], twin.id[i]);
+        if got.kinds.kind(got.id[i]) == Kind::Fluid {
+            let e = c.pair_vec(got.pos[i], twin.pos[i]);
+            dx = dx.max(dot(e, e).sqrt());
+            let e = sub(got.vel[i], twin.vel[i]);
+            du = du.max(dot(e, e).sqrt());
+        }
+    }
+    println!("largest difference: position {dx:e} m, velocity {du:e} m/s");
+    assert!(dx <= 1e-6 * 0.2, "position {dx:e}");
+    assert!(du <= 1e-5 * 0.1, "velocity {du:e}");
+}
+
 fn surface_points(points: &[CouplingPoint]) -> Vec<SurfacePoint> {
     points
         .iter()
@@ -235,21 +254,7 @@ fn fluid_behind_a_body_surface_is_mirrored_out_as_the_twin_does() {
         "the moved surface should hold fluid behind it: {twin_count}"
     );
     assert_eq!(count, twin_count);
-    // Same particles, same order (the pass does not sort): positions to f32 round-off of
-    // the domain, velocities to that of 0.1 m/s.
-    let (mut dx, mut du) = (0.0f64, 0.0f64);
-    for i in 0..got.len() {
-        assert_eq!(got.id[i], twin.id[i]);
-        if got.kinds.kind(got.id[i]) == Kind::Fluid {
-            let e = sub(got.pos[i], twin.pos[i]);
-            dx = dx.max(dot(e, e).sqrt());
-            let e = sub(got.vel[i], twin.vel[i]);
-            du = du.max(dot(e, e).sqrt());
-        }
-    }
-    println!("largest difference: position {dx:e} m, velocity {du:e} m/s");
-    assert!(dx <= 1e-6 * 0.2, "position {dx:e}");
-    assert!(du <= 1e-5 * 0.1, "velocity {du:e}");
+    assert_fluid_agrees(&c, &got, &twin);
     // Afterwards no fluid particle is behind its nearest surface marker's plane.
     let base = got.kinds.marker_base();
     for i in (0..got.len()).filter(|&i| got.kinds.kind(got.id[i]) == Kind::Fluid) {
@@ -350,19 +355,7 @@ fn fluid_behind_a_body_across_a_periodic_face_is_mirrored_out_as_the_twin_does()
         "fluid behind a marker across the face: {across}"
     );
     assert_eq!(count, twin_count);
-    let (mut dx, mut du) = (0.0f64, 0.0f64);
-    for i in 0..got.len() {
-        assert_eq!(got.id[i], twin.id[i]);
-        if got.kinds.kind(got.id[i]) == Kind::Fluid {
-            let e = c.pair_vec(got.pos[i], twin.pos[i]);
-            dx = dx.max(dot(e, e).sqrt());
-            let e = sub(got.vel[i], twin.vel[i]);
-            du = du.max(dot(e, e).sqrt());
-        }
-    }
-    println!("largest difference: position {dx:e} m, velocity {du:e} m/s");
-    assert!(dx <= 1e-6 * 0.2, "position {dx:e}");
-    assert!(du <= 1e-5 * 0.1, "velocity {du:e}");
+    assert_fluid_agrees(&c, &got, &twin);
 }
 
 /// Regression (settling-sphere quick with Γ = 2, 2026-11-26: a sphere landing on the
