@@ -263,11 +263,7 @@ impl SphConstants {
     /// `a − b` as the nearest image on the periodic axes ([`Self::period`]): the CPU twin
     /// of `pair_vec` in `grid_common.wgsl`, in f64.
     pub fn pair_vec(&self, a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-        std::array::from_fn(|k| {
-            let d = a[k] - b[k];
-            let p = self.period[k];
-            if p > 0.0 { d - p * (d / p).round() } else { d }
-        })
+        crate::particles::nearest_image(a, b, self.period)
     }
 
     /// The axes across which a wall particle at `x` (relative to the solver origin, as

@@ -91,6 +91,16 @@ impl ParticleSet {
     }
 }
 
+/// `a − b` as the nearest image on the axes where `period[k] > 0` (0: not periodic):
+/// the f64 form of `pair_vec` in `grid_common.wgsl`, for the CPU twins.
+pub fn nearest_image(a: [f64; 3], b: [f64; 3], period: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|k| {
+        let d = a[k] - b[k];
+        let p = period[k];
+        if p > 0.0 { d - p * (d / p).round() } else { d }
+    })
+}
+
 pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }

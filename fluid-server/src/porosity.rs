@@ -272,14 +272,7 @@ impl PorosityField {
 
     /// r_a − r_b as the nearest image on periodic axes.
     fn separation(&self, a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-        std::array::from_fn(|k| {
-            let d = a[k] - b[k];
-            if self.period[k] > 0.0 {
-                d - self.period[k] * (d / self.period[k]).round()
-            } else {
-                d
-            }
-        })
+        crate::particles::nearest_image(a, b, self.period)
     }
 
     /// Calls `visit(r_pj, j)` for every solid j within the support of `p`, with
