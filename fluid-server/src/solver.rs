@@ -1785,6 +1785,9 @@ impl FluidSolver {
 /// collapsed into that gap, and the cross blew up in the corner above
 /// (ARCHITECTURE.md, "A face half a spacing from the lattice keeps its fluid layer").
 /// `set` is in buffer order with GPU-relative positions; the result is in id order.
+/// Distances are plain differences, not nearest images: on a periodic axis a body must
+/// span the domain from face to face (the DEM server refuses any other,
+/// `DemError::PeriodicSpan`), so no body has a part across a periodic face.
 /// Cost: every fluid particle within a body's bounding sphere against that body's
 /// markers, done once when the markers first arrive.
 fn carve_out_bodies(
