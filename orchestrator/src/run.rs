@@ -216,21 +216,18 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
             external: opts.external.clone(),
         },
     )?;
-    let bar = progress_bar(opts.progress, run.end_time());
+    let mut progress = Progress::new(opts.progress, run.end_time());
     let mut result = Ok(());
     while !run.done() {
         match run.advance() {
-            Ok(w) => {
-                bar.set_position((w.end * 1e6) as u64);
-                bar.set_message(format!("{:.4}", w.end));
-            }
+            Ok(w) => progress.update(w.end),
             Err(e) => {
                 result = Err(e);
                 break;
             }
         }
     }
-    bar.finish_and_clear();
+    progress.finish();
     let summary = run.close(result.is_ok());
     result?;
     summary
@@ -943,18 +940,165 @@ impl CoupledRun {
     }
 }
 
-/// Simulated time (µs resolution) as position: the bar shows simulated time, speed
-/// (simulated per wall second) and ETA.
-fn progress_bar(show: bool, end: f64) -> ProgressBar {
-    if !show {
-        return ProgressBar::hidden();
+/// A run's progress on stderr: on a terminal a bar (simulated time, speed, ETA); anywhere
+/// else (a batch job's log, a pipe), where the bar would not draw, a line now and then
+/// ([`ProgressLines`]).
+enum Progress {
+    Hidden,
+    Bar(ProgressBar),
+    Lines(ProgressLines),
+}
+
+impl Progress {
+    fn new(show: bool, end: f64) -> Self {
+        use std::io::IsTerminal;
+        if !show {
+            Self::Hidden
+        } else if std::io::stderr().is_terminal() {
+            // Simulated time (µs resolution) as position.
+            let bar = ProgressBar::new((end * 1e6) as u64);
+            let style = ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:30} t = {msg} s  ({per_sec} sim-µs/s, ETA {eta})",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar());
+            bar.set_style(style);
+            bar.enable_steady_tick(Duration::from_millis(250));
+            Self::Bar(bar)
+        } else {
+            Self::Lines(ProgressLines::new(end, Instant::now()))
+        }
     }
-    let bar = ProgressBar::new((end * 1e6) as u64);
-    let style = ProgressStyle::with_template(
-        "{spinner} [{elapsed_precise}] {bar:30} t = {msg} s  ({per_sec} sim-µs/s, ETA {eta})",
-    )
-    .unwrap_or_else(|_| ProgressStyle::default_bar());
-    bar.set_style(style);
-    bar.enable_steady_tick(Duration::from_millis(250));
-    bar
+
+    /// The run has reached simulated time `t`.
+    fn update(&mut self, t: f64) {
+        match self {
+            Self::Hidden => {}
+            Self::Bar(bar) => {
+                bar.set_position((t * 1e6) as u64);
+                bar.set_message(format!("{t:.4}"));
+            }
+            Self::Lines(lines) => {
+                if let Some(line) = lines.update(t, Instant::now()) {
+                    eprintln!("{line}");
+                }
+            }
+        }
+    }
+
+    fn finish(self) {
+        if let Self::Bar(bar) = self {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// Plain progress lines for a run whose stderr is not a terminal: one each time the
+/// simulated time passes another tenth of the run, and one whenever a minute of wall
+/// time has gone by without a line, so that an hour-long run in a batch job's log says
+/// where it is about once a minute and a short one says it ten times.
+struct ProgressLines {
+    end: f64,
+    /// Simulated time and wall clock of the first update (a restored run starts late).
+    first: Option<(f64, Instant)>,
+    last_line: Instant,
+    /// The next tenth of `end` that earns a line.
+    next_tenth: u32,
+}
+
+/// Longest wall time between two progress lines.
+const PROGRESS_LINE_EVERY: Duration = Duration::from_secs(60);
+
+impl ProgressLines {
+    fn new(end: f64, now: Instant) -> Self {
+        Self {
+            end,
+            first: None,
+            last_line: now,
+            next_tenth: 1,
+        }
+    }
+
+    /// The line to print now that the run has reached `t` at `now`, if one is due.
+    fn update(&mut self, t: f64, now: Instant) -> Option<String> {
+        let &mut (t0, wall0) = self.first.get_or_insert((t, now));
+        let tenth = (10.0 * t / self.end).floor();
+        let passed_a_tenth = tenth >= f64::from(self.next_tenth);
+        if !passed_a_tenth && now.duration_since(self.last_line) < PROGRESS_LINE_EVERY {
+            return None;
+        }
+        if passed_a_tenth {
+            self.next_tenth = tenth as u32 + 1;
+        }
+        self.last_line = now;
+        let wall = now.duration_since(wall0).as_secs_f64();
+        let rate = if wall > 0.0 { (t - t0) / wall } else { 0.0 };
+        let eta = if rate > 0.0 {
+            format!("ETA {}", wall_time((self.end - t) / rate))
+        } else {
+            "ETA unknown".into()
+        };
+        Some(format!(
+            "progress: t = {t:.4e} of {:.4e} s ({:.0} %), {rate:.3e} sim-s/s over {}, {eta}",
+            self.end,
+            100.0 * t / self.end,
+            wall_time(wall)
+        ))
+    }
+}
+
+/// Seconds as `1 h 02 min`, `3 min 05 s` or `42 s`.
+fn wall_time(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    match s {
+        0..60 => format!("{s} s"),
+        60..3600 => format!("{} min {:02} s", s / 60, s % 60),
+        _ => format!("{} h {:02} min", s / 3600, s % 3600 / 60),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run to t = 1 s, away from a terminal: a line at each tenth passed (one line when
+    /// an update jumps over several), none between them within a minute, and one after a
+    /// minute without; speed and ETA from the first update. Reference: the arithmetic of
+    /// the updates' times.
+    #[test]
+    fn progress_lines_come_at_each_tenth_and_at_least_once_a_minute() {
+        let start = Instant::now();
+        let at = |s: u64| start + Duration::from_secs(s);
+        let mut p = ProgressLines::new(1.0, start);
+        assert_eq!(p.update(0.0, at(0)), None);
+        assert_eq!(p.update(0.05, at(5)), None);
+        let line = p.update(0.1, at(10)).expect("a line at the first tenth");
+        assert_eq!(
+            line,
+            "progress: t = 1.0000e-1 of 1.0000e0 s (10 %), 1.000e-2 sim-s/s over 10 s, ETA 1 min 30 s"
+        );
+        assert_eq!(p.update(0.15, at(15)), None);
+        // Past 0.2 and 0.3 at once: one line, and the next at 0.4.
+        assert!(p.update(0.35, at(35)).is_some());
+        assert_eq!(p.update(0.39, at(39)), None);
+        // A minute since the last line, still short of 0.4.
+        let line = p.update(0.396, at(96)).expect("a line after a minute");
+        assert!(
+            line.contains("(40 %)") && line.contains("over 1 min 36 s"),
+            "{line}"
+        );
+        assert!(p.update(0.4, at(97)).is_some());
+        let line = p.update(1.0, at(240)).expect("a line at the end");
+        assert!(
+            line.contains("(100 %)") && line.contains("ETA 0 s"),
+            "{line}"
+        );
+    }
+
+    /// Reference: 3725 s = 1 h 02 min 05 s, shown to the minute.
+    #[test]
+    fn wall_times_read_in_hours_minutes_or_seconds() {
+        assert_eq!(wall_time(42.4), "42 s");
+        assert_eq!(wall_time(185.0), "3 min 05 s");
+        assert_eq!(wall_time(3725.0), "1 h 02 min");
+    }
 }
