@@ -2,13 +2,14 @@
 //! scene's end (t = 0.8 s) with every box moved by the flow, no box inside another and
 //! none outside the closed tank. CI runs δ = 0.02 m, support 2.4 δ (the shipped scene is
 //! δ = 0.01 m): the surge reaches the boxes at ≈ 0.1 s, carries them ≈ 0.15 m by 0.25 s
-//! and presses them against the far wall, whose run-up throws box-c up to the lid.
+//! and presses them against the far wall, whose run-up throws them up.
 //!
 //! Until 2026-11-28 the test ended at 0.35 s: in 2026-11-22's code a fluid particle
 //! squeezed between a box and the far wall reached c_s at about 0.5 s. On 2026-11-28
 //! that run went on to 0.626 s, where box-c left the tank, then open at 0.4 m, rising at
-//! 0.96 m/s, and the DEM server stopped the run. The tank is closed since; the run goes
-//! to 0.8 s (93 s on lavapipe, box-c's highest centre 0.378 m, 7 mm under the lid).
+//! 0.96 m/s, and the DEM server stopped the run. The tank is closed since, and the scene
+//! takes δ-SPH; the run goes to 0.8 s (99 s on lavapipe, alone; highest centres 0.177,
+//! 0.123 and 0.288 m).
 use couplet_tests::{couplet_run, read_recording, scene, track};
 use parry3d::math::{Pose, Rotation, Vector};
 use parry3d::shape::Cuboid;
