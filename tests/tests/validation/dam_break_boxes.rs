@@ -10,6 +10,7 @@
 //! 0.96 m/s, and the DEM server stopped the run. The tank is closed since, and the scene
 //! takes δ-SPH; the run goes to 0.8 s (99 s on lavapipe, alone; highest centres 0.177,
 //! 0.123 and 0.288 m).
+
 use couplet_tests::{couplet_run, read_recording, scene, track};
 use parry3d::math::{Pose, Rotation, Vector};
 use parry3d::shape::Cuboid;
