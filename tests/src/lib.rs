@@ -68,3 +68,33 @@ pub fn assert_rows(rows: &[(String, String)], result: &str, parts: &[&str]) {
 
 pub use couplet_orchestrator::record::{BodySample, Particle, Recording, read_recording, track};
 pub use couplet_orchestrator::validate::joubert_terminal_velocity;
+
+/// The share of a series' successive changes whose sign is the opposite of the change
+/// before: a body's velocity recorded per window flips in nearly every window when a
+/// partitioned coupling lags an added mass heavier than the body (the instability the
+/// implicit scheme of issue 4 would cure), and in a few percent of windows when the flow
+/// alone shakes it. `None` with fewer than three values.
+pub fn sign_flip_share(series: &[f64]) -> Option<f64> {
+    let changes: Vec<f64> = series.windows(2).map(|w| w[1] - w[0]).collect();
+    let pairs = changes.len().checked_sub(1).filter(|&n| n > 0)?;
+    let flips = changes.windows(2).filter(|c| c[0] * c[1] < 0.0).count();
+    Some(flips as f64 / pairs as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sign_flip_share;
+
+    #[test]
+    fn sign_flip_share_counts_reversals_of_the_change() {
+        // Changes +1, −2, +2, +1: two of three successive pairs reverse.
+        assert_eq!(
+            sign_flip_share(&[0.0, 1.0, -1.0, 1.0, 2.0]),
+            Some(2.0 / 3.0)
+        );
+        // A steady acceleration never reverses; an alternating one always does.
+        assert_eq!(sign_flip_share(&[0.0, 1.0, 2.0, 3.0]), Some(0.0));
+        assert_eq!(sign_flip_share(&[0.0, 1.0, 0.0, 1.0]), Some(1.0));
+        assert_eq!(sign_flip_share(&[0.0, 1.0]), None);
+    }
+}

@@ -30,7 +30,7 @@
 //! test, 134 s in the next clean-clone CI run.
 
 use couplet_tests::{
-    assert_rows, couplet_run, couplet_validate, read_recording, report_rows, scene,
+    assert_rows, couplet_run, couplet_validate, read_recording, report_rows, scene, sign_flip_share,
 };
 
 use crate::CLI;
@@ -129,17 +129,15 @@ fn a_light_sphere_rises_steadily_under_the_explicit_coupling() {
     let net_buoyancy =
         (1000.0 - 300.0) * 4.0 / 3.0 * std::f64::consts::PI * 1.25e-3f64.powi(3) * 9.81;
     let drag = -forces.iter().sum::<f64>() / forces.len() as f64;
-    let changes: Vec<f64> = speeds.windows(2).map(|w| w[1] - w[0]).collect();
-    let flips = changes.windows(2).filter(|c| c[0] * c[1] < 0.0).count();
-    let share = flips as f64 / (changes.len() - 1) as f64;
+    let share = sign_flip_share(&speeds).unwrap();
     let (lo, hi) = speeds
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(*v), b.max(*v))
         });
     eprintln!(
-        "drag {drag:.4e} N against the net buoyancy {net_buoyancy:.4e} N; speed {lo:.4}–{hi:.4} m/s; {flips} of {} velocity changes flip sign",
-        changes.len() - 1
+        "drag {drag:.4e} N against the net buoyancy {net_buoyancy:.4e} N; speed {lo:.4}–{hi:.4} m/s; {:.1} % of the velocity changes flip sign",
+        100.0 * share
     );
     assert!(lo > 0.0, "the sphere sank at {lo} m/s");
     let err = (drag - net_buoyancy).abs() / net_buoyancy;
