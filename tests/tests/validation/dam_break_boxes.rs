@@ -3,8 +3,9 @@
 //! outside the closed tank, and no box's velocity reversing its change from window to
 //! window in more than a fifth of the windows after the surge arrives (the signature of
 //! an added-mass instability of the explicit coupling). CI runs δ = 0.02 m, support
-//! 2.4 δ (the shipped scene is δ = 0.01 m): the surge reaches the boxes at ≈ 0.1 s, carries them ≈ 0.15 m by 0.25 s
-//! and presses them against the far wall, whose run-up throws them up.
+//! 2.4 δ (the shipped scene is δ = 0.01 m): the surge reaches the boxes at ≈ 0.1 s,
+//! carries them ≈ 0.15 m by 0.25 s and presses them against the far wall, whose run-up
+//! throws them up.
 //!
 //! Until 2026-11-28 the test ended at 0.35 s: in 2026-11-22's code a fluid particle
 //! squeezed between a box and the far wall reached c_s at about 0.5 s. On 2026-11-28
