@@ -3,7 +3,9 @@
 //! and the kernels cannot drift apart (STYLE.md, "one source of truth").
 
 use crate::error::FluidError;
+use crate::gpu::Gpu;
 use crate::kernel::SmoothingKernel;
+use crate::neighbour_grid::{GRID_REACH_GPU, grid_reach_wgsl};
 use couplet_protocol::{KernelKind, PorosityPressure, Scene, ViscosityModel, WallKind, WallModel};
 
 /// Scene-fixed parameters of the standard WCSPH scheme, in SI units (`f64`; the WGSL
@@ -49,6 +51,12 @@ pub struct SphConstants {
     /// Joubert's walls). See [`Self::symmetry_mirror`]. All false with Joubert's walls,
     /// whose symmetry planes take eq. (27) instead.
     pub adami_symmetry: [bool; 3],
+    /// The neighbour grid's reach R (`GRID_REACH` in WGSL): cells of at least
+    /// [`Self::grid_radius`]/R, pair loops over (2R + 1)² rows. [`GRID_REACH_GPU`] from
+    /// the scene; the solver sets the adapter's with [`Self::for_adapter`]. A pair kernel
+    /// must be built with the reach of the grid it is bound to, or it misses neighbours:
+    /// kernels built outside the solver take `FluidSolver::constants`.
+    pub grid_reach: u32,
     /// No-slip walls enter the viscous sums with the velocity 2 v_w − ṽ_w (Adami, Hu &
     /// Adams 2012, §2.3): ṽ_w the Shepard interpolation of the fluid's velocity at the
     /// wall particle, v_w the wall's own (0, or the lid's). The fluid then sees the
@@ -185,6 +193,7 @@ impl SphConstants {
             adami_symmetry: std::array::from_fn(|k| {
                 !joubert_walls && !scene.domain.periodic[k] && scene.domain.symmetry[k]
             }),
+            grid_reach: GRID_REACH_GPU,
             wall_velocity_extrapolation: scene.domain.walls == WallKind::NoSlip
                 && !joubert_walls
                 && ((scene.effects.viscosity == ViscosityModel::Laminar
@@ -312,6 +321,13 @@ impl SphConstants {
         self.support_radius() * self.variable_h.unwrap_or(1.0)
     }
 
+    /// These constants with the grid reach `gpu` wants for them (`Gpu::grid_reach_for`
+    /// the grid radius in spacings).
+    pub fn for_adapter(mut self, gpu: &Gpu) -> SphConstants {
+        self.grid_reach = gpu.grid_reach_for(self.grid_radius() / self.spacing);
+        self
+    }
+
     /// The WGSL constant block every SPH module starts with (after the prelude).
     pub fn wgsl(&self) -> String {
         let k = &self.kernel;
@@ -340,6 +356,7 @@ impl SphConstants {
              const ALPHA: f32 = {alpha:e};\n\
              const NO_SLIP_WALLS: bool = {no_slip};\n\
              const ADAMI_SYMMETRY: vec3<bool> = vec3<bool>({adami_symmetry});\n\
+             {grid_reach}\
              const VISCOUS_ETA2: f32 = {eta2:e};\n\
              const GRADIENT_CORRECTION: bool = {correction};\n\
              const CORRECTED_CONTINUITY: bool = {corrected_continuity};\n\
@@ -384,6 +401,7 @@ impl SphConstants {
             alpha = self.alpha,
             no_slip = self.no_slip_walls,
             adami_symmetry = self.adami_symmetry.map(|b| b.to_string()).join(", "),
+            grid_reach = grid_reach_wgsl(self.grid_reach),
             eta2 = VISCOUS_ETA2_H2 * k.h * k.h,
             correction = self.gradient_correction,
             corrected_continuity = self.corrected_continuity,

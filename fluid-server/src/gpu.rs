@@ -6,6 +6,8 @@
 
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
+use crate::neighbour_grid::{GRID_REACH_GPU, GRID_REACH_RANGE, grid_reach_for};
+
 /// Storage buffers a single kernel may bind. The corrected SPH scheme's pair kernels
 /// bind about this many particle arrays; lavapipe and NVIDIA both offer far more.
 pub const MIN_STORAGE_BUFFERS_PER_STAGE: u32 = 10;
@@ -32,7 +34,22 @@ pub enum GpuError {
     /// Mapping a staging buffer for readback failed.
     #[error("reading back GPU buffer `{buffer}` failed: {reason}")]
     Readback { buffer: String, reason: String },
+    /// `COUPLET_GRID_REACH` is set to something other than a whole number in
+    /// `GRID_REACH_RANGE`.
+    #[error(
+        "COUPLET_GRID_REACH = {value:?} is not a whole number from {} to {}: it sets the \
+         neighbour grid's cells per support radius (unset: {} on a GPU, on a CPU driver the \
+         smallest that makes a cell no wider than a particle spacing)",
+        GRID_REACH_RANGE.start(), GRID_REACH_RANGE.end(), GRID_REACH_GPU
+    )]
+    BadGridReach { value: String },
 }
+
+/// The environment variable that overrides the neighbour grid's reach R (cells per
+/// support radius, `neighbour_grid::GRID_REACH_GPU`), for measuring R on a machine
+/// without a rebuild. Results do not depend on R beyond round-off (the order of the
+/// sums); speed does.
+pub const GRID_REACH_ENV: &str = "COUPLET_GRID_REACH";
 
 /// The device and queue every fluid kernel runs on.
 pub struct Gpu {
@@ -43,6 +60,9 @@ pub struct Gpu {
     /// (see `timing::StageTimer`). `TIMESTAMP_QUERY_INSIDE_ENCODERS`/`_PASSES` are
     /// enabled as well whenever the adapter offers them.
     pub timestamps: bool,
+    /// The neighbour grid's reach R set by [`GRID_REACH_ENV`], if it is set: every grid
+    /// takes it in place of [`Self::grid_reach_for`]'s choice.
+    pub grid_reach_override: Option<u32>,
 }
 
 /// Adapters ordered by how much we want them: a real GPU before a software one.
@@ -103,25 +123,46 @@ impl Gpu {
             })
             .await
             .map_err(|e| GpuError::Device(e.to_string()))?;
+        let grid_reach_override = match std::env::var(GRID_REACH_ENV) {
+            Err(_) => None,
+            Ok(value) => match value.trim().parse::<u32>() {
+                Ok(r) if GRID_REACH_RANGE.contains(&r) => Some(r),
+                _ => return Err(GpuError::BadGridReach { value }),
+            },
+        };
         Ok(Gpu {
             device,
             queue,
             adapter_info,
             timestamps,
+            grid_reach_override,
         })
     }
 
-    /// One line for logs and `couplet plan`: name, driver, backend, timestamps.
+    /// The neighbour grid's reach R for a grid radius of `radius_over_spacing` particle
+    /// spacings: [`GRID_REACH_ENV`]'s if set, else `neighbour_grid::grid_reach_for` this
+    /// adapter.
+    pub fn grid_reach_for(&self, radius_over_spacing: f64) -> u32 {
+        self.grid_reach_override
+            .unwrap_or_else(|| grid_reach_for(self.adapter_info.device_type, radius_over_spacing))
+    }
+
+    /// One line for logs and `couplet plan`: name, driver, backend, timestamps (and the
+    /// grid reach when [`GRID_REACH_ENV`] sets it).
     pub fn describe(&self) -> String {
         let i = &self.adapter_info;
         format!(
-            "{} ({:?}, driver {} {}, backend {:?}, timestamps {})",
+            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}{})",
             i.name,
             i.device_type,
             i.driver,
             i.driver_info,
             i.backend,
-            if self.timestamps { "yes" } else { "no" }
+            if self.timestamps { "yes" } else { "no" },
+            match self.grid_reach_override {
+                Some(r) => format!(", grid reach {r} from {GRID_REACH_ENV}"),
+                None => String::new(),
+            }
         )
     }
 

@@ -40,31 +40,71 @@ pub const GRID_COMMON_WGSL: &str = include_str!("../shaders/grid_common.wgsl");
 const NEIGHBOUR_GRID_WGSL: &str = include_str!("../shaders/neighbour_grid.wgsl");
 const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 
-/// Cells per support radius, and so how many cells the pair loops reach on each side
-/// of a particle's own cell (`GRID_REACH` in WGSL, from [`crate::shaders::prelude`]).
+/// Cells per grid radius R, and so how many cells the pair loops reach on each side of
+/// a particle's own cell (`GRID_REACH` in WGSL, from `SphConstants::wgsl`): chosen per
+/// scene and adapter by [`grid_reach_for`] (`SphConstants::for_adapter`), or set by
+/// `COUPLET_GRID_REACH` (`gpu::GRID_REACH_ENV`) to measure another.
+///
+/// Cells of support/R and (2R+1)² rows of 2R+1 contiguous cells visit (2R+1)³/R³
+/// support³ of space per particle: 27 (R = 1), 15.6 (R = 2), 12.7 (R = 3), 11.4 (R = 4),
+/// against the support sphere's 4.2; a larger R tests fewer candidates but walks more
+/// rows ((2R+1)², each two `cell_start` loads, most of them nearly empty once a cell is
+/// narrower than a particle spacing) and sorts into R³ times as many cells.
+///
+/// On a GPU R = 2 whatever the support: every figure in README's "Measured on a GPU" was
+/// taken with it; other R have not been measured there.
+pub const GRID_REACH_GPU: u32 = 2;
+
+/// The values `COUPLET_GRID_REACH` may take, and [`grid_reach_for`] gives.
+pub const GRID_REACH_RANGE: std::ops::RangeInclusive<u32> = 1..=4;
+
+/// R for an adapter of `device_type` and a grid radius of `radius_over_spacing`
+/// particle spacings δ: [`GRID_REACH_GPU`] on a GPU; on a CPU driver (lavapipe) the
+/// smallest R whose cells are no wider than δ, ⌈radius/δ⌉ (within [`GRID_REACH_RANGE`]).
 ///
 /// On lavapipe every storage load in a pair loop is a per-lane scalar loop, so a pair
-/// kernel costs about its candidates. Cells of support/R and (2R+1)² rows of 2R+1
-/// contiguous cells visit (2R+1)³/R³ support³ of space per particle: 27 (R = 1), 15.6
-/// (R = 2), 12.7 (R = 3). Measured back to back (`couplet bench`, ms per step of
-/// boundary pressure + fluid_rates, two passes each): hydrostatic tank δ = 0.02,
-/// R = 1 60 + 44, R = 2 40 + 30, R = 3 40 + 31; settling sphere δ = 1e-3, R = 1
-/// 236 + 350, R = 2 137 + 202, R = 3 144 + 207 (and a 3× larger scan than R = 2).
-pub const GRID_REACH: u32 = 2;
+/// kernel costs about its candidates until the rows' overhead takes over. Measured on
+/// Mesa 25.0.7 (2026-11-28, 2 vCPU, `COUPLET_GRID_REACH=R couplet bench SCENE`, R = 2 and
+/// 3 alternated twice, the pair stages' ms per step, the machine otherwise idle):
+///
+/// | scene | support | R = 2 | R = 3 |
+/// |---|---|---|---|
+/// | hydrostatic tank, δ = 0.02 m | 2 δ | 5.0–5.8 | 6.9–7.7 |
+/// | the same | 2.4 δ | 11.4–11.8 | 9.5–9.6 |
+/// | the same | 3 δ | 21.7–22.9 | 16.3–17.9 |
+///
+/// and before that, with other runs on the machine, settling sphere (δ = 1 mm, 2.4 δ)
+/// 89–98 against 65–79 ms and SPHERIC-2 (δ = 0.02 m, 3 δ) 1.38–1.54 against 1.69–1.96
+/// steps/s; R = 4 was no faster than R = 3 at 2.4 δ and 3 δ. So cells of about δ: R = 2
+/// at 2 δ, 3 at 2.4–3 δ. (On Mesa 22.3.6 R = 3 had been level with R = 2 at 2 δ and 2.4 δ.)
+pub fn grid_reach_for(device_type: wgpu::DeviceType, radius_over_spacing: f64) -> u32 {
+    match device_type {
+        wgpu::DeviceType::Cpu => {
+            // 1e-6: a support of exactly 2 δ computed in f64 is 2 δ, not 3 cells' worth.
+            let r = (radius_over_spacing - 1e-6).ceil().max(1.0) as u32;
+            r.clamp(*GRID_REACH_RANGE.start(), *GRID_REACH_RANGE.end())
+        }
+        _ => GRID_REACH_GPU,
+    }
+}
+
+/// The WGSL declaration of `GRID_REACH` = `reach`, which grid_common.wgsl's loops and
+/// every pair kernel read (SPH kernels get it from `SphConstants::wgsl`).
+pub fn grid_reach_wgsl(reach: u32) -> String {
+    format!(
+        "// Cells per grid radius: pair loops visit rows dy, dz in -GRID_REACH..=GRID_REACH.\n\
+         const GRID_REACH: i32 = {reach};\n"
+    )
+}
 
 /// Longest cell slice the `grid: order` pass orders (each of its k slots counts over
 /// the slice: O(k²) in all, at most this many loop iterations per thread, far below
 /// the 65535 at which lavapipe cuts a shader's loops short). A cell of
-/// support/[`GRID_REACH`] holds a few particles (about 2 at support 2.4 δ, 8 at 4 δ);
+/// support/R holds a few particles (about 2 at support 2.4 δ and R = 2, 8 at 4 δ);
 /// a slice this long means the fluid has collapsed or particles outside the grid were
 /// sorted into a border cell — both reported by the host — and it keeps the atomics'
 /// order rather than stalling the GPU on a quadratic sort of a blown-up state.
 pub const GRID_ORDER_MAX_SLICE: u32 = 1024;
-
-/// Padding around the particle box, in cells: one support radius lets particles drift
-/// slightly past the domain (wall layers, a step's overshoot before the boundary
-/// pushes back) without an error.
-pub const GRID_PAD_CELLS: f64 = GRID_REACH as f64;
 
 /// Uniform of the grid (WGSL mirror: `GridParams` in grid_common.wgsl). Every vec4's
 /// `[3]` is unused (0).
@@ -73,7 +113,7 @@ pub const GRID_PAD_CELLS: f64 = GRID_REACH as f64;
 pub struct GridParams {
     /// Lower corner of the grid.
     pub origin: [f32; 4],
-    /// Cell edge per axis: support/[`GRID_REACH`], or on a periodic axis the period over
+    /// Cell edge per axis: support/R ([`GRID_REACH_GPU`]), or on a periodic axis the period over
     /// a whole number of cells (at least that).
     pub cell_size: [f32; 4],
     pub inv_cell_size: [f32; 4],
@@ -148,21 +188,28 @@ pub enum GridError {
     InvalidBox { min: [f64; 3], max: [f64; 3] },
     #[error(
         "periodic axis {axis} is {length} m long, shorter than {need} m: a period must hold \
-         2·GRID_REACH + 1 = {cells} cells of at least support/GRID_REACH ({support} m / \
-         {reach}), so that no pair is seen through two images; lengthen the domain along \
-         that axis or reduce the support",
-        axis = ["x", "y", "z"][*axis], cells = 2 * GRID_REACH + 1, reach = GRID_REACH
+         2R + 1 = {cells} cells of at least support/R ({support} m / R) for R = {reach}, the \
+         grid's reach here, and for R = {GRID_REACH_GPU}, so that no pair is seen \
+         through two images and a scene that runs on one adapter runs on every one; lengthen \
+         the domain along that axis or reduce the support",
+        axis = ["x", "y", "z"][*axis], cells = 2 * reach + 1
     )]
     PeriodTooShort {
         axis: usize,
         length: f64,
         need: f64,
         support: f64,
+        reach: u32,
     },
     #[error(
         "grid support radius {support_radius} is invalid: need a finite value > 0 (the kernel support radius)"
     )]
     InvalidSupport { support_radius: f64 },
+    #[error(
+        "grid reach {reach} is invalid: need {} to {} cells per support radius",
+        GRID_REACH_RANGE.start(), GRID_REACH_RANGE.end()
+    )]
+    InvalidReach { reach: u32 },
     #[error("a neighbour grid needs at least one particle (n = 0)")]
     NoParticles,
     #[error(
@@ -183,7 +230,7 @@ pub enum GridError {
     BadBuffer { buffer: String, reason: String },
     #[error(
         "{} at ({}, {}, {}) is outside the neighbour grid [{:?}, {:?}] (non-finite, or beyond \
-         the box padded by {GRID_PAD_CELLS} cells); {outside} particle sort(s) found outside \
+         the box padded by one support radius); {outside} particle sort(s) found outside \
          since the last reset",
         match id { Some(id) => format!("particle id {id} (slot {index} before the sort)"),
                    None => format!("particle in slot {index} before the sort (no id buffer registered)") },
@@ -291,16 +338,29 @@ fn bind(
 }
 
 impl NeighbourGrid {
-    /// Grid for `n` particles with cells of `support_radius / GRID_REACH` (see
-    /// [`GRID_REACH`]) over [min − pad, max + pad] (pad = [`GRID_PAD_CELLS`] cells) on a
-    /// closed axis, and over exactly [min, max) in a whole number of cells (each at
-    /// least that size, at least 2·GRID_REACH + 1 of them) on a periodic axis.
-    pub fn new(gpu: &Gpu, bounds: GridBox, support_radius: f64, n: u32) -> Result<Self, GridError> {
+    /// Grid for `n` particles with cells of `support_radius / reach` (see
+    /// [`grid_reach_for`]; the pair kernels' `GRID_REACH` must be the same) over [min − pad, max + pad] on a closed axis, pad = one
+    /// support radius (R cells: particles may drift slightly past the domain — wall
+    /// layers, a step's overshoot before the boundary pushes back — without an error),
+    /// and over exactly [min, max) in a whole number of cells (each at least that size,
+    /// at least 2R + 1 of them) on a periodic axis. A period must also hold the 2R + 1
+    /// cells of R = [`GRID_REACH_GPU`] (2.5 supports), so that a scene that runs on
+    /// lavapipe (R = 3 needs only 7/3) runs on a GPU too.
+    pub fn new(
+        gpu: &Gpu,
+        bounds: GridBox,
+        support_radius: f64,
+        reach: u32,
+        n: u32,
+    ) -> Result<Self, GridError> {
         let GridBox { min, max, periodic } = bounds;
         if !(support_radius.is_finite() && support_radius > 0.0) {
             return Err(GridError::InvalidSupport { support_radius });
         }
-        let cell_min = support_radius / f64::from(GRID_REACH);
+        if !GRID_REACH_RANGE.contains(&reach) {
+            return Err(GridError::InvalidReach { reach });
+        }
+        let cell_min = support_radius / f64::from(reach);
         if (0..3).any(|a| !(min[a].is_finite() && max[a].is_finite() && min[a] < max[a])) {
             return Err(GridError::InvalidBox { min, max });
         }
@@ -309,7 +369,7 @@ impl NeighbourGrid {
         }
         let limits = gpu.device.limits();
         let max_binding = limits.max_storage_buffer_binding_size;
-        let pad = GRID_PAD_CELLS * cell_min;
+        let pad = support_radius;
         let mut origin = [0.0f64; 3];
         let mut cell_size = [cell_min; 3];
         let mut dims64 = [0u64; 3];
@@ -317,16 +377,21 @@ impl NeighbourGrid {
             let length = max[a] - min[a];
             if periodic[a] {
                 // Whole cells over one period, no padding: cells of at least support/R.
-                let cells = (length / cell_min).floor() as u64;
-                let need = u64::from(2 * GRID_REACH + 1);
-                if cells < need {
+                // 2r + 1 whole cells of support/r fit in the period.
+                let fits = |r: u32| {
+                    (length * f64::from(r) / support_radius).floor() as u64 >= u64::from(2 * r + 1)
+                };
+                if !(fits(reach) && fits(GRID_REACH_GPU)) {
+                    let need = |r: u32| f64::from(2 * r + 1) / f64::from(r);
                     return Err(GridError::PeriodTooShort {
                         axis: a,
                         length,
-                        need: need as f64 * cell_min,
+                        need: need(reach).max(need(GRID_REACH_GPU)) * support_radius,
                         support: support_radius,
+                        reach,
                     });
                 }
+                let cells = (length / cell_min).floor() as u64;
                 origin[a] = min[a];
                 cell_size[a] = length / cells as f64;
                 dims64[a] = cells;
@@ -447,7 +512,12 @@ impl NeighbourGrid {
         let sort_module = shaders::module(
             gpu,
             "grid: sort",
-            &[GRID_COMMON_WGSL, &max_slice, NEIGHBOUR_GRID_WGSL],
+            &[
+                &grid_reach_wgsl(reach),
+                GRID_COMMON_WGSL,
+                &max_slice,
+                NEIGHBOUR_GRID_WGSL,
+            ],
         );
         let count = shaders::compute_pipeline_with_layouts(
             gpu,
@@ -475,7 +545,12 @@ impl NeighbourGrid {
             let module = shaders::module(
                 gpu,
                 "grid: reorder",
-                &[&alias, GRID_COMMON_WGSL, REORDER_WGSL],
+                &[
+                    &alias,
+                    &grid_reach_wgsl(reach),
+                    GRID_COMMON_WGSL,
+                    REORDER_WGSL,
+                ],
             );
             shaders::compute_pipeline_with_layouts(
                 gpu,
@@ -745,7 +820,14 @@ mod tests {
     fn grid_sort_is_stable_in_cells_far_from_sorted() {
         let gpu = shared_test_gpu().unwrap();
         let n = 1001u32;
-        let grid = NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0; 3]), 0.25, n).unwrap();
+        let grid = NeighbourGrid::new(
+            &gpu,
+            GridBox::closed([0.0; 3], [1.0; 3]),
+            0.25,
+            GRID_REACH_GPU,
+            n,
+        )
+        .unwrap();
         let big = 1000u32;
         assert!(big <= GRID_ORDER_MAX_SLICE);
         let nc = grid.params.n_cells;

@@ -3,6 +3,8 @@
 
 use couplet_protocol::{DragLawName, Scene, ViscosityModel, WallKind, WallModel};
 
+use crate::neighbour_grid::{GRID_REACH_GPU, grid_reach_for};
+
 /// One GPU stage of a fluid step.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Stage {
@@ -58,12 +60,13 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         .variable_smoothing_length
         .then(|| f.max_smoothing_ratio());
     let periodic = axis_names(|k| scene.domain.periodic[k]);
+    let radius = f.support_radius() * variable_h.unwrap_or(1.0);
     push(
         NEIGHBOUR_GRID,
         format!(
-            "cell size ≥ support/{reach} = {:.3e} m{}; stable counting sort by cell once per step{}",
-            f.support_radius() * variable_h.unwrap_or(1.0)
-                / f64::from(crate::neighbour_grid::GRID_REACH),
+            "cells of at least support/R, support {radius:.3e} m{}, R = {gpu} on a GPU and \
+             {cpu} on a CPU driver (cells no wider than δ); stable counting sort by cell once \
+             per step{}",
             match variable_h {
                 Some(r) => format!(" (the support of the largest h, {r} h: variable h)"),
                 None => String::new(),
@@ -76,7 +79,8 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
                     periodic.join(", ")
                 )
             },
-            reach = crate::neighbour_grid::GRID_REACH
+            gpu = GRID_REACH_GPU,
+            cpu = grid_reach_for(wgpu::DeviceType::Cpu, radius / f.spacing)
         ),
     );
     let laminar = scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0;

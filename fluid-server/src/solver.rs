@@ -411,7 +411,7 @@ impl SphData {
             &vec![0u8; window_stats::partials_bytes(n as u32) as usize],
         );
 
-        let mut grid = NeighbourGrid::new(gpu, bounds, c.grid_radius(), n as u32)?;
+        let mut grid = NeighbourGrid::new(gpu, bounds, c.grid_radius(), c.grid_reach, n as u32)?;
         grid.register(gpu, &pos, 16)?;
         grid.register(gpu, &vel, 16)?;
         grid.register(gpu, &rho, 4)?;
@@ -931,7 +931,7 @@ impl FluidSolver {
         mut set: ParticleSet,
         body_capacity: usize,
     ) -> Result<FluidSolver, FluidError> {
-        let consts = SphConstants::from_scene(scene)?;
+        let consts = SphConstants::from_scene(scene)?.for_adapter(gpu);
         let limits = FluidLimits::from_scene(scene)?;
         let stages = plan::stages(scene);
         let d = &scene.domain;
@@ -951,7 +951,7 @@ impl FluidSolver {
         };
         // Only a throwaway grid gives the layout the pipelines are built with; wgpu
         // deduplicates identical bind group layouts, so later grids' bind groups fit.
-        let probe = NeighbourGrid::new(gpu, bounds, consts.grid_radius(), 1)?;
+        let probe = NeighbourGrid::new(gpu, bounds, consts.grid_radius(), consts.grid_reach, 1)?;
         let pipelines = SphPipelines::new(
             gpu,
             &consts,
@@ -1361,7 +1361,13 @@ impl FluidSolver {
         set.kinds.n_markers = points.len();
         if self.pipelines.markers.is_none() {
             // A scene without resolved bodies that still receives markers (tests).
-            let probe = NeighbourGrid::new(gpu, self.bounds, self.consts.grid_radius(), 1)?;
+            let probe = NeighbourGrid::new(
+                gpu,
+                self.bounds,
+                self.consts.grid_radius(),
+                self.consts.grid_reach,
+                1,
+            )?;
             self.pipelines.markers = Some(MarkerPipelines::new(
                 gpu,
                 &self.consts,

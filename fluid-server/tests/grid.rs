@@ -4,7 +4,8 @@
 
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::neighbour_grid::{
-    GRID_COMMON_WGSL, GRID_REACH, GridBox, GridError, GridParams, NeighbourGrid,
+    GRID_COMMON_WGSL, GRID_REACH_GPU, GRID_REACH_RANGE, GridBox, GridError, GridParams,
+    NeighbourGrid, grid_reach_wgsl,
 };
 use couplet_fluid::shaders;
 use couplet_fluid::timing::{StageTimer, TimingMode};
@@ -78,12 +79,12 @@ fn sort(gpu: &Gpu, grid: &NeighbourGrid, b: &OnGpu) {
 }
 
 /// Seeded particles in the box [0, 1] × [0, 0.75] × [0, 0.5] (support 0.125, cells of
-/// 0.125 / GRID_REACH, padding of one support): uniform ones, a dense cluster, points
-/// exactly on cell faces/edges/corners (dyadic for GRID_REACH 1, 2, 4; for 3 only the
+/// 0.125 / `reach`, padding of one support): uniform ones, a dense cluster, points
+/// exactly on cell faces/edges/corners (dyadic for reach 1, 2, 4; for 3 only the
 /// multiples of 0.125 are exact in f32 — still cell faces), exact duplicates, points in
 /// the padding, all shuffled.
-fn scene(n: usize, seed: u64) -> Vec<[f32; 3]> {
-    const H: f32 = 0.125 / GRID_REACH as f32;
+fn scene(n: usize, seed: u64, reach: u32) -> Vec<[f32; 3]> {
+    let cell = 0.125 / reach as f32;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut v = Vec::with_capacity(n);
     let max = [1.0f32, 0.75, 0.5];
@@ -101,8 +102,8 @@ fn scene(n: usize, seed: u64) -> Vec<[f32; 3]> {
                 let mut p: [f32; 3] = std::array::from_fn(|a| rng.random_range(0.0..=max[a]));
                 for a in 0..3 {
                     if rng.random_bool(0.6) {
-                        let cells = (max[a] / H) as u32;
-                        p[a] = rng.random_range(0..=cells) as f32 * H;
+                        let cells = (max[a] / cell) as u32;
+                        p[a] = rng.random_range(0..=cells) as f32 * cell;
                     }
                 }
                 p
@@ -229,38 +230,43 @@ fn exact_r2(d: [f32; 3]) -> bool {
 /// ~8 ulp of r², FMA changes r² by at most 1-2 ulp.
 const TIE_BAND: f32 = 1e-6;
 
-/// The grid finds exactly the pairs a brute-force O(n²) search finds.
+/// The grid finds exactly the pairs a brute-force O(n²) search finds, at every reach R
+/// (`GRID_REACH_RANGE`: the GPU's 2 and lavapipe's 3 among them, so CI on lavapipe
+/// checks the grid a GPU runs).
 ///
 /// Reference: brute force on the CPU over the *sorted* f32 positions read back from the
 /// GPU, with the same f32 test `r² < radius²`; radius = the support the grid was built
-/// for (GRID_REACH cells, the loop's limit), and again a shorter one, δ at support 2.4 δ,
+/// for (R cells, the loop's limit), and again a shorter one, δ at support 2.4 δ,
 /// searched as the nearest surface marker is (`cells_within`, `row_ranges_within`: one
-/// cell either side, so that the periodic test also checks rows that wrap at that reach).
-/// Per particle the neighbour set is compared by count, Σ id and Σ id² (wrapping u32)
-/// — exact for every particle without a tie (|r² − radius²| ≤ 1e-6 radius², not exact);
-/// particles with ties must lie between the sure count and sure + tied.
+/// cell either side at R = 2, so that the periodic test also checks rows that wrap at
+/// that reach). Per particle the neighbour set is compared by count, Σ id and Σ id²
+/// (wrapping u32) — exact for every particle without a tie (|r² − radius²| ≤ 1e-6
+/// radius², not exact); particles with ties must lie between the sure count and sure +
+/// tied.
 #[test]
 fn grid_neighbours_match_brute_force() {
     let gpu = shared_test_gpu().unwrap();
     let h = 0.125;
-    let grid = NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]), h, 1).unwrap();
-    let cell = (h / f64::from(GRID_REACH)) as f32;
-    assert_eq!(grid.params.cell_size, [cell, cell, cell, 0.0]);
-    // (extent + 2 pad) / cell + 1 per axis, pad = one support = GRID_REACH cells:
-    // (1.25, 1.0, 0.75) / (h / R) + 1 = (10, 8, 6) R + 1 (11 × 9 × 7 for R = 1).
-    let r = GRID_REACH;
-    assert_eq!(grid.params.dims, [10 * r + 1, 8 * r + 1, 6 * r + 1, 0]);
-    assert_eq!(
-        grid.params.n_cells,
-        (10 * r + 1) * (8 * r + 1) * (6 * r + 1)
-    );
-    neighbours_match_brute_force(&gpu, [false; 3], 2024);
+    for r in GRID_REACH_RANGE {
+        let grid =
+            NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]), h, r, 1).unwrap();
+        let cell = (h / f64::from(r)) as f32;
+        assert_eq!(grid.params.cell_size, [cell, cell, cell, 0.0]);
+        // (extent + 2 pad) / cell + 1 per axis, pad = one support = R cells:
+        // (1.25, 1.0, 0.75) / (h / R) + 1 = (10, 8, 6) R + 1 (11 × 9 × 7 for R = 1).
+        assert_eq!(grid.params.dims, [10 * r + 1, 8 * r + 1, 6 * r + 1, 0]);
+        assert_eq!(
+            grid.params.n_cells,
+            (10 * r + 1) * (8 * r + 1) * (6 * r + 1)
+        );
+        neighbours_match_brute_force(&gpu, [false; 3], 2024 + u64::from(r), r);
+    }
 }
 
 /// The same on a grid periodic in x and z (the axes where rows wrap and where whole
-/// rows wrap): pairs across the periodic faces are found through the nearest image,
-/// none twice. The test's points beyond the box on those axes are wrapped by the sort.
-/// Reference: brute force with the nearest image in f32.
+/// rows wrap), at every reach: pairs across the periodic faces are found through the
+/// nearest image, none twice. The test's points beyond the box on those axes are
+/// wrapped by the sort. Reference: brute force with the nearest image in f32.
 #[test]
 fn grid_periodic_neighbours_match_brute_force() {
     let gpu = shared_test_gpu().unwrap();
@@ -271,41 +277,70 @@ fn grid_periodic_neighbours_match_brute_force() {
         max: [1.0, 0.75, 0.5],
         periodic,
     };
-    let grid = NeighbourGrid::new(&gpu, bounds, h, 1).unwrap();
-    let r = GRID_REACH;
-    // Periodic: length / (h / R) whole cells, no padding; closed y as above.
-    assert_eq!(grid.params.dims, [8 * r, 8 * r + 1, 4 * r, 0]);
-    assert_eq!(grid.params.period, [1.0, 0.0, 0.5, 0.0]);
-    neighbours_match_brute_force(&gpu, periodic, 77);
-    // A period shorter than 2R + 1 cells would see pairs twice: refused by name.
-    let short = GridBox {
-        min: [0.0; 3],
-        max: [1.0, 0.75, 0.25],
-        periodic,
-    };
-    let err = NeighbourGrid::new(&gpu, short, h, 1)
-        .err()
-        .expect("period too short");
-    assert!(
-        matches!(err, GridError::PeriodTooShort { axis: 2, .. }),
-        "{err}"
-    );
+    for r in GRID_REACH_RANGE {
+        let grid = NeighbourGrid::new(&gpu, bounds, h, r, 1).unwrap();
+        // Periodic: length / (h / R) whole cells, no padding; closed y as above.
+        assert_eq!(grid.params.dims, [8 * r, 8 * r + 1, 4 * r, 0]);
+        assert_eq!(grid.params.period, [1.0, 0.0, 0.5, 0.0]);
+        neighbours_match_brute_force(&gpu, periodic, 77 + u64::from(r), r);
+    }
 }
 
-fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
+/// A period shorter than 2R + 1 cells of support/R would see pairs twice: refused by
+/// name. A period of 2.4 supports holds R = 3's seven cells but not R = 2's five, and
+/// is refused at every R, so that a scene lavapipe runs (R = 3) runs on a GPU (R = 2).
+/// Reference: the bound (2R + 1)/R supports, 2.5 at R = 2.
+#[test]
+fn grid_refuses_a_period_too_short_for_any_adapter() {
+    let gpu = shared_test_gpu().unwrap();
+    let h = 0.125;
+    for r in GRID_REACH_RANGE {
+        for z in [0.25, 0.3] {
+            let short = GridBox {
+                min: [0.0; 3],
+                max: [1.0, 0.75, z],
+                periodic: [true, false, true],
+            };
+            let err = NeighbourGrid::new(&gpu, short, h, r, 1)
+                .err()
+                .unwrap_or_else(|| panic!("a period of {z} m at support {h} m and R = {r}"));
+            assert!(
+                matches!(err, GridError::PeriodTooShort { axis: 2, reach, .. } if reach == r),
+                "{err}"
+            );
+            assert!(
+                err.to_string().contains(&format!("R = {GRID_REACH_GPU}")),
+                "{err}"
+            );
+        }
+        // 2.5 supports (R = 1 needs 3).
+        let fits = GridBox {
+            min: [0.0; 3],
+            max: [1.0, 0.75, 0.3125],
+            periodic: [true, false, true],
+        };
+        assert_eq!(
+            NeighbourGrid::new(&gpu, fits, h, r, 1).is_ok(),
+            r > 1,
+            "R = {r}"
+        );
+    }
+}
+
+fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64, reach: u32) {
     let n = 12_000;
     let h = 0.125;
     // The short search's radius: δ at support 2.4 δ (the nearest surface marker's
-    // search, `body_non_penetration.wgsl`), one cell either side at GRID_REACH = 2.
+    // search, `body_non_penetration.wgsl`), one cell either side at R = 2.
     let near = h / 2.4;
-    let xyz = scene(n, seed);
+    let xyz = scene(n, seed, reach);
     let parts = Particles::from_positions(&xyz);
     let bounds = GridBox {
         min: [0.0; 3],
         max: [1.0, 0.75, 0.5],
         periodic,
     };
-    let mut grid = NeighbourGrid::new(gpu, bounds, h, n as u32).unwrap();
+    let mut grid = NeighbourGrid::new(gpu, bounds, h, reach, n as u32).unwrap();
     let b = upload_and_register(gpu, &mut grid, &parts);
     sort(gpu, &grid, &b);
     grid.check(gpu).unwrap();
@@ -351,7 +386,11 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
     let module = shaders::module(
         gpu,
         "neighbour test",
-        &[GRID_COMMON_WGSL, NEIGHBOUR_TEST_WGSL],
+        &[
+            &grid_reach_wgsl(reach),
+            GRID_COMMON_WGSL,
+            NEIGHBOUR_TEST_WGSL,
+        ],
     );
     let pipeline = shaders::compute_pipeline_with_layouts(
         gpu,
@@ -446,12 +485,13 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64) {
 fn grid_sort_permutes_every_registered_buffer() {
     let gpu = shared_test_gpu().unwrap();
     let n = 20_000;
-    let xyz = scene(n, 7);
+    let xyz = scene(n, 7, GRID_REACH_GPU);
     let parts = Particles::from_positions(&xyz);
     let mut grid = NeighbourGrid::new(
         &gpu,
         GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]),
         0.125,
+        GRID_REACH_GPU,
         n as u32,
     )
     .unwrap();
@@ -544,8 +584,14 @@ fn grid_reports_particle_outside() {
     // In the padding of one support (0.1): inside the grid, no error.
     xyz[10] = [-0.09, 1.09, 0.5];
     let parts = Particles::from_positions(&xyz);
-    let mut grid =
-        NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0; 3]), 0.1, n as u32).unwrap();
+    let mut grid = NeighbourGrid::new(
+        &gpu,
+        GridBox::closed([0.0; 3], [1.0; 3]),
+        0.1,
+        GRID_REACH_GPU,
+        n as u32,
+    )
+    .unwrap();
     let b = upload_and_register(&gpu, &mut grid, &parts);
     sort(&gpu, &grid, &b);
     grid.check(&gpu).unwrap();
@@ -613,7 +659,14 @@ fn grid_reports_particle_outside() {
 #[test]
 fn grid_params_layout_agrees_with_wgsl() {
     let gpu = shared_test_gpu().unwrap();
-    let grid = NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.0; 3]), 0.5, 16).unwrap();
+    let grid = NeighbourGrid::new(
+        &gpu,
+        GridBox::closed([0.0; 3], [1.0; 3]),
+        0.5,
+        GRID_REACH_GPU,
+        16,
+    )
+    .unwrap();
     let params = GridParams {
         origin: [1.5, -2.5, 3.25, 4.75],
         cell_size: [0.125, 0.25, 0.5, 1.0],
@@ -663,7 +716,11 @@ fn main() {
             label: Some("out"),
             entries: &[shaders::storage_entry(0, false)],
         });
-    let module = shaders::module(&gpu, "layout test", &[GRID_COMMON_WGSL, WGSL]);
+    let module = shaders::module(
+        &gpu,
+        "layout test",
+        &[&grid_reach_wgsl(GRID_REACH_GPU), GRID_COMMON_WGSL, WGSL],
+    );
     let pipeline = shaders::compute_pipeline_with_layouts(
         &gpu,
         "layout test",
@@ -727,8 +784,14 @@ fn gpu_stage_timer_reports_sort_stages() {
         })
         .collect();
     let parts = Particles::from_positions(&xyz);
-    let mut grid =
-        NeighbourGrid::new(&gpu, GridBox::closed([0.0; 3], [1.6, 0.67, 0.6]), 0.03, n).unwrap();
+    let mut grid = NeighbourGrid::new(
+        &gpu,
+        GridBox::closed([0.0; 3], [1.6, 0.67, 0.6]),
+        0.03,
+        GRID_REACH_GPU,
+        n,
+    )
+    .unwrap();
     let b = upload_and_register(&gpu, &mut grid, &parts);
     let mut timer = StageTimer::new(&gpu, 16);
     let steps = 5;

@@ -618,10 +618,13 @@ fn rates_match_cpu_twin_laplacian_corrected() {
 /// eq. 16 with the particle's own g) on top of the corrected rates, moving no-slip
 /// walls, at a step Δt = 1e-6 s chosen so that the correction is a large part of dρ/dt
 /// on this noisy set (checked first on the twin: at least 20 % of max |dρ/dt|; measured
-/// 3×), so the parity below tests it: continuity rel 1e-3 of the max (measured 6e-4:
-/// the B̂ solve amplifies the f32 sums' round-off as in the Laplacian test above; the
-/// ±1 % density noise makes eq. (15)'s pressure differences the particle-scale noise
-/// the term exists to damp, summed to a result 3000× smaller than its terms at Δt = 1).
+/// 3×), so the parity below tests it: continuity rel 2e-3 of the max (the B̂ solve
+/// amplifies the f32 sums' round-off as in the Laplacian test above; the ±1 % density
+/// noise makes eq. (15)'s pressure differences the particle-scale noise the term exists
+/// to damp, summed to a result 3000× smaller than its terms at Δt = 1). The error
+/// depends on the order of the sums, which the grid's reach sets: measured 7.6e-4,
+/// 6.4e-4, 1.02e-3 and 2.2e-4 at R = 1, 2, 3, 4 (`COUPLET_GRID_REACH=R cargo test
+/// --release -p couplet-fluid --test operators mass_corrected -- --nocapture`).
 #[test]
 fn rates_match_cpu_twin_mass_corrected() {
     let effects =
@@ -645,7 +648,7 @@ fn rates_match_cpu_twin_mass_corrected() {
     );
     println!("mass correction: max |term| {term:e}, max |dρ/dt| without it {scale:e}");
     assert!(term > 0.2 * scale, "term {term:e} vs {scale:e}");
-    check_rates_within(effects, "", 9, [1e-3, PAIR_RTOL], dt);
+    check_rates_within(effects, "", 9, [2e-3, PAIR_RTOL], dt);
 }
 
 /// Symmetry planes of Adami's walls (`domain.symmetry` with `wall_model = "adami"`): a

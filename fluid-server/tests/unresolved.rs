@@ -30,8 +30,9 @@ fn sample(
     law: DragLaw,
     grains: &[Grain],
 ) -> (Vec<GrainSample>, Vec<GrainSample>) {
-    let c = SphConstants::from_scene(s).unwrap();
     let mut solver = FluidSolver::from_particles(gpu, s, set).unwrap();
+    // The solver's constants: their grid reach is its grid's (`SphConstants::for_adapter`).
+    let c = solver.constants().clone();
     solver
         .run_ops(
             gpu,
