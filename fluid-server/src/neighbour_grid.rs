@@ -76,7 +76,8 @@ pub const GRID_REACH_RANGE: std::ops::RangeInclusive<u32> = 1..=4;
 /// and before that, with other runs on the machine, settling sphere (δ = 1 mm, 2.4 δ)
 /// 89–98 against 65–79 ms and SPHERIC-2 (δ = 0.02 m, 3 δ) 1.38–1.54 against 1.69–1.96
 /// steps/s; R = 4 was no faster than R = 3 at 2.4 δ and 3 δ. So cells of about δ: R = 2
-/// at 2 δ, 3 at 2.4–3 δ. (On Mesa 22.3.6 R = 3 had been level with R = 2 at 2 δ and 2.4 δ.)
+/// at 2 δ, 3 at 2.4–3 δ. (On Mesa 22.3.6, R = 3 had been level with R = 2 on the
+/// hydrostatic tank and the settling sphere.)
 pub fn grid_reach_for(device_type: wgpu::DeviceType, radius_over_spacing: f64) -> u32 {
     match device_type {
         wgpu::DeviceType::Cpu => {
@@ -113,8 +114,8 @@ pub const GRID_ORDER_MAX_SLICE: u32 = 1024;
 pub struct GridParams {
     /// Lower corner of the grid.
     pub origin: [f32; 4],
-    /// Cell edge per axis: support/R ([`GRID_REACH_GPU`]), or on a periodic axis the period over
-    /// a whole number of cells (at least that).
+    /// Cell edge per axis: support/R (R the grid's reach, [`grid_reach_for`]), or on a
+    /// periodic axis the period over a whole number of cells (at least that).
     pub cell_size: [f32; 4],
     pub inv_cell_size: [f32; 4],
     /// Cells per axis.
@@ -338,14 +339,15 @@ fn bind(
 }
 
 impl NeighbourGrid {
-    /// Grid for `n` particles with cells of `support_radius / reach` (see
-    /// [`grid_reach_for`]; the pair kernels' `GRID_REACH` must be the same) over [min − pad, max + pad] on a closed axis, pad = one
-    /// support radius (R cells: particles may drift slightly past the domain — wall
-    /// layers, a step's overshoot before the boundary pushes back — without an error),
-    /// and over exactly [min, max) in a whole number of cells (each at least that size,
-    /// at least 2R + 1 of them) on a periodic axis. A period must also hold the 2R + 1
-    /// cells of R = [`GRID_REACH_GPU`] (2.5 supports), so that a scene that runs on
-    /// lavapipe (R = 3 needs only 7/3) runs on a GPU too.
+    /// Grid for `n` particles with cells of `support_radius / reach` (R, see
+    /// [`grid_reach_for`]; the pair kernels' `GRID_REACH` must be the same), over
+    /// [min − pad, max + pad] on a closed axis, pad = one support radius (R cells:
+    /// particles may drift slightly past the domain — wall layers, a step's overshoot
+    /// before the boundary pushes back — without an error), and over exactly [min, max)
+    /// in a whole number of cells (each at least that size, at least 2R + 1 of them) on
+    /// a periodic axis. A period must also hold the 2R + 1 cells of R =
+    /// [`GRID_REACH_GPU`] (2.5 supports), so that a scene that runs on lavapipe (R = 3
+    /// needs only 7/3) runs on a GPU too.
     pub fn new(
         gpu: &Gpu,
         bounds: GridBox,
@@ -376,8 +378,8 @@ impl NeighbourGrid {
         for a in 0..3 {
             let length = max[a] - min[a];
             if periodic[a] {
-                // Whole cells over one period, no padding: cells of at least support/R.
-                // 2r + 1 whole cells of support/r fit in the period.
+                // Whole cells over one period, no padding: cells of at least support/R;
+                // `fits(r)`: 2r + 1 whole cells of support/r fit in the period.
                 let fits = |r: u32| {
                     (length * f64::from(r) / support_radius).floor() as u64 >= u64::from(2 * r + 1)
                 };
