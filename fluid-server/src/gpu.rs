@@ -6,7 +6,7 @@
 
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
-use crate::neighbour_grid::{GRID_REACH_GPU, GRID_REACH_RANGE, grid_reach_for};
+use crate::neighbour_grid::{GRID_REACH_DEFAULT, GRID_REACH_RANGE};
 
 /// Storage buffers a single kernel may bind. The corrected SPH scheme's pair kernels
 /// bind about this many particle arrays; lavapipe and NVIDIA both offer far more.
@@ -38,15 +38,14 @@ pub enum GpuError {
     /// `GRID_REACH_RANGE`.
     #[error(
         "COUPLET_GRID_REACH = {value:?} is not a whole number from {} to {}: it sets the \
-         neighbour grid's cells per support radius (unset: {} on a GPU, on a CPU driver the \
-         smallest that makes a cell no wider than a particle spacing)",
-        GRID_REACH_RANGE.start(), GRID_REACH_RANGE.end(), GRID_REACH_GPU
+         neighbour grid's cells per support radius (unset: {})",
+        GRID_REACH_RANGE.start(), GRID_REACH_RANGE.end(), GRID_REACH_DEFAULT
     )]
     BadGridReach { value: String },
 }
 
 /// The environment variable that overrides the neighbour grid's reach R (cells per
-/// support radius, `neighbour_grid::GRID_REACH_GPU`), for measuring R on a machine
+/// support radius, `neighbour_grid::GRID_REACH_DEFAULT`), for measuring R on a machine
 /// without a rebuild. Results do not depend on R beyond round-off (the order of the
 /// sums); speed does.
 pub const GRID_REACH_ENV: &str = "COUPLET_GRID_REACH";
@@ -61,7 +60,7 @@ pub struct Gpu {
     /// enabled as well whenever the adapter offers them.
     pub timestamps: bool,
     /// The neighbour grid's reach R set by [`GRID_REACH_ENV`], if it is set: every grid
-    /// takes it in place of [`Self::grid_reach_for`]'s choice.
+    /// takes it in place of `GRID_REACH_DEFAULT`.
     pub grid_reach_override: Option<u32>,
 }
 
@@ -139,12 +138,10 @@ impl Gpu {
         })
     }
 
-    /// The neighbour grid's reach R for a grid radius of `radius_over_spacing` particle
-    /// spacings: [`GRID_REACH_ENV`]'s if set, else `neighbour_grid::grid_reach_for` this
-    /// adapter.
-    pub fn grid_reach_for(&self, radius_over_spacing: f64) -> u32 {
-        self.grid_reach_override
-            .unwrap_or_else(|| grid_reach_for(self.adapter_info.device_type, radius_over_spacing))
+    /// The neighbour grid's reach R: [`GRID_REACH_ENV`]'s if set, else
+    /// `neighbour_grid::GRID_REACH_DEFAULT`.
+    pub fn grid_reach(&self) -> u32 {
+        self.grid_reach_override.unwrap_or(GRID_REACH_DEFAULT)
     }
 
     /// One line for logs and `couplet plan`: name, driver, backend, timestamps (and the

@@ -41,9 +41,8 @@ const NEIGHBOUR_GRID_WGSL: &str = include_str!("../shaders/neighbour_grid.wgsl")
 const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 
 /// Cells per grid radius R, and so how many cells the pair loops reach on each side of
-/// a particle's own cell (`GRID_REACH` in WGSL, from `SphConstants::wgsl`): chosen per
-/// scene and adapter by [`grid_reach_for`] (`SphConstants::for_adapter`), or set by
-/// `COUPLET_GRID_REACH` (`gpu::GRID_REACH_ENV`) to measure another.
+/// a particle's own cell (`GRID_REACH` in WGSL, from `SphConstants::wgsl`), unless
+/// `COUPLET_GRID_REACH` (`gpu::GRID_REACH_ENV`) sets another to measure it.
 ///
 /// Cells of support/R and (2R+1)² rows of 2R+1 contiguous cells visit (2R+1)³/R³
 /// support³ of space per particle: 27 (R = 1), 15.6 (R = 2), 12.7 (R = 3), 11.4 (R = 4),
@@ -51,43 +50,26 @@ const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 /// rows ((2R+1)², each two `cell_start` loads, most of them nearly empty once a cell is
 /// narrower than a particle spacing) and sorts into R³ times as many cells.
 ///
-/// On a GPU R = 2 whatever the support: every figure in README's "Measured on a GPU" was
-/// taken with it; other R have not been measured there.
-pub const GRID_REACH_GPU: u32 = 2;
-
-/// The values `COUPLET_GRID_REACH` may take, and [`grid_reach_for`] gives.
-pub const GRID_REACH_RANGE: std::ops::RangeInclusive<u32> = 1..=4;
-
-/// R for an adapter of `device_type` and a grid radius of `radius_over_spacing`
-/// particle spacings δ: [`GRID_REACH_GPU`] on a GPU; on a CPU driver (lavapipe) the
-/// smallest R whose cells are no wider than δ, ⌈radius/δ⌉ (within [`GRID_REACH_RANGE`]).
+/// Every figure in README's "Measured on a GPU" has R = 2; other R have not been
+/// measured on a GPU. On lavapipe (Mesa 25.0.7, 2026-11-28, 2 vCPU, R = 2 and 3
+/// alternated, machine otherwise idle) cells no wider than a spacing made the dense
+/// pair stages faster, and whole runs no faster:
 ///
-/// On lavapipe every storage load in a pair loop is a per-lane scalar loop, so a pair
-/// kernel costs about its candidates until the rows' overhead takes over. Measured on
-/// Mesa 25.0.7 (2026-11-28, 2 vCPU, `COUPLET_GRID_REACH=R couplet bench SCENE`, R = 2 and
-/// 3 alternated twice, the pair stages' ms per step, the machine otherwise idle):
+/// | `COUPLET_GRID_REACH=R couplet …` | R = 2 | R = 3 |
+/// |---|---|---|
+/// | bench hydrostatic tank δ = 0.02 m, support 2 δ: pair stages, ms/step | 5.0–5.8 | 6.9–7.7 |
+/// | the same, support 2.4 δ | 11.4–11.8 | 9.5–9.6 |
+/// | the same, support 3 δ | 21.7–22.9 | 16.3–17.9 |
+/// | bench SPHERIC-2 δ = 0.02 m (3 δ): steps/s | 1.99 | 2.43 |
+/// | run dam-break-boxes δ = 0.02 m, 2.4 δ (README's main job): wall s | 108.2, 108.7 | 118.0, 110.1 |
+/// | the CI validation cases (`cargo test --release -p couplet-tests --test validation`): s | 1440.1 | 1422.7 |
 ///
-/// | scene | support | R = 2 | R = 3 |
-/// |---|---|---|---|
-/// | hydrostatic tank, δ = 0.02 m | 2 δ | 5.0–5.8 | 6.9–7.7 |
-/// | the same | 2.4 δ | 11.4–11.8 | 9.5–9.6 |
-/// | the same | 3 δ | 21.7–22.9 | 16.3–17.9 |
-///
-/// and before that, with other runs on the machine, settling sphere (δ = 1 mm, 2.4 δ)
-/// 89–98 against 65–79 ms and SPHERIC-2 (δ = 0.02 m, 3 δ) 1.38–1.54 against 1.69–1.96
-/// steps/s; R = 4 was no faster than R = 3 at 2.4 δ and 3 δ. So cells of about δ: R = 2
-/// at 2 δ, 3 at 2.4–3 δ. (On Mesa 22.3.6, R = 3 had been level with R = 2 on the
+/// So R stays 2 everywhere. (On Mesa 22.3.6, R = 3 had been level with R = 2 on the
 /// hydrostatic tank and the settling sphere.)
-pub fn grid_reach_for(device_type: wgpu::DeviceType, radius_over_spacing: f64) -> u32 {
-    match device_type {
-        wgpu::DeviceType::Cpu => {
-            // 1e-6: a support of exactly 2 δ computed in f64 is 2 δ, not 3 cells' worth.
-            let r = (radius_over_spacing - 1e-6).ceil().max(1.0) as u32;
-            r.clamp(*GRID_REACH_RANGE.start(), *GRID_REACH_RANGE.end())
-        }
-        _ => GRID_REACH_GPU,
-    }
-}
+pub const GRID_REACH_DEFAULT: u32 = 2;
+
+/// The values `COUPLET_GRID_REACH` may take.
+pub const GRID_REACH_RANGE: std::ops::RangeInclusive<u32> = 1..=4;
 
 /// The WGSL declaration of `GRID_REACH` = `reach`, which grid_common.wgsl's loops and
 /// every pair kernel read (SPH kernels get it from `SphConstants::wgsl`).
@@ -114,7 +96,7 @@ pub const GRID_ORDER_MAX_SLICE: u32 = 1024;
 pub struct GridParams {
     /// Lower corner of the grid.
     pub origin: [f32; 4],
-    /// Cell edge per axis: support/R (R the grid's reach, [`grid_reach_for`]), or on a
+    /// Cell edge per axis: support/R (R the grid's reach, [`GRID_REACH_DEFAULT`]), or on a
     /// periodic axis the period over a whole number of cells (at least that).
     pub cell_size: [f32; 4],
     pub inv_cell_size: [f32; 4],
@@ -190,8 +172,8 @@ pub enum GridError {
     #[error(
         "periodic axis {axis} is {length} m long, shorter than {need} m: a period must hold \
          2R + 1 = {cells} cells of at least support/R ({support} m / R) for R = {reach}, the \
-         grid's reach here, and for R = {GRID_REACH_GPU}, so that no pair is seen \
-         through two images and a scene that runs on one adapter runs on every one; lengthen \
+         grid's reach here, and for R = {GRID_REACH_DEFAULT}, so that no pair is seen \
+         through two images and a scene runs whatever COUPLET_GRID_REACH says; lengthen \
          the domain along that axis or reduce the support",
         axis = ["x", "y", "z"][*axis], cells = 2 * reach + 1
     )]
@@ -340,14 +322,14 @@ fn bind(
 
 impl NeighbourGrid {
     /// Grid for `n` particles with cells of `support_radius / reach` (R, see
-    /// [`grid_reach_for`]; the pair kernels' `GRID_REACH` must be the same), over
+    /// [`GRID_REACH_DEFAULT`]; the pair kernels' `GRID_REACH` must be the same), over
     /// [min − pad, max + pad] on a closed axis, pad = one support radius (R cells:
     /// particles may drift slightly past the domain — wall layers, a step's overshoot
     /// before the boundary pushes back — without an error), and over exactly [min, max)
     /// in a whole number of cells (each at least that size, at least 2R + 1 of them) on
     /// a periodic axis. A period must also hold the 2R + 1 cells of R =
-    /// [`GRID_REACH_GPU`] (2.5 supports), so that a scene that runs on lavapipe (R = 3
-    /// needs only 7/3) runs on a GPU too.
+    /// [`GRID_REACH_DEFAULT`] (2.5 supports), so that a scene's acceptance does not depend
+    /// on `COUPLET_GRID_REACH` (R = 3 needs only 7/3).
     pub fn new(
         gpu: &Gpu,
         bounds: GridBox,
@@ -383,12 +365,12 @@ impl NeighbourGrid {
                 let fits = |r: u32| {
                     (length * f64::from(r) / support_radius).floor() as u64 >= u64::from(2 * r + 1)
                 };
-                if !(fits(reach) && fits(GRID_REACH_GPU)) {
+                if !(fits(reach) && fits(GRID_REACH_DEFAULT)) {
                     let need = |r: u32| f64::from(2 * r + 1) / f64::from(r);
                     return Err(GridError::PeriodTooShort {
                         axis: a,
                         length,
-                        need: need(reach).max(need(GRID_REACH_GPU)) * support_radius,
+                        need: need(reach).max(need(GRID_REACH_DEFAULT)) * support_radius,
                         support: support_radius,
                         reach,
                     });
@@ -826,7 +808,7 @@ mod tests {
             &gpu,
             GridBox::closed([0.0; 3], [1.0; 3]),
             0.25,
-            GRID_REACH_GPU,
+            GRID_REACH_DEFAULT,
             n,
         )
         .unwrap();

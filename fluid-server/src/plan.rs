@@ -3,7 +3,7 @@
 
 use couplet_protocol::{DragLawName, Scene, ViscosityModel, WallKind, WallModel};
 
-use crate::neighbour_grid::{GRID_REACH_GPU, grid_reach_for};
+use crate::neighbour_grid::GRID_REACH_DEFAULT;
 
 /// One GPU stage of a fluid step.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -64,9 +64,8 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     push(
         NEIGHBOUR_GRID,
         format!(
-            "cells of at least support/R, support {radius:.3e} m{}, R = {gpu} on a GPU and \
-             {cpu} on a CPU driver (cells no wider than δ); stable counting sort by cell once \
-             per step{}",
+            "cell size ≥ support/{reach} = {:.3e} m{}; stable counting sort by cell once per step{}",
+            radius / f64::from(GRID_REACH_DEFAULT),
             match variable_h {
                 Some(r) => format!(" (the support of the largest h, {r} h: variable h)"),
                 None => String::new(),
@@ -79,8 +78,7 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
                     periodic.join(", ")
                 )
             },
-            gpu = GRID_REACH_GPU,
-            cpu = grid_reach_for(wgpu::DeviceType::Cpu, radius / f.spacing)
+            reach = GRID_REACH_DEFAULT
         ),
     );
     let laminar = scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0;

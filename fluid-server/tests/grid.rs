@@ -4,7 +4,7 @@
 
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::neighbour_grid::{
-    GRID_COMMON_WGSL, GRID_REACH_GPU, GRID_REACH_RANGE, GridBox, GridError, GridParams,
+    GRID_COMMON_WGSL, GRID_REACH_DEFAULT, GRID_REACH_RANGE, GridBox, GridError, GridParams,
     NeighbourGrid, grid_reach_wgsl,
 };
 use couplet_fluid::shaders;
@@ -231,8 +231,7 @@ fn exact_r2(d: [f32; 3]) -> bool {
 const TIE_BAND: f32 = 1e-6;
 
 /// The grid finds exactly the pairs a brute-force O(n²) search finds, at every reach R
-/// (`GRID_REACH_RANGE`: the GPU's 2 and lavapipe's 3 among them, so CI on lavapipe
-/// checks the grid a GPU runs).
+/// (`GRID_REACH_RANGE`, the values `COUPLET_GRID_REACH` may set).
 ///
 /// Reference: brute force on the CPU over the *sorted* f32 positions read back from the
 /// GPU, with the same f32 test `r² < radius²`; radius = the support the grid was built
@@ -288,7 +287,8 @@ fn grid_periodic_neighbours_match_brute_force() {
 
 /// A period shorter than 2R + 1 cells of support/R would see pairs twice: refused by
 /// name. A period of 2.4 supports holds R = 3's seven cells but not R = 2's five, and
-/// is refused at every R, so that a scene lavapipe runs (R = 3) runs on a GPU (R = 2).
+/// is refused at every R, so that whether a scene runs does not depend on
+/// `COUPLET_GRID_REACH`.
 /// Reference: the bound (2R + 1)/R supports, 2.5 at R = 2.
 #[test]
 fn grid_refuses_a_period_too_short_for_any_adapter() {
@@ -309,7 +309,8 @@ fn grid_refuses_a_period_too_short_for_any_adapter() {
                 "{err}"
             );
             assert!(
-                err.to_string().contains(&format!("R = {GRID_REACH_GPU}")),
+                err.to_string()
+                    .contains(&format!("R = {GRID_REACH_DEFAULT}")),
                 "{err}"
             );
         }
@@ -485,13 +486,13 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64, reach
 fn grid_sort_permutes_every_registered_buffer() {
     let gpu = shared_test_gpu().unwrap();
     let n = 20_000;
-    let xyz = scene(n, 7, GRID_REACH_GPU);
+    let xyz = scene(n, 7, GRID_REACH_DEFAULT);
     let parts = Particles::from_positions(&xyz);
     let mut grid = NeighbourGrid::new(
         &gpu,
         GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]),
         0.125,
-        GRID_REACH_GPU,
+        GRID_REACH_DEFAULT,
         n as u32,
     )
     .unwrap();
@@ -588,7 +589,7 @@ fn grid_reports_particle_outside() {
         &gpu,
         GridBox::closed([0.0; 3], [1.0; 3]),
         0.1,
-        GRID_REACH_GPU,
+        GRID_REACH_DEFAULT,
         n as u32,
     )
     .unwrap();
@@ -663,7 +664,7 @@ fn grid_params_layout_agrees_with_wgsl() {
         &gpu,
         GridBox::closed([0.0; 3], [1.0; 3]),
         0.5,
-        GRID_REACH_GPU,
+        GRID_REACH_DEFAULT,
         16,
     )
     .unwrap();
@@ -719,7 +720,7 @@ fn main() {
     let module = shaders::module(
         &gpu,
         "layout test",
-        &[&grid_reach_wgsl(GRID_REACH_GPU), GRID_COMMON_WGSL, WGSL],
+        &[&grid_reach_wgsl(GRID_REACH_DEFAULT), GRID_COMMON_WGSL, WGSL],
     );
     let pipeline = shaders::compute_pipeline_with_layouts(
         &gpu,
@@ -788,7 +789,7 @@ fn gpu_stage_timer_reports_sort_stages() {
         &gpu,
         GridBox::closed([0.0; 3], [1.6, 0.67, 0.6]),
         0.03,
-        GRID_REACH_GPU,
+        GRID_REACH_DEFAULT,
         n,
     )
     .unwrap();
