@@ -267,26 +267,27 @@ pub(crate) fn not_kinematic(
 /// reports a body leaving, it does not let it go silently).
 pub(crate) fn check_in_domain(
     domain: &Domain,
-    states: &[BodyState],
+    positions: impl IntoIterator<Item = [f64; 3]>,
+    velocity: impl Fn(usize) -> [f64; 3],
     names: impl Fn(usize) -> String,
     step: u64,
     time: f64,
 ) -> Result<(), DemError> {
-    let out = |s: &BodyState| {
+    let out = |p: &[f64; 3]| {
         (0..3).any(|k| {
-            let inside = (domain.min[k]..=domain.max[k]).contains(&s.position[k]);
+            let inside = (domain.min[k]..=domain.max[k]).contains(&p[k]);
             !(domain.periodic[k] || inside)
         })
     };
-    match states.iter().position(out) {
+    match positions.into_iter().enumerate().find(|(_, p)| out(p)) {
         None => Ok(()),
-        Some(i) => Err(DemError::LeftDomain {
+        Some((i, position)) => Err(DemError::LeftDomain {
             body: i,
             name: names(i),
             step,
             time,
-            position: states[i].position,
-            velocity: states[i].linear_velocity,
+            position,
+            velocity: velocity(i),
             domain: Box::new((domain.min, domain.max)),
         }),
     }

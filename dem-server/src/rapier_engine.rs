@@ -445,7 +445,8 @@ impl DemEngine for RapierEngine {
             .collect();
         check_in_domain(
             &self.domain,
-            &states,
+            states.iter().map(|s| s.position),
+            |i| states[i].linear_velocity,
             |i| self.bodies[i].name.clone(),
             self.steps,
             self.time,
