@@ -577,6 +577,16 @@ impl SoftSphereEngine {
         self.time
     }
 
+    /// Threads the force evaluation runs on: the machine's from [`PARALLEL_MIN_SPHERES`]
+    /// spheres (at most [`FORCE_CHUNKS`]), else one.
+    pub fn force_threads(&self) -> usize {
+        if self.x.len() >= self.parallel_min {
+            self.threads.clamp(1, FORCE_CHUNKS)
+        } else {
+            1
+        }
+    }
+
     /// Contacts (sphere–sphere and sphere–wall) active at the last force evaluation.
     pub fn contact_count(&self) -> usize {
         self.springs.len()

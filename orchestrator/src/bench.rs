@@ -226,6 +226,7 @@ pub fn bench_dem(spheres: usize, contact: &str, steps: u32) -> Result<String, Be
     let _ = writeln!(o, "soft-sphere DEM, contact = {contact}, {spheres} spheres");
     let _ = writeln!(o, "  setup                {build_s:.3} s");
     let _ = writeln!(o, "  step                 {dt:.3e} s (t_c / 50)");
+    let _ = writeln!(o, "  threads              {}", engine.force_threads());
     let _ = writeln!(
         o,
         "  contacts per sphere  {:.2}",
