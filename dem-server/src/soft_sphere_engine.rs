@@ -577,14 +577,21 @@ impl SoftSphereEngine {
         self.time
     }
 
-    /// Threads the force evaluation runs on: the machine's from [`PARALLEL_MIN_SPHERES`]
-    /// spheres (at most [`FORCE_CHUNKS`]), else one.
+    /// Threads the force evaluation runs on: from [`PARALLEL_MIN_SPHERES`] spheres, one
+    /// per group of [`Self::chunks_per_thread`] chunks (the machine's threads when they
+    /// divide [`FORCE_CHUNKS`], fewer otherwise: 12 threads take 2 chunks each, 8
+    /// groups), else one.
     pub fn force_threads(&self) -> usize {
         if self.x.len() >= self.parallel_min {
-            self.threads.clamp(1, FORCE_CHUNKS)
+            FORCE_CHUNKS.div_ceil(self.chunks_per_thread())
         } else {
             1
         }
+    }
+
+    /// Chunks each thread of a chunked force evaluation takes, in order.
+    fn chunks_per_thread(&self) -> usize {
+        FORCE_CHUNKS.div_ceil(self.threads.clamp(1, FORCE_CHUNKS))
     }
 
     /// Contacts (sphere–sphere and sphere–wall) active at the last force evaluation.
@@ -662,7 +669,7 @@ impl SoftSphereEngine {
         if n_chunks == 1 {
             self.chunk_forces(0..n, dt, &mut chunks[0]);
         } else {
-            let per_thread = n_chunks.div_ceil(self.threads.clamp(1, n_chunks));
+            let per_thread = self.chunks_per_thread();
             let engine = &*self;
             std::thread::scope(|scope| {
                 for (group, group_ranges) in
@@ -1544,6 +1551,14 @@ mod tests {
         one.threads = 1;
         let mut three = pressed_block(n);
         three.threads = 3;
+        // What bench-dem reports: the threads actually spawned, one per group of chunks.
+        let spawned = |threads| {
+            let mut e = pressed_block(PARALLEL_MIN_SPHERES);
+            e.threads = threads;
+            e.force_threads()
+        };
+        assert_eq!([1, 2, 3, 12, 64].map(spawned), [1, 2, 3, 8, 16]);
+        assert_eq!(serial.force_threads(), 1);
         let dt = serial.stable_dt();
         let mut worst: f64 = 0.0;
         for step in 0..20 {
