@@ -111,10 +111,13 @@ fn id(r: &Run) -> RunRequest {
 }
 
 /// Collects a run's frames until its `ended` event.
-fn watch(mut c: CoupletClient<Channel>, run: &Run) -> JoinHandle<(Vec<WindowFrame>, Run)> {
-    let req = id(run);
+/// Subscribes to `run`'s frames and collects them until it ends. The subscription is
+/// made before this returns (the server subscribes inside `watch_run`), so no window
+/// stepped afterwards is missed: spawned unawaited, it raced the first windows and CI of
+/// 2026-11-29 saw 15 frames of 20 (`two_runs_at_once_do_not_see_each_others_data`).
+async fn watch(mut c: CoupletClient<Channel>, run: &Run) -> JoinHandle<(Vec<WindowFrame>, Run)> {
+    let mut s = c.watch_run(id(run)).await.unwrap().into_inner();
     tokio::spawn(async move {
-        let mut s = c.watch_run(req).await.unwrap().into_inner();
         let mut frames = Vec::new();
         while let Some(e) = s.message().await.unwrap() {
             match e.event.unwrap() {
@@ -166,7 +169,7 @@ async fn a_run_driven_over_grpc_steps_pauses_resumes_and_reports_every_error() {
     );
     assert_eq!(k, Code::NotFound);
 
-    let watcher = watch(c.clone(), &run);
+    let watcher = watch(c.clone(), &run).await;
     let r = c
         .step_run(StepRunRequest {
             run_id: run.run_id.clone(),
@@ -361,7 +364,7 @@ async fn a_run_driven_over_grpc_steps_pauses_resumes_and_reports_every_error() {
     let (k, m) = code(c.restore_run(restore("tank-1/checkpoints/step-99")).await);
     assert_eq!(k, Code::NotFound, "{m}");
     let again = c.restore_run(restore(&cp.path)).await.unwrap().into_inner();
-    let watcher = watch(c.clone(), &again);
+    let watcher = watch(c.clone(), &again).await;
     let ready = c
         .step_run(StepRunRequest {
             run_id: again.run_id.clone(),
@@ -445,7 +448,7 @@ async fn two_runs_at_once_do_not_see_each_others_data() {
     );
     let a = c.create_run(create(&text, &[])).await.unwrap().into_inner();
     let b = c.create_run(create(&fast, &[])).await.unwrap().into_inner();
-    let (wa, wb) = (watch(c.clone(), &a), watch(c.clone(), &b));
+    let (wa, wb) = (watch(c.clone(), &a).await, watch(c.clone(), &b).await);
     let step = |run: &Run| StepRunRequest {
         run_id: run.run_id.clone(),
         windows: 20,
