@@ -6,10 +6,12 @@
 //! Robinson eq. (34) after one relaxation time (Robinson §5.1's bound). The comparison
 //! is in `orchestrator/src/validate.rs` (`single_particle_sedimentation`).
 //!
-//! Quick version: δ = 0.5 mm (h/d = 5), 800 fluid particles, about 50 s. Measured
-//! 2026-11-23: water 0.11 %, air < 0.005 % (over the last three quarters of its fall),
-//! water–glycerol 0.99 %. Without the gradient correction the hydrostatic column sinks
-//! at 1.8 % of g and water–glycerol's slow grain is 10.7 % off.
+//! Quick version: δ = 0.5 mm at h = δ (h/d = 5), 800 fluid particles, about 50 s alone
+//! (85 s beside a sweep). Measured 2026-11-29, largest deviation after t_d: water
+//! two-way 0.41 %, one-way 0.16 %, air 0.12 % (over the last three quarters of its fall),
+//! water–glycerol 0.98 %. The full case (Robinson §5.1's h/d = 6, six runs, 2 minutes)
+//! gave 0.23, 0.08, 0.10 and 0.88 %. Without the gradient correction the hydrostatic
+//! column sinks at 1.8 % of g and water–glycerol's slow grain is 10.7 % off (2026-11-23).
 
 use couplet_tests::{couplet_validate, report_rows};
 
