@@ -316,43 +316,52 @@ fn check_positive(name: &str, value: f64) -> Result<(), String> {
     }
 }
 
-/// A Stokes grain's excess over Robinson eq. (34) from its own reaction on the fluid:
-/// what two-way coupling (eqs. 26–27) does to a lone grain, in a continuum.
+/// A lone Stokes grain's excess over Robinson eq. (34) from the flow its coupling makes
+/// at the grain, in a continuum ([`grain_own_flow`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SelfInduced {
-    /// The fluid velocity at the grain (Shepard-weighted over its support), along the
-    /// grain's motion, over v_t, at the end.
+pub struct OwnFlow {
+    /// The fluid velocity at the grain (weighted over its support), along the grain's
+    /// motion, over v_t, at the end.
     pub fluid_velocity: f64,
     /// The grain's velocity less eq. (34)'s, over v_t, at the end.
     pub grain_excess: f64,
 }
 
-/// The velocity a two-way grain induces in the fluid at itself, and the excess it gives
-/// the grain's settling over Robinson eq. (34), in a continuum: the grain, released from
-/// rest at t = 0 under Stokes drag `b (v − u)`, `b = 3π μ d`, spreads its drag over the
-/// fluid as the force density `F(t) W(x)` (eqs. 26–27; `w` is the kernel, `radius` its
-/// support, with h_c the fluid's h) and samples the fluid velocity `u` with the same
-/// kernel (eq. 8). The fluid is incompressible, unbounded and at rest at t = 0, and
-/// responds linearly (unsteady Stokes): in Fourier space the force's solenoidal part,
-/// 2/3 of it along F once averaged over directions, diffuses as `exp(−ν k² τ)`, so
+/// The flow a lone grain's coupling makes in the fluid at the grain, and the excess it
+/// gives the grain's settling over Robinson eq. (34), in a continuum. The grain is
+/// released from rest at t = 0 under Stokes drag `b (v − u)`, `b = 3π μ d`, and samples
+/// the fluid velocity `u` with the kernel (eq. 8; `w` is the kernel, `radius` its
+/// support, with h_c the fluid's h). A force density `F(t) W(x)` acts on the fluid:
+///
+/// - two-way: the grain's drag, spread back by eqs. (26)–(27). The resolved part of its
+///   force, the buoyancy −ρVg, is spread back too, and it restores exactly the weight
+///   the superficial fluid lacks where the grain's volume lowers its porosity (eq. 9).
+/// - one-way: nothing is spread back, so that missing weight is not restored: the fluid
+///   around the grain is lighter than the pressure that carries it, `F = −ρ V g`
+///   (against the motion) from t = 0, and it rises. Robinson §5.1 calls the porosity's
+///   effect on one grain "negligible"; at h/d = 3 it is as large as the two-way drag's.
+///
+/// The fluid is incompressible, unbounded and at rest at t = 0, and responds linearly
+/// (unsteady Stokes): in Fourier space the force's solenoidal part, 2/3 of it along F
+/// once averaged over directions, diffuses as `exp(−ν k² τ)`, so
 ///
 /// `u(t) = 2/(3ρ) ∫₀ᵗ F(s) G(t − s) ds`, `G(τ) = 1/(2π²) ∫ k² Ŵ(k)² exp(−ν k² τ) dk`,
 ///
 /// with `Ŵ` the kernel's Fourier transform (`G(0) = ∫ W² dV`). The grain follows
 /// `m dv/dt = (ρ_p − ρ) V g − b (v − u)`, so its excess e = v − v₃₄ relaxes towards u
-/// over t_d = m/b. The acoustic part of the response (a weakly compressible fluid's) is
-/// left out, as are the grain's own porosity in the drag (Robinson eq. 28's ε) and the
-/// walls: this is the part of two-way minus one-way that the reaction itself causes.
-/// Early on `u ≈ 2/(3ρ) G(0) ∫F dt`, which scales as (d/h)³ (the grain's mass over the
-/// fluid's in its support); after the diffusion time R²/ν it tends to the steady
-/// regularised Stokeslet.
+/// over t_d = m/b. Left out: the acoustic part of the response (a weakly compressible
+/// fluid's), the grain's own porosity in the drag (eq. 28's ε, the same both ways), and
+/// the walls. Two-way minus one-way is then what the coupling itself does. Early on
+/// `u ≈ 2/(3ρ) G(0) ∫F dt`, which scales as (d/h)³ (the grain's mass over the fluid's
+/// in its support); after the diffusion time R²/ν it tends to the steady regularised
+/// Stokeslet.
 ///
 /// Quadrature: the kernel on 400 radii, `Ŵ` on 600 wave numbers to 60/R, the time on
-/// 400 steps (the relaxation exact over each, the drag at each step's middle). Checked
+/// 400 steps (the relaxation exact over each, the force at each step's middle). Checked
 /// against closed forms for a Gaussian kernel and at early times for Wendland C2 (tests
 /// below).
 #[allow(clippy::too_many_arguments)]
-pub fn two_way_self_induced(
+pub fn grain_own_flow(
     w: impl Fn(f64) -> f64,
     radius: f64,
     d: f64,
@@ -361,7 +370,8 @@ pub fn two_way_self_induced(
     nu: f64,
     g: f64,
     t_end: f64,
-) -> Result<SelfInduced, String> {
+    two_way: bool,
+) -> Result<OwnFlow, String> {
     for (name, v) in [
         ("support radius", radius),
         ("diameter", d),
@@ -372,12 +382,12 @@ pub fn two_way_self_induced(
         ("end time", t_end),
     ] {
         if !(v.is_finite() && v > 0.0) {
-            return Err(format!("two_way_self_induced: {name} = {v} must be > 0"));
+            return Err(format!("grain_own_flow: {name} = {v} must be > 0"));
         }
     }
     if rho_p <= rho_f {
         return Err(format!(
-            "two_way_self_induced: the grain ({rho_p} kg/m³) must be denser than the fluid ({rho_f})"
+            "grain_own_flow: the grain ({rho_p} kg/m³) must be denser than the fluid ({rho_f})"
         ));
     }
     const NR: usize = 400;
@@ -418,9 +428,13 @@ pub fn two_way_self_induced(
     let (mut excess, mut u) = (0.0, 0.0);
     let mut force = Vec::with_capacity(NT);
     for n in 0..NT {
-        // The drag over step n, at its middle, from the state at its start.
+        // The force over step n, at its middle, from the state at its start.
         let mid = (n as f64 + 0.5) * dt;
-        force.push(b * (v_t * (1.0 - (-mid / t_d).exp()) + excess - u));
+        force.push(if two_way {
+            b * (v_t * (1.0 - (-mid / t_d).exp()) + excess - u)
+        } else {
+            -rho_f * volume * g
+        });
         excess = excess * relax + u * (1.0 - relax);
         u = 2.0 / (3.0 * rho_f)
             * (force.iter().enumerate())
@@ -428,7 +442,7 @@ pub fn two_way_self_induced(
                 .sum::<f64>()
             * dt;
     }
-    Ok(SelfInduced {
+    Ok(OwnFlow {
         fluid_velocity: u / v_t,
         grain_excess: excess / v_t,
     })
@@ -782,9 +796,9 @@ mod tests {
     /// ∫q²(1−q)⁸(1+4q)² dq = 1/117 by Beta functions) and ∫F dt = b v_t (t − t_d (1 −
     /// e^(−t/t_d))) while u ≪ v_t.
     #[test]
-    fn self_induced_velocity_is_inviscid_early() {
+    fn own_flow_is_inviscid_early() {
         let (r, d, rho, rho_p, nu, t) = (0.02, 1e-4, 1000.0, 2500.0, 8.9e-7, 7.8e-3);
-        let got = two_way_self_induced(wendland(r), r, d, rho, rho_p, nu, G, t).unwrap();
+        let got = grain_own_flow(wendland(r), r, d, rho, rho_p, nu, G, t, true).unwrap();
         let b = 3.0 * PI * rho * nu * d;
         let t_d = rho_p * PI * d.powi(3) / 6.0 / b;
         let impulse_over_vt = b * (t - t_d * (1.0 - (-t / t_d).exp()));
@@ -801,16 +815,38 @@ mod tests {
         assert!(got.grain_excess > 0.0 && got.grain_excess < got.fluid_velocity);
     }
 
+    /// One-way, the lighter fluid around the grain rises under the constant −ρVg: early
+    /// on u = −2/(3ρ) ∫W² dV ρ V g t (the same closed form), and the grain, dragged by
+    /// it, falls slower than eq. (34).
+    #[test]
+    fn one_way_fluid_rises_where_the_grain_lightens_it() {
+        let (r, d, rho, rho_p, nu, t) = (0.02, 1e-4, 1000.0, 2500.0, 8.9e-7, 7.8e-3);
+        let got = grain_own_flow(wendland(r), r, d, rho, rho_p, nu, G, t, false).unwrap();
+        let volume = PI * d.powi(3) / 6.0;
+        let v_t = (rho_p - rho) * volume * G / (3.0 * PI * rho * nu * d);
+        let want =
+            -2.0 / (3.0 * rho) * 441.0 / (117.0 * PI * r.powi(3)) * rho * volume * G * t / v_t;
+        eprintln!(
+            "one-way: u/v_t = {:.6e}, closed form {want:.6e}",
+            got.fluid_velocity
+        );
+        assert!(
+            (got.fluid_velocity / want - 1.0).abs() < 1e-3,
+            "{got:?} against {want}"
+        );
+        assert!(got.grain_excess < 0.0 && got.grain_excess > got.fluid_velocity);
+    }
+
     /// A Gaussian kernel of width σ has `G(τ) = (4π (σ² + ν τ))^(−3/2)`, so under the
     /// drag F ≈ (ρ_p − ρ) V g (1 − e^(−t/t_d)) (t_d ≪ t, u ≪ v_t)
     /// `u(t) = 2/(3ρ) F [2/ν (4π)^(−3/2) (1/σ − (σ² + ν t)^(−1/2)) − t_d G(t)]`; as
     /// t → ∞ it tends to the regularised Stokeslet `F/(6π μ) · 1/(σ √π)`.
     #[test]
-    fn self_induced_velocity_matches_a_gaussian_kernel_closed_form() {
+    fn own_flow_matches_a_gaussian_kernel_closed_form() {
         let (sigma, d, rho, rho_p, nu, t) = (1e-3, 1e-4, 1000.0, 2500.0, 1e-5, 1.0);
         let gauss =
             |r: f64| (2.0 * PI * sigma * sigma).powf(-1.5) * (-r * r / (2.0 * sigma * sigma)).exp();
-        let got = two_way_self_induced(gauss, 6.0 * sigma, d, rho, rho_p, nu, G, t).unwrap();
+        let got = grain_own_flow(gauss, 6.0 * sigma, d, rho, rho_p, nu, G, t, true).unwrap();
         let b = 3.0 * PI * rho * nu * d;
         let t_d = rho_p * PI * d.powi(3) / 6.0 / b;
         let a = sigma * sigma + nu * t;
@@ -829,15 +865,15 @@ mod tests {
     }
 
     #[test]
-    fn self_induced_refusals() {
+    fn own_flow_refusals() {
         let w = wendland(1e-3);
         assert!(
-            two_way_self_induced(&w, 1e-3, 1e-4, 1000.0, 900.0, 1e-6, G, 1.0)
+            grain_own_flow(&w, 1e-3, 1e-4, 1000.0, 900.0, 1e-6, G, 1.0, true)
                 .unwrap_err()
                 .contains("denser")
         );
         assert!(
-            two_way_self_induced(&w, 1e-3, 1e-4, 1000.0, 2500.0, 0.0, G, 1.0)
+            grain_own_flow(&w, 1e-3, 1e-4, 1000.0, 2500.0, 0.0, G, 1.0, false)
                 .unwrap_err()
                 .contains("nu")
         );
