@@ -36,7 +36,7 @@ fn single_particle_sedimentation_quick_validation_passes() {
     // against the continuum estimate of robinson_reference::grain_own_flow (the two-way
     // drag spread back on the fluid in the grain's support, less the one-way fluid's rise
     // where the grain's volume lightens it). Measured 2026-11-29: +0.46 % against +0.57 %
-    // here (h/d = 5 at h = δ), +0.29 % against +0.33 % at h/d = 6, +2.27 % against +2.41 %
+    // here (h/d = 5 at h = δ), +0.29 % against +0.33 % at h/d = 6, +2.27 % against +2.40 %
     // at h/d = 3. 30 %: the estimate leaves out the acoustic response and the walls, and at
     // support 2δ the lattice's Σ V W² around the grain (the estimate's ∫W² dV) ranges over
     // 0.82–1.31 of the integral with the grain's place among the particles. Losing the
