@@ -2397,13 +2397,12 @@ fn sps_two_way_against_one_way(parts: &[Report], report: &mut Report) -> Result<
         let (drag, rise) = (get(two, "own_flow_excess")?, get(one, "own_flow_excess")?);
         report.judge(
             format!(
-                "{}: two-way minus one-way ({}), velocity at the end over v_t",
-                label(two),
-                label(one)
+                "{}: two-way minus one-way, velocity at the end over v_t",
+                label(two)
             ),
             format!("{:+.2} %", 100.0 * diff),
             format!(
-                "{:+.2} % (continuum estimate: the two-way drag spread back {:+.2} %, less the one-way fluid's rise {:+.2} %)",
+                "{:+.2} % (continuum estimate: two-way, the drag spread back, {:+.2} %; one-way, the lightened fluid's rise, {:+.2} %)",
                 100.0 * (drag - rise),
                 100.0 * drag,
                 100.0 * rise
