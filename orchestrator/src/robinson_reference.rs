@@ -791,10 +791,15 @@ mod tests {
         }
     }
 
+    /// ∫W² dV of Wendland C2 of support R: 441/(117 π R³) (the integral
+    /// ∫q²(1−q)⁸(1+4q)² dq = 1/117 by Beta functions).
+    fn wendland_w2(radius: f64) -> f64 {
+        441.0 / (117.0 * PI * radius.powi(3))
+    }
+
     /// Long before the diffusion time R²/ν the fluid's response is inviscid: u = 2/(3ρ)
-    /// ∫W² dV ∫F dt, with ∫W² = 441/(117 π R³) for Wendland C2 (the integral
-    /// ∫q²(1−q)⁸(1+4q)² dq = 1/117 by Beta functions) and ∫F dt = b v_t (t − t_d (1 −
-    /// e^(−t/t_d))) while u ≪ v_t.
+    /// ∫W² dV ∫F dt ([`wendland_w2`]), with ∫F dt = b v_t (t − t_d (1 − e^(−t/t_d)))
+    /// while u ≪ v_t.
     #[test]
     fn own_flow_is_inviscid_early() {
         let (r, d, rho, rho_p, nu, t) = (0.02, 1e-4, 1000.0, 2500.0, 8.9e-7, 7.8e-3);
@@ -802,14 +807,12 @@ mod tests {
         let b = 3.0 * PI * rho * nu * d;
         let t_d = rho_p * PI * d.powi(3) / 6.0 / b;
         let impulse_over_vt = b * (t - t_d * (1.0 - (-t / t_d).exp()));
-        let want = 2.0 / (3.0 * rho) * 441.0 / (117.0 * PI * r.powi(3)) * impulse_over_vt;
-        eprintln!(
-            "early: u/v_t = {:.6e}, closed form {want:.6e}",
-            got.fluid_velocity
-        );
-        assert!(
-            (got.fluid_velocity / want - 1.0).abs() < 1e-3,
-            "{got:?} against {want}"
+        let want = 2.0 / (3.0 * rho) * wendland_w2(r) * impulse_over_vt;
+        assert_close(
+            "two-way, early",
+            got.fluid_velocity,
+            want,
+            1e-3 * want.abs(),
         );
         // The grain lags the fluid by about t_d.
         assert!(got.grain_excess > 0.0 && got.grain_excess < got.fluid_velocity);
@@ -824,15 +827,12 @@ mod tests {
         let got = grain_own_flow(wendland(r), r, d, rho, rho_p, nu, G, t, false).unwrap();
         let volume = PI * d.powi(3) / 6.0;
         let v_t = (rho_p - rho) * volume * G / (3.0 * PI * rho * nu * d);
-        let want =
-            -2.0 / (3.0 * rho) * 441.0 / (117.0 * PI * r.powi(3)) * rho * volume * G * t / v_t;
-        eprintln!(
-            "one-way: u/v_t = {:.6e}, closed form {want:.6e}",
-            got.fluid_velocity
-        );
-        assert!(
-            (got.fluid_velocity / want - 1.0).abs() < 1e-3,
-            "{got:?} against {want}"
+        let want = -2.0 / (3.0 * rho) * wendland_w2(r) * rho * volume * G * t / v_t;
+        assert_close(
+            "one-way, early",
+            got.fluid_velocity,
+            want,
+            1e-3 * want.abs(),
         );
         assert!(got.grain_excess < 0.0 && got.grain_excess > got.fluid_velocity);
     }
@@ -853,15 +853,9 @@ mod tests {
         let integral = 2.0 / nu * (4.0 * PI).powf(-1.5) * (1.0 / sigma - a.powf(-0.5));
         let want = 2.0 / (3.0 * rho) * b * (integral - t_d * (4.0 * PI * a).powf(-1.5));
         let steady = d / (2.0 * sigma * PI.sqrt());
-        eprintln!(
-            "gaussian: u/v_t = {:.6e}, closed form {want:.6e}, steady {steady:.6e}",
-            got.fluid_velocity
-        );
-        assert!(
-            (got.fluid_velocity / want - 1.0).abs() < 1e-3,
-            "{got:?} against {want}"
-        );
-        assert!(want < steady);
+        assert_close("gaussian", got.fluid_velocity, want, 1e-3 * want.abs());
+        // Still short of the steady regularised Stokeslet.
+        assert!(want < steady, "{want} against the steady {steady}");
     }
 
     #[test]
