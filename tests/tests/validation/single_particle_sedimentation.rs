@@ -9,8 +9,8 @@
 //! Quick version: δ = 0.5 mm at h = δ (h/d = 5), 800 fluid particles, about 50 s alone
 //! (85 s beside a sweep). Measured 2026-11-29, largest deviation after t_d: water
 //! two-way 0.41 %, one-way 0.16 %, air 0.12 % (over the last three quarters of its fall),
-//! water–glycerol 0.98 %. The full case (Robinson §5.1's h/d = 6, six runs, 2 minutes)
-//! gave 0.23, 0.08, 0.10 and 0.88 %. Without the gradient correction the hydrostatic
+//! water–glycerol 0.98 %. The full case (Robinson §5.1's h/d = 6, six runs, 4.5 minutes
+//! beside other runs) gave 0.23, 0.08, 0.10 and 0.88 % for the same four. Without the gradient correction the hydrostatic
 //! column sinks at 1.8 % of g and water–glycerol's slow grain is 10.7 % off (2026-11-23).
 
 use couplet_tests::{couplet_validate, report_rows};
@@ -39,8 +39,9 @@ fn single_particle_sedimentation_quick_validation_passes() {
     // here (h/d = 5 at h = δ), +0.29 % against +0.33 % at h/d = 6, +2.27 % against +2.40 %
     // at h/d = 3. 30 %: the estimate leaves out the acoustic response and the walls, and at
     // support 2δ the lattice's Σ V W² around the grain (the estimate's ∫W² dV) ranges over
-    // 0.82–1.31 of the integral with the grain's place among the particles. Losing the
-    // reaction, or spreading it twice, would be off by 50 % or more.
+    // 0.82–1.31 of the integral with the grain's place among the particles. What the band
+    // catches: the reaction lost (0 against +0.57 %) or of the wrong sign, and the one-way
+    // flow lost (about +0.25 %); a reaction spread twice (about +0.7 %) would pass.
     let report = std::fs::read_to_string(out.path().join("report.md")).unwrap();
     let row = report
         .lines()
