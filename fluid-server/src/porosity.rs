@@ -14,8 +14,9 @@
 //! With `coupling.porosity_pressure = "energy-pair"` the GPU pass also sums ∇ε at each
 //! particle (twin: [`PorosityField::gradient`]) for the fluid's pressure terms.
 //!
-//! Grains are binned in a hash of cells one support wide; on a periodic axis the cells
-//! divide the period and distances are minimum images.
+//! Grains are binned in hashed cells one support wide ([`Bins`]); on a periodic axis the
+//! cells divide the period and distances are minimum images. Many points (the grains,
+//! each window) are summed on all the machine's threads.
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
@@ -24,7 +25,6 @@ use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 use crate::unresolved_coupling::grain_binding;
 use couplet_protocol::Scene;
-use std::collections::HashMap;
 
 pub const GRAIN_POROSITY_WGSL: &str = include_str!("../shaders/grain_porosity.wgsl");
 pub const POROSITY_READ_WGSL: &str = include_str!("../shaders/grain_porosity_read.wgsl");
@@ -257,107 +257,226 @@ impl PorosityField {
         })
     }
 
-    fn cell(&self, p: [f64; 3], n: [i64; 3]) -> [i64; 3] {
-        std::array::from_fn(|k| {
-            let x = p[k] - self.origin[k];
-            if n[k] > 0 {
-                let l = self.period[k];
-                let w = x - l * (x / l).floor();
-                ((w / l * n[k] as f64).floor() as i64).clamp(0, n[k] - 1)
-            } else {
-                (x / self.support).floor() as i64
-            }
-        })
-    }
-
     /// r_a − r_b as the nearest image on periodic axes.
+    #[cfg(test)]
     fn separation(&self, a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         crate::particles::nearest_image(a, b, self.period)
     }
 
-    /// Calls `visit(r_pj, j)` for every solid j within the support of `p`, with
-    /// r_pj = p − x_j the nearest image.
-    fn each_solid_near(
-        &self,
-        cells: &HashMap<[i64; 3], Vec<usize>>,
-        solids: &[Solid],
-        p: [f64; 3],
-        mut visit: impl FnMut([f64; 3], usize),
-    ) {
-        let n = self.periodic_cells();
-        let r2max = self.support * self.support;
-        let c = self.cell(p, n);
-        // The neighbour cells per axis, each once (a period of one or two cells would
-        // otherwise visit a cell twice).
-        let axis = |k: usize| -> Vec<i64> {
-            let mut v: Vec<i64> = (-1..=1)
-                .map(|d| {
-                    if n[k] > 0 {
-                        (c[k] + d).rem_euclid(n[k])
-                    } else {
-                        c[k] + d
-                    }
-                })
-                .collect();
-            v.sort_unstable();
-            v.dedup();
-            v
-        };
-        let (ax, ay, az) = (axis(0), axis(1), axis(2));
-        for &x in &ax {
-            for &y in &ay {
-                for &z in &az {
-                    for &j in cells.get(&[x, y, z]).into_iter().flatten() {
-                        let r = self.separation(p, solids[j].position);
-                        if r[0] * r[0] + r[1] * r[1] + r[2] * r[2] < r2max {
-                            visit(r, j);
-                        }
-                    }
-                }
-            }
+    /// Threads [`PorosityField::porosity`] and [`PorosityField::gradient`] run on for
+    /// `points` points: one below [`PARALLEL_MIN_POINTS`], else the machine's.
+    pub fn threads(points: usize) -> usize {
+        if points < PARALLEL_MIN_POINTS {
+            1
+        } else {
+            std::thread::available_parallelism().map_or(1, |t| t.get())
         }
     }
 
-    fn cells(&self, solids: &[Solid]) -> HashMap<[i64; 3], Vec<usize>> {
-        let n = self.periodic_cells();
-        let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-        for (j, s) in solids.iter().enumerate() {
-            cells.entry(self.cell(s.position, n)).or_default().push(j);
+    /// `at(p, bins)` for each of `points`, split into one run of consecutive points per
+    /// thread. Each value is its own point's sum, so the bits do not depend on the
+    /// thread count.
+    fn each_point<T: Copy + Default + Send>(
+        &self,
+        points: &[[f64; 3]],
+        solids: &[Solid],
+        at: impl Fn([f64; 3], &Bins) -> T + Sync,
+    ) -> Vec<T> {
+        let bins = Bins::new(self, solids);
+        let mut out = vec![T::default(); points.len()];
+        let threads = Self::threads(points.len());
+        if threads == 1 {
+            for (o, &p) in out.iter_mut().zip(points) {
+                *o = at(p, &bins);
+            }
+            return out;
         }
-        cells
+        let per = points.len().div_ceil(threads);
+        let (at, bins) = (&at, &bins);
+        std::thread::scope(|scope| {
+            for (o, p) in out.chunks_mut(per).zip(points.chunks(per)) {
+                scope.spawn(move || {
+                    for (o, &p) in o.iter_mut().zip(p) {
+                        *o = at(p, bins);
+                    }
+                });
+            }
+        });
+        out
     }
 
     /// ε at each of `points` (Robinson eq. 9), from `solids`.
     pub fn porosity(&self, points: &[[f64; 3]], solids: &[Solid]) -> Vec<f64> {
-        let cells = self.cells(solids);
-        (points.iter())
-            .map(|&p| {
-                let mut solid = 0.0;
-                self.each_solid_near(&cells, solids, p, |r, j| {
-                    // Robinson eq. (9).
-                    solid += self.kernel.w(norm(r)) * solids[j].volume;
-                });
-                1.0 - solid
-            })
-            .collect()
+        self.each_point(points, solids, |p, bins| {
+            let mut solid = 0.0;
+            bins.each_solid_near(p, |r, j| {
+                // Robinson eq. (9).
+                solid += self.kernel.w(norm(r)) * solids[j].volume;
+            });
+            1.0 - solid
+        })
     }
 
     /// ∇ε at each of `points`, the gradient of eq. (9): −Σ_j V_j ∇W(x − x_j) (CPU twin of
     /// the `energy-pair` sums in `grain_solid_fraction`).
     pub fn gradient(&self, points: &[[f64; 3]], solids: &[Solid]) -> Vec<[f64; 3]> {
-        let cells = self.cells(solids);
-        (points.iter())
-            .map(|&p| {
-                let mut g = [0.0; 3];
-                self.each_solid_near(&cells, solids, p, |r, j| {
-                    let f = self.kernel.grad_factor(norm(r)) * solids[j].volume;
-                    for k in 0..3 {
-                        g[k] -= f * r[k];
+        self.each_point(points, solids, |p, bins| {
+            let mut g = [0.0; 3];
+            bins.each_solid_near(p, |r, j| {
+                let f = self.kernel.grad_factor(norm(r)) * solids[j].volume;
+                for k in 0..3 {
+                    g[k] -= f * r[k];
+                }
+            });
+            g
+        })
+    }
+}
+
+/// Points from which [`PorosityField::porosity`] and [`PorosityField::gradient`] split
+/// over the machine's threads. The fluid server sums at every grain once a window, on
+/// the CPU between the GPU's steps: 15 300 grains (the CPB and RTI) took about 100 ms
+/// of a window on one thread (2026-11-29, `couplet bench scenes/rayleigh-taylor.toml`),
+/// which on a GPU would set the window's pace. Below this many, spawning threads costs
+/// more than it saves.
+const PARALLEL_MIN_POINTS: usize = 2048;
+
+/// Solids binned by cell for look-ups within one support: cells at least one support
+/// wide (on a periodic axis they divide the period and their index wraps), hashed into
+/// a table of 2^b ≥ 2N buckets by a counting sort. The domain may hold far more cells
+/// than solids (a metre box of 0.1 mm grains), so cells are not stored densely; a
+/// collision only adds candidates that the distance test rejects. The soft-sphere
+/// engine bins its spheres the same way (`couplet_dem`'s `Grid`, cells of a diameter).
+struct Bins {
+    /// Each solid's position from the field's origin, wrapped into [0, period) on
+    /// periodic axes.
+    at: Vec<[f64; 3]>,
+    origin: [f64; 3],
+    /// Period per axis (0: open) and cells along it (0: open).
+    period: [f64; 3],
+    cells: [i64; 3],
+    /// Inverse cell edge per axis.
+    inv_cell: [f64; 3],
+    r2max: f64,
+    mask: u64,
+    /// Bucket start offsets (buckets + 1) and solid indices sorted by bucket.
+    start: Vec<u32>,
+    entries: Vec<u32>,
+}
+
+impl Bins {
+    fn new(field: &PorosityField, solids: &[Solid]) -> Bins {
+        let cells = field.periodic_cells();
+        let inv_cell = std::array::from_fn(|k| {
+            if cells[k] > 0 {
+                cells[k] as f64 / field.period[k]
+            } else {
+                1.0 / field.support
+            }
+        });
+        let buckets = (2 * solids.len()).next_power_of_two().max(2);
+        let mut bins = Bins {
+            at: Vec::with_capacity(solids.len()),
+            origin: field.origin,
+            period: field.period,
+            cells,
+            inv_cell,
+            r2max: field.support * field.support,
+            mask: buckets as u64 - 1,
+            start: vec![0; buckets + 1],
+            entries: vec![0; solids.len()],
+        };
+        bins.at = solids.iter().map(|s| bins.wrap(s.position)).collect();
+        let bucket_of: Vec<usize> = (bins.at.iter())
+            .map(|&q| bins.bucket(bins.cell(q)))
+            .collect();
+        for &b in &bucket_of {
+            bins.start[b + 1] += 1;
+        }
+        for b in 0..buckets {
+            bins.start[b + 1] += bins.start[b];
+        }
+        let mut fill = bins.start.clone();
+        for (j, &b) in bucket_of.iter().enumerate() {
+            bins.entries[fill[b] as usize] = j as u32;
+            fill[b] += 1;
+        }
+        bins
+    }
+
+    /// `p` from the origin, wrapped into [0, period) on periodic axes.
+    fn wrap(&self, p: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|k| {
+            let (q, l) = (p[k] - self.origin[k], self.period[k]);
+            if l > 0.0 { q - l * (q / l).floor() } else { q }
+        })
+    }
+
+    /// The cell of a wrapped position (its last cell where round-off puts it at the
+    /// period).
+    fn cell(&self, q: [f64; 3]) -> [i64; 3] {
+        std::array::from_fn(|k| {
+            let c = (q[k] * self.inv_cell[k]).floor() as i64;
+            if self.cells[k] > 0 {
+                c.clamp(0, self.cells[k] - 1)
+            } else {
+                c
+            }
+        })
+    }
+
+    fn bucket(&self, mut c: [i64; 3]) -> usize {
+        for k in 0..3 {
+            if self.cells[k] > 0 {
+                c[k] = c[k].rem_euclid(self.cells[k]);
+            }
+        }
+        let h = (c[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ (c[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ (c[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
+        ((h ^ (h >> 29)) & self.mask) as usize
+    }
+
+    /// Calls `visit(r_pj, j)` for every solid j within the support of `p`, with
+    /// r_pj = p − x_j the nearest image, each solid once: the 27 cells around p map to
+    /// buckets visited once each (a short period or a collision maps two cells to one
+    /// bucket).
+    fn each_solid_near(&self, p: [f64; 3], mut visit: impl FnMut([f64; 3], usize)) {
+        let q = self.wrap(p);
+        let c = self.cell(q);
+        let mut seen = [usize::MAX; 27];
+        let mut m = 0;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let b = self.bucket([c[0] + dx, c[1] + dy, c[2] + dz]);
+                    if !seen[..m].contains(&b) {
+                        seen[m] = b;
+                        m += 1;
+                    }
+                }
+            }
+        }
+        let half = self.period.map(|l| 0.5 * l);
+        for &b in &seen[..m] {
+            for &j in &self.entries[self.start[b] as usize..self.start[b + 1] as usize] {
+                let x = self.at[j as usize];
+                // Both wrapped: the nearest image is at most one period away.
+                let r: [f64; 3] = std::array::from_fn(|k| {
+                    let d = q[k] - x[k];
+                    if self.period[k] > 0.0 && d > half[k] {
+                        d - self.period[k]
+                    } else if self.period[k] > 0.0 && d < -half[k] {
+                        d + self.period[k]
+                    } else {
+                        d
                     }
                 });
-                g
-            })
-            .collect()
+                if r[0] * r[0] + r[1] * r[1] + r[2] * r[2] < self.r2max {
+                    visit(r, j as usize);
+                }
+            }
+        }
     }
 }
 
@@ -457,11 +576,12 @@ mod tests {
         }
     }
 
-    /// 300 grains (V = 1e-13 m³) at random points of the box `period`, and 200 points
-    /// reaching `overhang` periods beyond it on each side; seeded (an LCG).
+    /// 300 grains (V = 1e-13 m³) at random points of the box `period`, and `points`
+    /// points reaching `overhang` periods beyond it on each side; seeded (an LCG).
     fn random_grains_and_points(
         period: [f64; 3],
         overhang: f64,
+        points: usize,
         mut seed: u64,
     ) -> (Vec<Solid>, Vec<[f64; 3]>) {
         let mut rnd = || {
@@ -476,7 +596,7 @@ mod tests {
                 volume: 1e-13,
             })
             .collect();
-        let points = (0..200)
+        let points = (0..points)
             .map(|_| {
                 std::array::from_fn(|k| (rnd() * (1.0 + 2.0 * overhang) - overhang) * period[k])
             })
@@ -493,7 +613,7 @@ mod tests {
         let s = field([0.0; 3]).support;
         let period = [3.1 * s, 2.2 * s, 3.1 * s];
         let f = field(period);
-        let (solids, points) = random_grains_and_points(period, 0.0, 777);
+        let (solids, points) = random_grains_and_points(period, 0.0, 200, 777);
         let got = f.gradient(&points, &solids);
         let step = 1e-4 * f.kernel.h;
         let (mut worst, mut largest) = (0.0f64, 0.0f64);
@@ -524,7 +644,7 @@ mod tests {
         let s = field([0.0; 3]).support;
         let period = [3.1 * s, 2.2 * s, 3.1 * s];
         let f = field(period);
-        let (solids, points) = random_grains_and_points(period, 0.1, 12345);
+        let (solids, points) = random_grains_and_points(period, 0.1, 200, 12345);
         let got = f.porosity(&points, &solids);
         for (p, e) in points.iter().zip(got) {
             let mut solid = 0.0;
@@ -537,5 +657,36 @@ mod tests {
             }
             assert!((e - (1.0 - solid)).abs() < 1e-14, "{e} vs {}", 1.0 - solid);
         }
+    }
+
+    /// From `PARALLEL_MIN_POINTS` points the sums run on the machine's threads; each
+    /// point's ε and ∇ε keep the bits they have summed alone on one thread (so a run
+    /// gives the same numbers on any machine): 3000 random points, 300 grains, a box
+    /// periodic in x and z.
+    #[test]
+    fn threaded_sums_match_one_thread_bit_for_bit() {
+        let s = field([0.0; 3]).support;
+        let period = [3.1 * s, 0.0, 3.1 * s];
+        let f = field(period);
+        let (solids, mut points) =
+            random_grains_and_points([3.1 * s, 4.0 * s, 3.1 * s], 0.1, 3000, 4242);
+        assert!(points.len() >= PARALLEL_MIN_POINTS);
+        points.iter_mut().for_each(|p| p[1] -= 0.5 * s);
+        let (eps, grad) = (f.porosity(&points, &solids), f.gradient(&points, &solids));
+        let mut near = 0;
+        for (i, p) in points.iter().enumerate() {
+            assert_eq!(f.porosity(&[*p], &solids)[0].to_bits(), eps[i].to_bits());
+            assert_eq!(
+                f.gradient(&[*p], &solids)[0].map(f64::to_bits),
+                grad[i].map(f64::to_bits)
+            );
+            near += usize::from(eps[i] < 1.0);
+        }
+        println!(
+            "{} threads; {near} of {} points near a grain",
+            PorosityField::threads(points.len()),
+            points.len()
+        );
+        assert!(near > 1000, "{near}");
     }
 }

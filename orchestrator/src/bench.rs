@@ -128,6 +128,10 @@ pub fn bench(
         );
     }
 
+    if !scene.grains().is_empty() {
+        let _ = writeln!(w, "\n{}", grain_porosity_time(&scene, &solver)?);
+    }
+
     if scene.needs_dem() {
         let windows = 50u64.max(steps as u64 / scene.coupling.window_substeps as u64);
         let out = std::env::temp_dir().join(format!("couplet-bench-{}", std::process::id()));
@@ -167,6 +171,43 @@ pub fn bench(
         );
     }
     Ok(o)
+}
+
+/// The fluid server's CPU share of a window with unresolved grains: the porosity at
+/// every grain (Robinson eq. 9, `PorosityField::porosity`, f64), at the grains' starting
+/// places, the fastest of five. It runs once a window, between the GPU's steps, so on a
+/// fast GPU it can set the window's pace (a coupled run's "fluid compute" includes it).
+fn grain_porosity_time(
+    scene: &couplet_protocol::Scene,
+    solver: &FluidSolver,
+) -> Result<String, BenchError> {
+    use couplet_fluid::porosity::{PorosityField, Solid};
+    let engine = couplet_dem::registry::create_engine(scene).map_err(|e| RunError::Io {
+        what: "creating the DEM engine for the bench".into(),
+        source: std::io::Error::other(e.to_string()),
+    })?;
+    let mut states = Vec::new();
+    engine.states(&mut states);
+    let solids: Vec<Solid> = (scene.grains().into_iter())
+        .map(|i| Solid {
+            position: states[i].position,
+            volume: states[i].volume,
+        })
+        .collect();
+    let centres: Vec<[f64; 3]> = solids.iter().map(|s| s.position).collect();
+    let field = PorosityField::of_scene(solver.constants(), scene);
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let t = Instant::now();
+        std::hint::black_box(field.porosity(&centres, &solids));
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    Ok(format!(
+        "grain porosity (Robinson eq. 9 at {} grains, CPU f64, once a window): {:.3} ms on {} thread(s)",
+        solids.len(),
+        best * 1e3,
+        PorosityField::threads(solids.len())
+    ))
 }
 
 /// `couplet bench-dem`: the soft-sphere engine alone on `spheres` spheres (r = 1 mm,
