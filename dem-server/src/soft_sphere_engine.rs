@@ -40,6 +40,7 @@ use crate::engine::{
 };
 use crate::geometry::BodyGeometry;
 use crate::markers::quat_from_scaled_axis;
+use couplet_protocol::cell_hash::CellHash;
 use couplet_protocol::{BodyLoad, BodyState, ContactLaw, Domain, Motion, Scene, Shape};
 use std::ops::Range;
 
@@ -346,7 +347,7 @@ pub struct SoftSphereEngine {
     period: [Option<f64>; 3],
     gravity: [f64; 3],
     domain: Domain,
-    grid: Grid,
+    grid: CellHash,
     max_dt: f64,
     steps_per_contact: f64,
     /// Hertz: the impact speed the step resolves at least, m/s.
@@ -518,7 +519,7 @@ impl SoftSphereEngine {
             period,
             gravity: scene.gravity.vector,
             domain: scene.domain.clone(),
-            grid: Grid::default(),
+            grid: CellHash::default(),
             max_dt: scene.dem.max_dt,
             steps_per_contact: spec.steps_per_contact,
             impact_speed: 0.0,
@@ -1089,108 +1090,6 @@ pub fn hertz_alpha(e: f64) -> f64 {
     hi
 }
 
-/// Cell grid hashed into a table of `2^b ≥ 2N` buckets, rebuilt every step by a counting
-/// sort: the domain may hold many more cells than spheres (a metre box of millimetre
-/// grains), so cells are not stored densely. A hash collision only adds candidates that
-/// the distance test rejects. Along a periodic axis the cells divide the period exactly
-/// and their index wraps, so that spheres at opposite faces are neighbours.
-#[derive(Default)]
-struct Grid {
-    origin: [f64; 3],
-    /// Inverse cell edge per axis.
-    inv_cell: [f64; 3],
-    /// Cells along each periodic axis (cell keys wrap modulo it).
-    wrap: [Option<i64>; 3],
-    /// Some axis wraps (else `bucket` skips the modulo).
-    wraps: bool,
-    mask: u64,
-    /// Bucket start offsets (len buckets + 1) and sphere indices sorted by bucket.
-    start: Vec<u32>,
-    entries: Vec<u32>,
-    bucket_of: Vec<u64>,
-}
-
-impl Grid {
-    fn key(&self, x: [f64; 3]) -> [i64; 3] {
-        [0, 1, 2].map(|k| ((x[k] - self.origin[k]) * self.inv_cell[k]).floor() as i64)
-    }
-
-    fn bucket(&self, mut k: [i64; 3]) -> u64 {
-        if self.wraps {
-            for (c, w) in k.iter_mut().zip(self.wrap) {
-                if let Some(n) = w {
-                    *c = c.rem_euclid(n);
-                }
-            }
-        }
-        let h = (k[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            ^ (k[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-            ^ (k[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
-        (h ^ (h >> 29)) & self.mask
-    }
-
-    /// Bins `x` in cells of at least `cell` (the largest diameter) on every axis.
-    /// Periodic axes start at `origin` (the domain's min corner).
-    fn build(&mut self, x: &[[f64; 3]], cell: f64, origin: [f64; 3], period: [Option<f64>; 3]) {
-        self.origin = origin;
-        for k in 0..3 {
-            (self.inv_cell[k], self.wrap[k]) = match period[k] {
-                Some(l) => {
-                    let n = (l / cell).floor().max(1.0);
-                    (n / l, Some(n as i64))
-                }
-                None => (1.0 / cell, None),
-            };
-        }
-        self.wraps = self.wrap.iter().any(Option::is_some);
-        let buckets = (2 * x.len()).next_power_of_two().max(2);
-        self.mask = buckets as u64 - 1;
-        let mut bucket_of = std::mem::take(&mut self.bucket_of);
-        bucket_of.clear();
-        bucket_of.extend(x.iter().map(|p| self.bucket(self.key(*p))));
-        self.bucket_of = bucket_of;
-        self.start.clear();
-        self.start.resize(buckets + 1, 0);
-        for b in &self.bucket_of {
-            self.start[*b as usize + 1] += 1;
-        }
-        for k in 0..buckets {
-            self.start[k + 1] += self.start[k];
-        }
-        self.entries.resize(x.len(), 0);
-        let mut fill = self.start.clone();
-        for (i, b) in self.bucket_of.iter().enumerate() {
-            self.entries[fill[*b as usize] as usize] = i as u32;
-            fill[*b as usize] += 1;
-        }
-    }
-
-    /// Every sphere in the 27 cells around `p` (and whatever shares their buckets), each
-    /// once. Read in place: copying each bucket out (27 small copies a sphere) took a
-    /// sixth of a step at 100 k spheres.
-    fn candidates(&self, p: [f64; 3]) -> impl Iterator<Item = u32> + '_ {
-        let k = self.key(p);
-        let mut seen = [u64::MAX; 27];
-        let mut m = 0;
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let b = self.bucket([k[0] + dx, k[1] + dy, k[2] + dz]);
-                    if !seen[..m].contains(&b) {
-                        seen[m] = b;
-                        m += 1;
-                    }
-                }
-            }
-        }
-        (0..m).flat_map(move |q| {
-            let b = seen[q] as usize;
-            let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
-            self.entries[s..e].iter().copied()
-        })
-    }
-}
-
 impl DemEngine for SoftSphereEngine {
     fn name(&self) -> &'static str {
         Self::NAME
@@ -1606,7 +1505,7 @@ mod tests {
         let x: Vec<[f64; 3]> = (0..n)
             .map(|_| [0, 1, 2].map(|_| uniform(&mut rng, -0.02, 0.02)))
             .collect();
-        let mut grid = Grid::default();
+        let mut grid = CellHash::default();
         grid.build(&x, 2.0 * 2e-3, [-0.02; 3], [None; 3]);
         let mut touching = 0;
         for i in 0..n {

@@ -14,7 +14,7 @@
 //! With `coupling.porosity_pressure = "energy-pair"` the GPU pass also sums ∇ε at each
 //! particle (twin: [`PorosityField::gradient`]) for the fluid's pressure terms.
 //!
-//! Grains are binned in hashed cells one support wide ([`Bins`]); on a periodic axis the
+//! Grains are binned in hashed cells one support wide ([`CellHash`]); on a periodic axis the
 //! cells divide the period and distances are minimum images. Many points (the grains,
 //! each window) are summed on all the machine's threads.
 
@@ -25,6 +25,7 @@ use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 use crate::unresolved_coupling::grain_binding;
 use couplet_protocol::Scene;
+use couplet_protocol::cell_hash::CellHash;
 
 pub const GRAIN_POROSITY_WGSL: &str = include_str!("../shaders/grain_porosity.wgsl");
 pub const POROSITY_READ_WGSL: &str = include_str!("../shaders/grain_porosity_read.wgsl");
@@ -246,17 +247,6 @@ impl PorosityField {
         }
     }
 
-    /// Cells per periodic axis (at least one support wide), 0 on closed axes.
-    fn periodic_cells(&self) -> [i64; 3] {
-        std::array::from_fn(|k| {
-            if self.period[k] > 0.0 {
-                ((self.period[k] / self.support).floor() as i64).max(1)
-            } else {
-                0
-            }
-        })
-    }
-
     /// r_a − r_b as the nearest image on periodic axes.
     #[cfg(test)]
     fn separation(&self, a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -341,66 +331,32 @@ impl PorosityField {
 /// more than it saves.
 const PARALLEL_MIN_POINTS: usize = 2048;
 
-/// Solids binned by cell for look-ups within one support: cells at least one support
-/// wide (on a periodic axis they divide the period and their index wraps), hashed into
-/// a table of 2^b ≥ 2N buckets by a counting sort. The domain may hold far more cells
-/// than solids (a metre box of 0.1 mm grains), so cells are not stored densely; a
-/// collision only adds candidates that the distance test rejects. The soft-sphere
-/// engine bins its spheres the same way (`couplet_dem`'s `Grid`, cells of a diameter).
+/// Solids binned for look-ups within one support: a [`CellHash`] of cells at least one
+/// support wide (on a periodic axis they divide the period), over the solids' positions
+/// wrapped into the periodic box, so that a nearest image is at most one period away.
 struct Bins {
+    hash: CellHash,
     /// Each solid's position from the field's origin, wrapped into [0, period) on
     /// periodic axes.
     at: Vec<[f64; 3]>,
     origin: [f64; 3],
-    /// Period per axis (0: open) and cells along it (0: open).
+    /// Period per axis (0: open).
     period: [f64; 3],
-    cells: [i64; 3],
-    /// Inverse cell edge per axis.
-    inv_cell: [f64; 3],
     r2max: f64,
-    mask: u64,
-    /// Bucket start offsets (buckets + 1) and solid indices sorted by bucket.
-    start: Vec<u32>,
-    entries: Vec<u32>,
 }
 
 impl Bins {
     fn new(field: &PorosityField, solids: &[Solid]) -> Bins {
-        let cells = field.periodic_cells();
-        let inv_cell = std::array::from_fn(|k| {
-            if cells[k] > 0 {
-                cells[k] as f64 / field.period[k]
-            } else {
-                1.0 / field.support
-            }
-        });
-        let buckets = (2 * solids.len()).next_power_of_two().max(2);
         let mut bins = Bins {
-            at: Vec::with_capacity(solids.len()),
+            hash: CellHash::default(),
+            at: Vec::new(),
             origin: field.origin,
             period: field.period,
-            cells,
-            inv_cell,
             r2max: field.support * field.support,
-            mask: buckets as u64 - 1,
-            start: vec![0; buckets + 1],
-            entries: vec![0; solids.len()],
         };
         bins.at = solids.iter().map(|s| bins.wrap(s.position)).collect();
-        let bucket_of: Vec<usize> = (bins.at.iter())
-            .map(|&q| bins.bucket(bins.cell(q)))
-            .collect();
-        for &b in &bucket_of {
-            bins.start[b + 1] += 1;
-        }
-        for b in 0..buckets {
-            bins.start[b + 1] += bins.start[b];
-        }
-        let mut fill = bins.start.clone();
-        for (j, &b) in bucket_of.iter().enumerate() {
-            bins.entries[fill[b] as usize] = j as u32;
-            fill[b] += 1;
-        }
+        let period = field.period.map(|l| (l > 0.0).then_some(l));
+        (bins.hash).build(&bins.at, field.support, [0.0; 3], period);
         bins
     }
 
@@ -412,54 +368,16 @@ impl Bins {
         })
     }
 
-    /// The cell of a wrapped position (its last cell where round-off puts it at the
-    /// period).
-    fn cell(&self, q: [f64; 3]) -> [i64; 3] {
-        std::array::from_fn(|k| {
-            let c = (q[k] * self.inv_cell[k]).floor() as i64;
-            if self.cells[k] > 0 {
-                c.clamp(0, self.cells[k] - 1)
-            } else {
-                c
-            }
-        })
-    }
-
-    fn bucket(&self, mut c: [i64; 3]) -> usize {
-        for k in 0..3 {
-            if self.cells[k] > 0 {
-                c[k] = c[k].rem_euclid(self.cells[k]);
-            }
-        }
-        let h = (c[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            ^ (c[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-            ^ (c[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
-        ((h ^ (h >> 29)) & self.mask) as usize
-    }
-
     /// Calls `visit(r_pj, j)` for every solid j within the support of `p`, with
-    /// r_pj = p − x_j the nearest image, each solid once: the 27 cells around p map to
-    /// buckets visited once each (a short period or a collision maps two cells to one
-    /// bucket).
+    /// r_pj = p − x_j the nearest image, each solid once.
     fn each_solid_near(&self, p: [f64; 3], mut visit: impl FnMut([f64; 3], usize)) {
         let q = self.wrap(p);
-        let c = self.cell(q);
-        let mut seen = [usize::MAX; 27];
-        let mut m = 0;
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let b = self.bucket([c[0] + dx, c[1] + dy, c[2] + dz]);
-                    if !seen[..m].contains(&b) {
-                        seen[m] = b;
-                        m += 1;
-                    }
-                }
-            }
-        }
         let half = self.period.map(|l| 0.5 * l);
-        for &b in &seen[..m] {
-            for &j in &self.entries[self.start[b] as usize..self.start[b + 1] as usize] {
+        // The buckets' slices walked directly: through `CellHash::candidates`' flat_map
+        // the sums took 15 % longer.
+        let (buckets, m) = self.hash.near_buckets(q);
+        for &b in &buckets[..m] {
+            for &j in self.hash.bucket(b) {
                 let x = self.at[j as usize];
                 // Both wrapped: the nearest image is at most one period away.
                 let r: [f64; 3] = std::array::from_fn(|k| {

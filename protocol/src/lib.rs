@@ -1,6 +1,7 @@
 //! The contract between couplet's processes: scene schema, zero-copy payloads,
 //! iceoryx2 service names, protocol version and handshake, validation of received data,
-//! checkpoint state files, and the gRPC control API.
+//! checkpoint state files, the gRPC control API, and the cell hash both servers search
+//! neighbours with.
 
 pub use handshake::{HandshakeError, check_hello, check_hello_for};
 pub use payload::{
@@ -16,6 +17,7 @@ pub use scene::{
 pub use service::{ServiceLeaf, service_name};
 pub use validate::{ValidationError, validate_loads, validate_points, validate_states};
 
+pub mod cell_hash;
 pub mod handshake;
 pub mod payload;
 pub mod scene;
