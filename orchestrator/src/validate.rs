@@ -4645,6 +4645,49 @@ mod tests {
         assert!(e.contains("of `hydrostatic-tank`"), "{e}");
     }
 
+    /// Every line of the GPU machine's VALS files (`scripts/gpu-vals/*.txt`, `LABEL CASE
+    /// ARGS...`) names a case, variants it has (`--variant`, by label or folder name)
+    /// and sweep points it has (`--point K`): a typo there would cost a GPU call its
+    /// minutes of set-up and come back empty.
+    #[test]
+    fn gpu_vals_files_name_cases_variants_and_points_that_exist() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/gpu-vals");
+        let mut lines = 0;
+        for file in std::fs::read_dir(&dir).unwrap() {
+            let file = file.unwrap().path();
+            let text = std::fs::read_to_string(&file).unwrap();
+            for line in text
+                .lines()
+                .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+            {
+                let words: Vec<&str> = line.split_whitespace().collect();
+                let at = format!("{}: {line}", file.display());
+                let case = find(words[1]).unwrap_or_else(|e| panic!("{at}: {e}"));
+                let value = |flag: &str| -> Vec<String> {
+                    (words.windows(2).filter(|w| w[0] == flag))
+                        .map(|w| w[1].to_string())
+                        .collect()
+                };
+                let variants = value("--variant");
+                let chosen =
+                    chosen_variants(case, false, &variants).unwrap_or_else(|e| panic!("{at}: {e}"));
+                assert!(
+                    variants.is_empty() || chosen.len() == variants.len(),
+                    "{at}"
+                );
+                for k in value("--point") {
+                    let k: usize = k.parse().unwrap_or_else(|e| panic!("{at}: {e}"));
+                    assert!(
+                        k < sweep_specs(case.name).unwrap().len(),
+                        "{at}: no point {k}"
+                    );
+                }
+                lines += 1;
+            }
+        }
+        assert!(lines >= 20, "{lines} lines in {}", dir.display());
+    }
+
     /// The cavity's sweep keeps its periodic z span at 8 of each point's spacings (the
     /// quick's 0.8 m at δ = 0.1 m): at δ = 0.01 m that is 0.08 m, 80 000 fluid
     /// particles, where the quick's 0.8 m would be 800 000. Poiseuille's x and z periods
