@@ -325,10 +325,11 @@ impl PorosityField {
 
 /// Points from which [`PorosityField::porosity`] and [`PorosityField::gradient`] split
 /// over the machine's threads. The fluid server sums at every grain once a window, on
-/// the CPU between the GPU's steps: 15 300 grains (the CPB and RTI) took about 100 ms
-/// of a window on one thread (2026-11-29, `couplet bench scenes/rayleigh-taylor.toml`),
-/// which on a GPU would set the window's pace. Below this many, spawning threads costs
-/// more than it saves.
+/// the CPU between the GPU's steps, where on a GPU it can set the window's pace: at
+/// 15 300 grains (the CPB and RTI) the sum took 97.5 ms on one thread before it was
+/// binned in a `CellHash` and split, 17.5 ms after on two (2026-11-29, `couplet bench
+/// scenes/rayleigh-taylor.toml`). Below this many points, spawning threads costs more
+/// than it saves.
 const PARALLEL_MIN_POINTS: usize = 2048;
 
 /// Solids binned for look-ups within one support: a [`CellHash`] of cells at least one
