@@ -256,12 +256,27 @@ pub fn main() -> ExitCode {
                 Some(s) => eprintln!("couplet: {:?}: {}", s.code(), s.message()),
                 None => eprintln!("couplet: {e:#}"),
             }
-            ExitCode::FAILURE
+            // Stopped by Ctrl-C or SIGTERM: the exit code a shell gives the signal.
+            match crate::interrupt::requested() {
+                Some(signal) => ExitCode::from(signal.exit_code()),
+                None => ExitCode::FAILURE,
+            }
         }
     }
 }
 
 fn real_main(cli: Cli) -> anyhow::Result<()> {
+    match &cli.command {
+        // A run stops cleanly between windows on Ctrl-C or SIGTERM (`interrupt.rs`).
+        Cmd::Run { .. } | Cmd::Validate { .. } => crate::interrupt::install()
+            .context("installing the SIGINT and SIGTERM handlers")?,
+        // The orchestrator that started a server ends the run; a detached one is the
+        // user's to stop.
+        Cmd::FluidServer { start, .. } | Cmd::DemServer { start, .. } if !start.detached => {
+            crate::interrupt::ignore_sigint()
+        }
+        _ => {}
+    }
     match cli.command {
         Cmd::Run {
             scene,

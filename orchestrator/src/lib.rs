@@ -8,6 +8,7 @@ pub use window::{WindowPlan, choose_window};
 pub mod bench;
 pub mod cli;
 pub mod ctl;
+pub mod interrupt;
 pub mod launch;
 pub mod outputs;
 pub mod plan;

@@ -7,6 +7,7 @@
 //! It waits spin-then-block on its wake event and checks its children after every
 //! block slice (100 ms), so a dead server stops the run within a second.
 
+use crate::interrupt::Interrupt;
 use crate::launch::{LaunchError, Server};
 use crate::outputs::Outputs;
 use crate::record::RecordError;
@@ -71,6 +72,22 @@ pub enum RunError {
         "run id `{0}` is taken: a live orchestrator already runs it (give each run its own --run-id)"
     )]
     RunIdTaken(String),
+    /// Ctrl-C or SIGTERM ([`crate::interrupt`]): the run stopped between windows.
+    #[error("interrupted by {signal} at t = {time:.6e} s of {end:.6e} s, after {windows} windows{how}")]
+    Interrupted {
+        signal: String,
+        time: f64,
+        end: f64,
+        windows: u64,
+        /// How the run stopped and what is left of it.
+        how: String,
+    },
+}
+
+impl RunError {
+    pub fn is_interrupted(&self) -> bool {
+        matches!(self, Self::Interrupted { .. })
+    }
 }
 
 /// What `couplet run` (and `bench`) is asked to do.
@@ -203,7 +220,8 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scene.meta.name));
-    let mut run = CoupledRun::launch(
+    let end = scene.time.end;
+    let launched = CoupledRun::launch(
         scene,
         &text,
         &out,
@@ -215,9 +233,23 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
             run_id: opts.run_id.clone(),
             external: opts.external.clone(),
         },
-    )?;
+    );
+    let mut run = match (launched, crate::interrupt::requested()) {
+        (Ok(run), _) => run,
+        (Err(_), Some(signal)) => {
+            return Err(RunError::Interrupted {
+                signal: signal.name(),
+                time: 0.0,
+                end,
+                windows: 0,
+                how: " (while the servers started)".into(),
+            });
+        }
+        (Err(e), None) => return Err(e),
+    };
     let mut progress = Progress::new(opts.progress, run.end_time());
     let mut result = Ok(());
+    let recording = opts.record.then(|| out.join("run.mcap"));
     while !run.done() {
         match run.advance() {
             Ok(w) => progress.update(w.end),
@@ -226,11 +258,46 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
                 break;
             }
         }
+        // Read after the window: one in progress when the signal came is finished.
+        if let Some(signal) = crate::interrupt::requested() {
+            result = Err(interrupted(&run, signal, recording.as_deref(), false));
+            break;
+        }
     }
     progress.finish();
-    let summary = run.close(result.is_ok());
+    // A signal sent to the whole process group (`timeout`, `kill -- -PGID`) also ends the
+    // servers, which fails the window in progress: that too is the interruption.
+    if let (Err(e), Some(signal)) = (&result, crate::interrupt::requested()) {
+        if !e.is_interrupted() {
+            result = Err(interrupted(&run, signal, recording.as_deref(), true));
+        }
+    }
+    let summary = run.close(matches!(result, Ok(()) | Err(RunError::Interrupted { .. })));
     result?;
     summary
+}
+
+/// The error of a run that `signal` stopped after its last complete window.
+fn interrupted(
+    run: &CoupledRun,
+    signal: Interrupt,
+    recording: Option<&Path>,
+    lost: bool,
+) -> RunError {
+    let mut how = String::new();
+    if lost {
+        how += " (the signal ended the servers too: the window in progress is lost)";
+    }
+    if let Some(r) = recording {
+        how += &format!("; the recording {} is closed there", r.display());
+    }
+    RunError::Interrupted {
+        signal: signal.name(),
+        time: run.windows_done() as f64 * run.plan().window,
+        end: run.end_time(),
+        windows: run.windows_done(),
+        how,
+    }
 }
 
 /// How [`CoupledRun::launch`] starts a run.
@@ -471,6 +538,14 @@ impl CoupledRun {
                 || self.hellos.try_next(),
                 || {
                     peers.check()?;
+                    // Ctrl-C while the servers start (which can take minutes) stops
+                    // here; `run` reports it as the interruption.
+                    if let Some(signal) = crate::interrupt::requested() {
+                        return Err(TransportError::PeerGone(format!(
+                            "{} before every server said hello",
+                            signal.name()
+                        )));
+                    }
                     if start.elapsed() > HELLO_TIMEOUT {
                         let apart: Vec<String> = [&peers.fluid, &peers.dem]
                             .into_iter()

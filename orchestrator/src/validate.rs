@@ -58,6 +58,13 @@ pub enum ValidateError {
     },
 }
 
+impl ValidateError {
+    /// Ctrl-C or SIGTERM stopped a run ([`RunError::Interrupted`]).
+    pub fn is_interrupted(&self) -> bool {
+        matches!(self, Self::Run(e) if e.is_interrupted())
+    }
+}
+
 /// A case's judgement of its variants' reports against each other.
 type Compare = fn(&[Report], &mut Report) -> Result<(), String>;
 
@@ -890,6 +897,8 @@ fn run_case(
             scenes_dir,
             progress,
         ) {
+            // Ctrl-C or SIGTERM ends the case, not just this variant.
+            Err(e) if e.is_interrupted() => return Err(e),
             Ok(mut r) => {
                 r.case = format!("{} ({label})", case.name);
                 write_outputs(&r)?;
@@ -989,6 +998,29 @@ fn run_one(
         progress,
         run_id: None,
         external: Vec::new(),
+    })
+    .map_err(|e| match e {
+        RunError::Interrupted {
+            signal,
+            time,
+            end,
+            windows,
+            mut how,
+        } if windows > 0 => {
+            how += &format!(
+                "; `couplet validate {} --recording {}` analyses what ran",
+                case.name,
+                out.display()
+            );
+            RunError::Interrupted {
+                signal,
+                time,
+                end,
+                windows,
+                how,
+            }
+        }
+        e => e,
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
     let rec = read_recording(&out.join("run.mcap")).map_err(ValidateError::Recording)?;
@@ -1179,7 +1211,8 @@ fn sweep_point_into(
         spec.index, spec.scheme, spec.spacing
     );
     let t0 = Instant::now();
-    // A run that fails (a blow-up, say) is a result of the sweep, not its end.
+    // A run that fails (a blow-up, say) is a result of the sweep, not its end; Ctrl-C or
+    // SIGTERM is its end, and leaves no row for the point.
     let point = match run_case(
         case,
         &variants,
@@ -1199,6 +1232,7 @@ fn sweep_point_into(
             passed: r.passed(),
             failure: None,
         },
+        Err(e) if e.is_interrupted() => return Err(e),
         Err(e) => SweepPoint {
             scheme: spec.scheme.into(),
             spacing: spec.spacing,

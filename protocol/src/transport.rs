@@ -12,7 +12,7 @@ use crate::service::{ServiceLeaf, service_name};
 use crate::validate::{ValidationError, validate_header};
 use core::fmt::Debug;
 use iceoryx2::node::{NodeState, NodeView};
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -392,9 +392,12 @@ impl WakeListener {
                 core::hint::spin_loop();
                 continue;
             }
-            self.listener
-                .timed_wait(|_| {}, BLOCK_SLICE)
-                .map_err(ipc("wait", &self.service))?;
+            match self.listener.timed_wait(|_| {}, BLOCK_SLICE) {
+                // A signal the process handles (the orchestrator's Ctrl-C, `interrupt.rs`)
+                // cuts the wait short: a slice like any other, not a failure.
+                Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                Err(e) => return Err(ipc("wait", &self.service)(e)),
+            }
             alive()?;
         }
     }

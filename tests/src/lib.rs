@@ -2,7 +2,8 @@
 //! read back what it recorded.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output};
+use std::time::{Duration, Instant};
 
 /// The repository root (the scenes live in `scenes/`).
 pub fn repo_root() -> PathBuf {
@@ -41,6 +42,44 @@ pub fn couplet_validate(cli: &str, name: &str, out: &Path, extra: &[&str]) -> Ou
     eprintln!("{}", String::from_utf8_lossy(&o.stdout));
     eprintln!("{}", String::from_utf8_lossy(&o.stderr));
     o
+}
+
+/// The pids of process `pid`'s children.
+pub fn children_of(pid: u32) -> Vec<u32> {
+    std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/children"))
+        .unwrap_or_default()
+        .split_whitespace()
+        .filter_map(|s| s.parse().ok())
+        .collect()
+}
+
+/// Waits until the orchestrator `cli` runs its `servers` and its recording `mcap` has grown
+/// past its header: its first chunk, closed only once it holds a megabyte of windows, is on
+/// disk, so windows are running. Returns the servers' pids (fluid first, as
+/// orchestrator/src/run.rs starts them). (Waiting a fixed 3 s instead failed on a loaded
+/// machine, with no window done by then.)
+pub fn wait_for_windows(cli: &mut Child, mcap: &Path, servers: usize) -> Vec<u32> {
+    let start = Instant::now();
+    let mut header = None;
+    loop {
+        let c = children_of(cli.id());
+        let recording = std::fs::metadata(mcap).map(|m| m.len()).unwrap_or(0);
+        if recording > 0 && header.is_none() {
+            header = Some(recording);
+        }
+        if c.len() == servers && header.is_some_and(|h| recording > h) {
+            return c;
+        }
+        assert!(
+            cli.try_wait().unwrap().is_none(),
+            "couplet ended before its windows could be watched"
+        );
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "servers did not start"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
 }
 
 /// The judged rows of a validation report (`OUT/report.md`): (quantity, result).

@@ -6,19 +6,11 @@
 //! performance figure: the orchestrator blocks in slices of 100 ms and checks its
 //! children after each.
 
-use couplet_tests::{read_recording, scene};
+use couplet_tests::{read_recording, scene, wait_for_windows};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
-
-fn children_of(pid: u32) -> Vec<u32> {
-    std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/children"))
-        .unwrap_or_default()
-        .split_whitespace()
-        .filter_map(|s| s.parse().ok())
-        .collect()
-}
 
 fn kill_one_child_and_time_exit(victim: &str) {
     let out = tempfile::tempdir().unwrap();
@@ -34,31 +26,7 @@ fn kill_one_child_and_time_exit(victim: &str) {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Wait until both servers run and the recording has grown past its header: its
-    // first chunk, closed only once it holds a megabyte of windows, is on disk. (Waiting
-    // a fixed 3 s instead failed on a loaded machine, with no window done by then.)
-    let start = Instant::now();
-    let mut header = None;
-    let children = loop {
-        let c = children_of(cli.id());
-        let mcap = out.path().join("run.mcap");
-        let recording = std::fs::metadata(&mcap).map(|m| m.len()).unwrap_or(0);
-        if recording > 0 && header.is_none() {
-            header = Some(recording);
-        }
-        if c.len() == 2 && header.is_some_and(|h| recording > h) {
-            break c;
-        }
-        assert!(
-            cli.try_wait().unwrap().is_none(),
-            "couplet run ended before the test could kill a child"
-        );
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "servers did not start"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let children = wait_for_windows(&mut cli, &out.path().join("run.mcap"), 2);
     // The fluid server is started first (see orchestrator/src/run.rs).
     let pid = if victim == "fluid" {
         children[0]

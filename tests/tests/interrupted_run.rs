@@ -1,0 +1,148 @@
+//! Ctrl-C and SIGTERM stop `couplet run` and `couplet validate` between windows, with the
+//! recording closed (`orchestrator/src/interrupt.rs`). Regression: before, either signal
+//! killed the orchestrator at once and left the recording without its summary.
+//!
+//! Exit codes are the shell's for a process a signal ended, 128 + n (bash(1), "EXIT
+//! STATUS"): 130 for SIGINT, 143 for SIGTERM. The time bounds only keep a broken build
+//! from hanging the suite; they are not performance figures.
+
+use couplet_tests::{read_recording, scene, wait_for_windows};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+
+/// Starts `couplet ARGS…` in a process group of its own, as a shell starts a job.
+fn spawn(args: &[&str]) -> Child {
+    use std::os::unix::process::CommandExt;
+    Command::new(CLI)
+        .args(args)
+        .process_group(0)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Waits for `cli` to exit; returns its status and stderr.
+fn finish(cli: &mut Child) -> (ExitStatus, String) {
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = cli.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "couplet did not stop after the signal"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(cli.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    eprintln!("{stderr}\nexit {status}");
+    (status, stderr)
+}
+
+/// `couplet run` of the small dam break with boxes, sent `signal` (to the orchestrator
+/// alone, or to its whole process group as a terminal's Ctrl-C and `timeout` do):
+/// exit code, stderr's report, a closed recording, no server left.
+fn interrupt_run(signal: i32, group: bool, code: i32, name: &str) {
+    let out = tempfile::tempdir().unwrap();
+    let o = out.path().to_str().unwrap();
+    let scene = scene("dam-break-boxes");
+    let mut cli = spawn(&["run", scene.to_str().unwrap(), "--out", o, "--spacing", "0.02"]);
+    let servers = wait_for_windows(&mut cli, &out.path().join("run.mcap"), 2);
+    let target = if group { -(cli.id() as i32) } else { cli.id() as i32 };
+    // SAFETY: kill(2) on our own child, or on the process group it leads.
+    unsafe { libc::kill(target, signal) };
+    let (status, stderr) = finish(&mut cli);
+    assert_eq!(status.code(), Some(code), "{stderr}");
+    assert!(
+        stderr.contains(&format!("interrupted by {name} at t = ")),
+        "{stderr}"
+    );
+    let rec = read_recording(&out.path().join("run.mcap")).unwrap();
+    assert!(rec.has_summary, "the recording was not closed: {stderr}");
+    assert!(rec.truncated.is_none(), "{:?}", rec.truncated);
+    assert!(rec.windows > 0, "{rec:?}");
+    for pid in servers {
+        assert!(
+            !std::path::Path::new(&format!("/proc/{pid}")).exists()
+                || std::fs::read_to_string(format!("/proc/{pid}/stat"))
+                    .is_ok_and(|s| s.contains(") Z ")),
+            "server {pid} still runs"
+        );
+    }
+}
+
+#[test]
+fn sigint_to_the_orchestrator_stops_the_run_after_its_window() {
+    interrupt_run(libc::SIGINT, false, 130, "SIGINT");
+}
+
+#[test]
+fn ctrl_c_to_the_process_group_stops_the_run_after_its_window() {
+    // The servers ignore SIGINT, so the window in progress is finished, not lost.
+    interrupt_run(libc::SIGINT, true, 130, "SIGINT");
+}
+
+#[test]
+fn sigterm_to_the_process_group_closes_the_recording() {
+    interrupt_run(libc::SIGTERM, true, 143, "SIGTERM");
+}
+
+/// Regression (sweep_ran_on_after_sigint, session 40): `pkill -INT` did not stop a sweep
+/// that a script had started in its background, where the shell makes SIGINT ignored.
+/// That choice is kept (a terminal's Ctrl-C is not meant for such a job); SIGTERM stops
+/// it, cleanly: the sweep ends at the point it cuts, does not go on to its next point,
+/// and leaves no row for the cut one.
+#[test]
+fn sigterm_ends_a_background_sweep_at_the_point_it_cuts() {
+    use std::os::unix::process::CommandExt;
+    let out = tempfile::tempdir().unwrap();
+    // A long point 0, so that the signals reach it while it runs.
+    let mut cli = Command::new(CLI);
+    cli.args(["validate", "hydrostatic-tank", "--sweep", "--out"])
+        .arg(out.path())
+        .args(["--set", "time.end=100.0"])
+        .process_group(0)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    // SAFETY: signal(2) between fork and exec only sets a disposition, as bash does for
+    // `cmd &` in a script.
+    unsafe {
+        cli.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_IGN);
+            Ok(())
+        });
+    }
+    let mut cli = cli.spawn().unwrap();
+    let specs = couplet_orchestrator::validate::sweep_specs("hydrostatic-tank").unwrap();
+    let point0 = specs[0].dir(out.path());
+    let mcap = point0.join("run.mcap");
+    wait_for_windows(&mut cli, &mcap, 1);
+    // SAFETY: kill(2) on our own child.
+    unsafe { libc::kill(cli.id() as i32, libc::SIGINT) };
+    std::thread::sleep(Duration::from_secs(2));
+    assert!(
+        cli.try_wait().unwrap().is_none(),
+        "SIGINT, ignored when the sweep started, stopped it"
+    );
+    // SAFETY: as above.
+    unsafe { libc::kill(cli.id() as i32, libc::SIGTERM) };
+    let (status, stderr) = finish(&mut cli);
+    assert_eq!(status.code(), Some(143), "{stderr}");
+    assert!(stderr.contains("interrupted by SIGTERM"), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "`couplet validate hydrostatic-tank --recording {}` analyses what ran",
+            point0.display()
+        )),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("point 1"), "the sweep went on: {stderr}");
+    assert!(!specs[0].row_file(out.path()).exists());
+    assert!(read_recording(&mcap).unwrap().has_summary);
+}
