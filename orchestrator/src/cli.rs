@@ -268,8 +268,9 @@ pub fn main() -> ExitCode {
 fn real_main(cli: Cli) -> anyhow::Result<()> {
     match &cli.command {
         // A run stops cleanly between windows on Ctrl-C or SIGTERM (`interrupt.rs`).
-        Cmd::Run { .. } | Cmd::Validate { .. } => crate::interrupt::install()
-            .context("installing the SIGINT and SIGTERM handlers")?,
+        Cmd::Run { .. } | Cmd::Validate { .. } => {
+            crate::interrupt::install().context("installing the SIGINT and SIGTERM handlers")?
+        }
         // The orchestrator that started a server ends the run; a detached one is the
         // user's to stop.
         Cmd::FluidServer { start, .. } | Cmd::DemServer { start, .. } if !start.detached => {

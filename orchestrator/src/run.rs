@@ -73,7 +73,9 @@ pub enum RunError {
     )]
     RunIdTaken(String),
     /// Ctrl-C or SIGTERM ([`crate::interrupt`]): the run stopped between windows.
-    #[error("interrupted by {signal} at t = {time:.6e} s of {end:.6e} s, after {windows} windows{how}")]
+    #[error(
+        "interrupted by {signal} at t = {time:.6e} s of {end:.6e} s, after {windows} windows{how}"
+    )]
     Interrupted {
         signal: String,
         time: f64,
@@ -267,10 +269,10 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
     progress.finish();
     // A signal sent to the whole process group (`timeout`, `kill -- -PGID`) also ends the
     // servers, which fails the window in progress: that too is the interruption.
-    if let (Err(e), Some(signal)) = (&result, crate::interrupt::requested()) {
-        if !e.is_interrupted() {
-            result = Err(interrupted(&run, signal, recording.as_deref(), true));
-        }
+    if let (Err(e), Some(signal)) = (&result, crate::interrupt::requested())
+        && !e.is_interrupted()
+    {
+        result = Err(interrupted(&run, signal, recording.as_deref(), true));
     }
     let summary = run.close(matches!(result, Ok(()) | Err(RunError::Interrupted { .. })));
     result?;
