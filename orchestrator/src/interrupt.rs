@@ -8,8 +8,9 @@
 //! [`install`] records the first signal in a flag that the coupling loop reads after
 //! every window ([`crate::run::run`]): the run stops there, tells the servers to shut
 //! down and closes its recording, and `couplet` exits with 128 + the signal's number
-//! (130, 143), as a shell reports a process the signal killed. A second signal ends the
-//! process at once, for a window that takes too long.
+//! (130, 143), as a shell reports a process the signal killed. A second signal, half a
+//! second or more after the first, ends the process at once, for a window that takes too
+//! long.
 //!
 //! A SIGINT already ignored when the process starts stays ignored (the shell's choice for
 //! a background job, so that a terminal's Ctrl-C does not reach it); such a run stops on
@@ -17,24 +18,53 @@
 //! terminal's Ctrl-C goes to the whole foreground process group, and the orchestrator,
 //! not they, decides when the run ends (they exit within a second of it going).
 
-use std::sync::atomic::{AtomicI32, Ordering};
+use std::sync::atomic::{AtomicI32, AtomicI64, Ordering};
 
 /// The first signal received, 0 for none.
 static RECEIVED: AtomicI32 = AtomicI32::new(0);
+/// When it came, CLOCK_MONOTONIC in ns.
+static RECEIVED_AT_NS: AtomicI64 = AtomicI64::new(0);
+
+/// A signal this soon after the first is the same request delivered twice, not a second
+/// one: GNU `timeout` sends its signal to the command and then to the command's whole
+/// process group, which holds the command, so the orchestrator gets it twice within
+/// microseconds. (Taken as the second request, that ended the process at once, and
+/// `scripts/gpu-check`'s cut runs were left without their summary; 2026-11-29.) A person
+/// pressing Ctrl-C again takes longer than this.
+const SAME_REQUEST_NS: i64 = 500_000_000;
 
 /// What the first signal prints (with write(2): no allocation, no lock).
-const FIRST: &[u8] =
-    b"\ncouplet: stopping once the window in progress is done (signal again to stop at once)\n";
+const FIRST: &[u8] = b"\ncouplet: stopping once the window in progress is done (signal again, \
+    after half a second, to stop at once)\n";
+
+/// CLOCK_MONOTONIC in ns (clock_gettime(2) is async-signal-safe).
+fn now_ns() -> i64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes into the timespec we own.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec * 1_000_000_000 + ts.tv_nsec
+}
 
 extern "C" fn note(signal: libc::c_int) {
-    // Only async-signal-safe calls here: an atomic swap, write(2), signal(2), raise(3).
-    if RECEIVED.swap(signal, Ordering::SeqCst) == 0 {
+    // Only async-signal-safe calls here: atomics, clock_gettime(2), write(2), signal(2),
+    // raise(3). The handler runs with SIGINT and SIGTERM blocked, so one cannot
+    // interrupt the other between the two stores.
+    let now = now_ns();
+    if RECEIVED
+        .compare_exchange(0, signal, Ordering::SeqCst, Ordering::SeqCst)
+        .is_ok()
+    {
+        RECEIVED_AT_NS.store(now, Ordering::SeqCst);
         // SAFETY: write(2) on stderr from a static buffer is async-signal-safe.
         unsafe {
             libc::write(2, FIRST.as_ptr().cast(), FIRST.len());
         }
-    } else {
-        // SAFETY: restoring the default disposition and re-raising are async-signal-safe.
+    } else if now - RECEIVED_AT_NS.load(Ordering::SeqCst) > SAME_REQUEST_NS {
+        // SAFETY: restoring the default disposition and re-raising are async-signal-safe;
+        // the signal is delivered once the handler returns and unblocks it.
         unsafe {
             libc::signal(signal, libc::SIG_DFL);
             libc::raise(signal);
@@ -65,6 +95,8 @@ pub fn install() -> std::io::Result<()> {
             action.sa_sigaction = note as extern "C" fn(libc::c_int) as libc::sighandler_t;
             action.sa_flags = libc::SA_RESTART;
             libc::sigemptyset(&mut action.sa_mask);
+            libc::sigaddset(&mut action.sa_mask, libc::SIGINT);
+            libc::sigaddset(&mut action.sa_mask, libc::SIGTERM);
             libc::sigaction(signal, &action, std::ptr::null_mut())
         };
         if rc != 0 {

@@ -999,28 +999,17 @@ fn run_one(
         run_id: None,
         external: Vec::new(),
     })
-    .map_err(|e| match e {
-        RunError::Interrupted {
-            signal,
-            time,
-            end,
-            windows,
-            mut how,
-        } if windows > 0 => {
-            how += &format!(
+    .map_err(|mut e| {
+        if let RunError::Interrupted { windows, how, .. } = &mut e
+            && *windows > 0
+        {
+            *how += &format!(
                 "; `couplet validate {} --recording {}` analyses what ran",
                 case.name,
                 out.display()
             );
-            RunError::Interrupted {
-                signal,
-                time,
-                end,
-                windows,
-                how,
-            }
         }
-        e => e,
+        e
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
     let rec = read_recording(&out.join("run.mcap")).map_err(ValidateError::Recording)?;

@@ -45,7 +45,7 @@ fn finish(cli: &mut Child) -> (ExitStatus, String) {
 }
 
 /// `couplet run` of the small dam break with boxes, sent `signal` (to the orchestrator
-/// alone, or to its whole process group as a terminal's Ctrl-C and `timeout` do):
+/// alone, or also to its whole process group as `timeout` does):
 /// exit code, stderr's report, a closed recording, no server left.
 fn interrupt_run(signal: i32, group: bool, code: i32, name: &str) {
     let out = tempfile::tempdir().unwrap();
@@ -60,13 +60,16 @@ fn interrupt_run(signal: i32, group: bool, code: i32, name: &str) {
         "0.02",
     ]);
     let servers = wait_for_windows(&mut cli, &out.path().join("run.mcap"), 2);
-    let target = if group {
-        -(cli.id() as i32)
-    } else {
-        cli.id() as i32
-    };
-    // SAFETY: kill(2) on our own child, or on the process group it leads.
-    unsafe { libc::kill(target, signal) };
+    // SAFETY: kill(2) on our own child.
+    unsafe { libc::kill(cli.id() as i32, signal) };
+    if group {
+        // As GNU timeout does: the command, then its group, which holds the command
+        // too. Two signals that arrive before the first is handled merge into one; 50 ms
+        // apart, the orchestrator surely handles both, as it did behind `timeout`.
+        std::thread::sleep(Duration::from_millis(50));
+        // SAFETY: kill(2) on the process group our child leads.
+        unsafe { libc::kill(-(cli.id() as i32), signal) };
+    }
     let (status, stderr) = finish(&mut cli);
     assert_eq!(status.code(), Some(code), "{stderr}");
     assert!(
@@ -96,13 +99,17 @@ fn sigint_to_the_orchestrator_stops_the_run_after_its_window() {
     interrupt_run(libc::SIGINT, false, 130, "SIGINT");
 }
 
+/// Regression (timeout_double_signal_left_the_recording_open, 2026-11-29): taken as a
+/// second request, the group's copy of the signal ended the process at once. (With
+/// SIGTERM the small dam break is often closed and gone within the 50 ms, so SIGINT,
+/// whose servers live on to the shutdown, is the case that shows it every time.)
 #[test]
-fn ctrl_c_to_the_process_group_stops_the_run_after_its_window() {
+fn sigint_to_it_and_its_group_finishes_the_window_in_progress() {
     interrupt_run(libc::SIGINT, true, 130, "SIGINT");
 }
 
 #[test]
-fn sigterm_to_the_process_group_closes_the_recording() {
+fn sigterm_as_timeout_sends_it_closes_the_recording() {
     interrupt_run(libc::SIGTERM, true, 143, "SIGTERM");
 }
 
