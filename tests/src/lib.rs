@@ -2,7 +2,7 @@
 //! read back what it recorded.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output};
+use std::process::{Child, Command, ExitStatus, Output};
 use std::time::{Duration, Instant};
 
 /// The repository root (the scenes live in `scenes/`).
@@ -80,6 +80,26 @@ pub fn wait_for_windows(cli: &mut Child, mcap: &Path, servers: usize) -> Vec<u32
         );
         std::thread::sleep(Duration::from_millis(50));
     }
+}
+
+/// Waits for `cli` to exit, at most `limit` (else fails saying `what` did not happen);
+/// returns its status and its stderr, echoed.
+pub fn exit_within(cli: &mut Child, limit: Duration, what: &str) -> (ExitStatus, String) {
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = cli.try_wait().unwrap() {
+            break s;
+        }
+        assert!(start.elapsed() < limit, "{what} within {limit:?}");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(cli.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    eprintln!(
+        "{stderr}
+exit {status}"
+    );
+    (status, stderr)
 }
 
 /// The judged rows of a validation report (`OUT/report.md`): (quantity, result).

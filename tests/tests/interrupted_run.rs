@@ -6,11 +6,13 @@
 //! STATUS"): 130 for SIGINT, 143 for SIGTERM. The time bounds only keep a broken build
 //! from hanging the suite; they are not performance figures.
 
-use couplet_tests::{read_recording, scene, wait_for_windows};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use couplet_tests::{exit_within, read_recording, scene, wait_for_windows};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
 
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
+/// Only keeps a broken build from hanging the suite.
+const STOP_LIMIT: Duration = Duration::from_secs(60);
 
 /// Starts `couplet ARGS…` in a process group of its own, as a shell starts a job.
 fn spawn(args: &[&str]) -> Child {
@@ -23,25 +25,6 @@ fn spawn(args: &[&str]) -> Child {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap()
-}
-
-/// Waits for `cli` to exit; returns its status and stderr.
-fn finish(cli: &mut Child) -> (ExitStatus, String) {
-    let start = Instant::now();
-    let status = loop {
-        if let Some(s) = cli.try_wait().unwrap() {
-            break s;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(60),
-            "couplet did not stop after the signal"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let mut stderr = String::new();
-    std::io::Read::read_to_string(cli.stderr.as_mut().unwrap(), &mut stderr).unwrap();
-    eprintln!("{stderr}\nexit {status}");
-    (status, stderr)
 }
 
 /// `couplet run` of the small dam break with boxes, sent `signal` (to the orchestrator
@@ -70,7 +53,7 @@ fn interrupt_run(signal: i32, group: bool, code: i32, name: &str) {
         // SAFETY: kill(2) on the process group our child leads.
         unsafe { libc::kill(-(cli.id() as i32), signal) };
     }
-    let (status, stderr) = finish(&mut cli);
+    let (status, stderr) = exit_within(&mut cli, STOP_LIMIT, "couplet stops after the signal");
     assert_eq!(status.code(), Some(code), "{stderr}");
     assert!(
         stderr.contains(&format!("interrupted by {name} at t = ")),
@@ -153,7 +136,7 @@ fn sigterm_ends_a_background_sweep_at_the_point_it_cuts() {
     );
     // SAFETY: as above.
     unsafe { libc::kill(cli.id() as i32, libc::SIGTERM) };
-    let (status, stderr) = finish(&mut cli);
+    let (status, stderr) = exit_within(&mut cli, STOP_LIMIT, "couplet stops after the signal");
     assert_eq!(status.code(), Some(143), "{stderr}");
     assert!(stderr.contains("interrupted by SIGTERM"), "{stderr}");
     assert!(

@@ -6,7 +6,7 @@
 //! performance figure: the orchestrator blocks in slices of 100 ms and checks its
 //! children after each.
 
-use couplet_tests::{read_recording, scene, wait_for_windows};
+use couplet_tests::{exit_within, read_recording, scene, wait_for_windows};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -43,20 +43,13 @@ fn kill_one_child_and_time_exit(victim: &str) {
     // SAFETY: kill(2) on a pid we just read from our own child's child list.
     unsafe { libc::kill(pid as i32, libc::SIGKILL) };
     let killed = Instant::now();
-    let status = loop {
-        if let Some(s) = cli.try_wait().unwrap() {
-            break s;
-        }
-        assert!(
-            killed.elapsed() < Duration::from_secs(10),
-            "couplet run did not notice the dead {victim} server"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    };
+    let (status, stderr) = exit_within(
+        &mut cli,
+        Duration::from_secs(10),
+        &format!("couplet run notices the dead {victim} server"),
+    );
     let took = killed.elapsed();
-    let mut stderr = String::new();
-    std::io::Read::read_to_string(cli.stderr.as_mut().unwrap(), &mut stderr).unwrap();
-    eprintln!("{stderr}\nexit {status} {took:?} after SIGKILL of the {victim} server");
+    eprintln!("{took:?} after SIGKILL of the {victim} server");
     assert!(!status.success());
     assert!(took < Duration::from_secs(1), "took {took:?}");
     assert!(
