@@ -265,10 +265,28 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// Whether `cmd` runs coupling windows in this process, so that Ctrl-C and SIGTERM stop
+/// it cleanly between them (`interrupt.rs`). Not `validate` analysing a recording,
+/// gathering a sweep or listing: nothing there reads the flag, so the signals keep their
+/// usual effect.
+fn runs_windows(cmd: &Cmd) -> bool {
+    matches!(
+        cmd,
+        Cmd::Run { .. }
+            | Cmd::Validate {
+                list: false,
+                gather: false,
+                count: false,
+                list_points: false,
+                recording: None,
+                ..
+            }
+    )
+}
+
 fn real_main(cli: Cli) -> anyhow::Result<()> {
     match &cli.command {
-        // A run stops cleanly between windows on Ctrl-C or SIGTERM (`interrupt.rs`).
-        Cmd::Run { .. } | Cmd::Validate { .. } => {
+        cmd if runs_windows(cmd) => {
             crate::interrupt::install().context("installing the SIGINT and SIGTERM handlers")?
         }
         // The orchestrator that started a server ends the run; a detached one is the
@@ -564,4 +582,41 @@ fn summary_text(s: &RunSummary) -> String {
         t += &format!("recording: {}\n", r.display());
     }
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parsed(args: &[&str]) -> Cmd {
+        Cli::try_parse_from(std::iter::once("couplet").chain(args.iter().copied()))
+            .unwrap()
+            .command
+    }
+
+    /// Regression (analysis_ignored_ctrl_c, 2026-11-29): with the handlers installed for
+    /// every `validate`, Ctrl-C on `--recording` set a flag nothing read, and the
+    /// analysis ran on.
+    #[test]
+    fn only_commands_that_run_windows_take_the_signals() {
+        for args in [
+            &["run", "scenes/dam-break.toml"][..],
+            &["validate", "dam-break", "--quick"],
+            &["validate", "dam-break", "--sweep"],
+            &["validate", "dam-break", "--sweep", "--point", "1"],
+        ] {
+            assert!(runs_windows(&parsed(args)), "{args:?}");
+        }
+        for args in [
+            &["validate", "dam-break", "--recording", "out/x"][..],
+            &["validate", "dam-break", "--sweep", "--gather"],
+            &["validate", "dam-break", "--sweep", "--count"],
+            &["validate", "dam-break", "--sweep", "--list-points"],
+            &["validate", "--list"],
+            &["serve"],
+            &["plan", "scenes/dam-break.toml"],
+        ] {
+            assert!(!runs_windows(&parsed(args)), "{args:?}");
+        }
+    }
 }
