@@ -14,17 +14,26 @@ const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
 /// Only keeps a broken build from hanging the suite.
 const STOP_LIMIT: Duration = Duration::from_secs(60);
 
-/// Starts `couplet ARGS…` in a process group of its own, as a shell starts a job.
+/// Starts `couplet ARGS…` in a process group of its own with SIGINT at its default, as
+/// an interactive shell starts a job. (The suite itself may run with SIGINT ignored, as
+/// anything a script starts with `&` does, and the child would inherit that: couplet
+/// then rightly leaves SIGINT alone, and these tests failed when CI was started so.)
 fn spawn(args: &[&str]) -> Child {
     use std::os::unix::process::CommandExt;
-    Command::new(CLI)
-        .args(args)
+    let mut cli = Command::new(CLI);
+    cli.args(args)
         .process_group(0)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap()
+        .stderr(Stdio::piped());
+    // SAFETY: signal(2) between fork and exec only sets a disposition.
+    unsafe {
+        cli.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    cli.spawn().unwrap()
 }
 
 /// `couplet run` of the small dam break with boxes, sent `signal` (to the orchestrator
