@@ -1,4 +1,4 @@
-//! Ctrl-C and SIGTERM for `couplet run` and `couplet validate`.
+//! Ctrl-C and SIGTERM for `couplet run` and `couplet validate` where it runs cases.
 //!
 //! Without a handler either signal killed the orchestrator at once, leaving the recording
 //! without its summary (readable only up to its last complete chunk). A background job
@@ -88,8 +88,10 @@ pub fn install() -> std::io::Result<()> {
         if signal == libc::SIGINT && ignored(signal) {
             continue;
         }
-        // SAFETY: `note` only makes async-signal-safe calls. SA_RESTART keeps the
-        // servers' and the recorder's blocking calls from failing with EINTR.
+        // SAFETY: `note` only makes async-signal-safe calls. SA_RESTART restarts this
+        // process's interrupted reads and writes (the recorder's files) instead of
+        // failing them with EINTR; iceoryx2's timed wait is not restarted, and
+        // `WakeListener::wait_for` takes its interruption as an ordinary slice.
         let rc = unsafe {
             let mut action: libc::sigaction = std::mem::zeroed();
             action.sa_sigaction = note as extern "C" fn(libc::c_int) as libc::sighandler_t;
