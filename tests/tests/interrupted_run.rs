@@ -14,11 +14,11 @@ const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
 /// Only keeps a broken build from hanging the suite.
 const STOP_LIMIT: Duration = Duration::from_secs(60);
 
-/// Starts `couplet ARGS…` in a process group of its own with SIGINT at its default, as
-/// an interactive shell starts a job. (The suite itself may run with SIGINT ignored, as
-/// anything a script starts with `&` does, and the child would inherit that: couplet
-/// then rightly leaves SIGINT alone, and these tests failed when CI was started so.)
-fn spawn(args: &[&str]) -> Child {
+/// Starts `couplet ARGS…` in a process group of its own with SIGINT's disposition
+/// `sigint`: `SIG_DFL` as an interactive shell starts a job, `SIG_IGN` as a script's
+/// `cmd &` does. (Left to inherit, the disposition would be the suite's, which is
+/// `SIG_IGN` when the suite itself was started with `&`; these tests failed so once.)
+fn spawn(args: &[&str], sigint: libc::sighandler_t) -> Child {
     use std::os::unix::process::CommandExt;
     let mut cli = Command::new(CLI);
     cli.args(args)
@@ -28,8 +28,8 @@ fn spawn(args: &[&str]) -> Child {
         .stderr(Stdio::piped());
     // SAFETY: signal(2) between fork and exec only sets a disposition.
     unsafe {
-        cli.pre_exec(|| {
-            libc::signal(libc::SIGINT, libc::SIG_DFL);
+        cli.pre_exec(move || {
+            libc::signal(libc::SIGINT, sigint);
             Ok(())
         });
     }
@@ -43,14 +43,15 @@ fn interrupt_run(signal: i32, group: bool, code: i32, name: &str) {
     let out = tempfile::tempdir().unwrap();
     let o = out.path().to_str().unwrap();
     let scene = scene("dam-break-boxes");
-    let mut cli = spawn(&[
+    let args = [
         "run",
         scene.to_str().unwrap(),
         "--out",
         o,
         "--spacing",
         "0.02",
-    ]);
+    ];
+    let mut cli = spawn(&args, libc::SIG_DFL);
     let servers = wait_for_windows(&mut cli, &out.path().join("run.mcap"), 2);
     // SAFETY: kill(2) on our own child.
     unsafe { libc::kill(cli.id() as i32, signal) };
@@ -112,26 +113,20 @@ fn sigterm_as_timeout_sends_it_closes_the_recording() {
 /// and leaves no row for the cut one.
 #[test]
 fn sigterm_ends_a_background_sweep_at_the_point_it_cuts() {
-    use std::os::unix::process::CommandExt;
     let out = tempfile::tempdir().unwrap();
     // A long point 0, so that the signals reach it while it runs.
-    let mut cli = Command::new(CLI);
-    cli.args(["validate", "hydrostatic-tank", "--sweep", "--out"])
-        .arg(out.path())
-        .args(["--set", "time.end=100.0"])
-        .process_group(0)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
-    // SAFETY: signal(2) between fork and exec only sets a disposition, as bash does for
-    // `cmd &` in a script.
-    unsafe {
-        cli.pre_exec(|| {
-            libc::signal(libc::SIGINT, libc::SIG_IGN);
-            Ok(())
-        });
-    }
-    let mut cli = cli.spawn().unwrap();
+    let o = out.path().to_str().unwrap();
+    let args = [
+        "validate",
+        "hydrostatic-tank",
+        "--sweep",
+        "--out",
+        o,
+        "--set",
+        "time.end=100.0",
+    ];
+    // SIGINT ignored, as bash sets it up for `cmd &` in a script.
+    let mut cli = spawn(&args, libc::SIG_IGN);
     let specs = couplet_orchestrator::validate::sweep_specs("hydrostatic-tank").unwrap();
     let point0 = specs[0].dir(out.path());
     let mcap = point0.join("run.mcap");
