@@ -86,4 +86,9 @@ pub enum FluidError {
          coupling length (fluid.smoothing_length or fluid.spacing) or space the grains out"
     )]
     Porosity { at: String, porosity: f64 },
+    #[error(
+        "starting masses among unresolved grains (initial_mass.rs): {0}; the grains and the \
+         fluid lattice make a system the solve does not expect: report it with the scene"
+    )]
+    InitialMass(String),
 }

@@ -7,6 +7,7 @@
 
 use crate::constants::SphConstants;
 use crate::error::FluidError;
+use crate::initial_mass::summation_consistent_masses;
 use crate::porosity::{PorosityField, Solid};
 use couplet_protocol::{InitialFlow, Scene, Shape, WallModel};
 
@@ -18,8 +19,9 @@ pub struct ParticleSet {
     pub vel: Vec<[f64; 3]>,
     pub rho: Vec<f64>,
     pub press: Vec<f64>,
-    /// Mass of each particle, kg: the lattice mass ρ0 δ³ ([`SphConstants::mass`]),
-    /// times the porosity of its starting point for fluid among unresolved grains.
+    /// Mass of each particle, kg: the lattice mass ρ0 δ³ ([`SphConstants::mass`]); for
+    /// fluid among unresolved grains about the porosity of its starting point times that,
+    /// as [`crate::initial_mass`] solves it.
     pub mass: Vec<f64>,
     /// Original id of each entry (equal to the index for a fresh set; GPU readbacks are
     /// in sorted order).
@@ -385,10 +387,12 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
         .chain(std::iter::repeat_n(0.0, n_wall))
         .collect();
     // Among unresolved grains the fluid's density is superficial, ε ρ_f (Robinson §3.1):
-    // a particle of the lattice holds ε of the lattice mass, at its starting porosity
-    // (eq. 9), so that its volume m/ρ is still the lattice's δ³. The pressure above is
-    // the intrinsic one (eq. 15). Walls start at porosity 1; the boundary pass gives
-    // them the porosity where they stand (porosity.rs, boundary_state_wgsl).
+    // a particle of the lattice starts at ε of the intrinsic density, at its starting
+    // porosity (eq. 9); the pressure above is the intrinsic one (eq. 15). Its mass is
+    // about ε of the lattice mass, solved so that the density starts as the summation
+    // density of the masses, which continuity then keeps (initial_mass.rs). Walls start
+    // at porosity 1; the boundary pass gives them the porosity where they stand
+    // (porosity.rs, boundary_state_wgsl).
     let mut mass = vec![c.mass; n];
     let solids: Vec<Solid> = (scene.grains().into_iter())
         .filter_map(|i| match scene.bodies[i].shape {
@@ -400,8 +404,9 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
         })
         .collect();
     if !solids.is_empty() {
-        let eps = PorosityField::of_scene(c, scene).porosity(&pos[..n_fluid], &solids);
-        for (i, e) in eps.into_iter().enumerate() {
+        let field = PorosityField::of_scene(c, scene);
+        let eps = field.porosity(&pos[..n_fluid], &solids);
+        for (i, &e) in eps.iter().enumerate() {
             if !(e > 0.0) {
                 return Err(FluidError::Porosity {
                     at: format!("fluid particle {i} at {:?} m (initial state)", pos[i]),
@@ -410,6 +415,19 @@ pub fn initial_particles(scene: &Scene, c: &SphConstants) -> Result<ParticleSet,
             }
             mass[i] *= e;
             rho[i] *= e;
+        }
+        // With Robinson's variable h (eq. 19) each particle sums with its own kernel,
+        // which depends on the masses: not solved for (ARCHITECTURE.md).
+        if c.variable_h.is_none() {
+            summation_consistent_masses(
+                c,
+                &pos,
+                n_fluid,
+                &eps,
+                field.period,
+                field.origin,
+                &mut mass,
+            )?;
         }
     }
     Ok(ParticleSet {
