@@ -1,7 +1,9 @@
 //! Diagnostic: the fluid of a run's snapshots, to see where and when a flow that should
 //! be steady starts to grow (it found the constant-porosity block's lower-face
 //! instability, ARCHITECTURE.md). One line per snapshot: the fluid's mean velocity, its
-//! largest speed and the height where it is, and the density and pressure ranges. With
+//! largest speed and the height where it is, the density and pressure ranges, and the
+//! mean pressure of the lowest and highest layer `--layer M` thick (default: the scene's
+//! spacing; a closed column's floor and lid, whose drift is the column's level). With
 //! `--at MS` also, at the snapshot nearest that time, the fluid in horizontal layers
 //! `--layer M` thick (default: the scene's spacing): count, mean and spread of the
 //! vertical velocity, mean horizontal speed, density and pressure per layer; and with
@@ -36,6 +38,13 @@ fn main() {
         eprintln!("{path}: no fluid snapshots");
         std::process::exit(1);
     }
+    let spacing = || {
+        let scene = std::path::Path::new(path).with_file_name("scene.toml");
+        let text = std::fs::read_to_string(&scene).ok()?;
+        let v: toml::Value = toml::from_str(&text).ok()?;
+        v.get("fluid")?.get("spacing")?.as_float()
+    };
+    let layer = option("--layer").or_else(spacing);
     for (t, ps) in &rec.snapshots {
         let n = ps.len() as f64;
         let mean: [f64; 3] =
@@ -49,8 +58,25 @@ fn main() {
             })
         };
         let ((rho_lo, rho_hi), (p_lo, p_hi)) = (range(7), range(3));
+        // The column's pressure level: the mean pressure of the lowest and the highest
+        // layer of fluid (a closed column's floor and lid).
+        let ends = layer.map_or(String::new(), |dy| {
+            let (y_lo, y_hi) = range(1);
+            let mean_p = |keep: &dyn Fn(f64) -> bool| {
+                let l: Vec<f64> = (ps.iter())
+                    .filter(|p| keep(f64::from(p[1])))
+                    .map(|p| f64::from(p[3]))
+                    .collect();
+                l.iter().sum::<f64>() / l.len() as f64
+            };
+            format!(
+                ", p lowest layer {:.1} Pa, highest {:.1} Pa",
+                mean_p(&|y| y < y_lo + dy),
+                mean_p(&|y| y > y_hi - dy)
+            )
+        });
         println!(
-            "t {t:.4e} s: mean u ({:+.2e}, {:+.2e}, {:+.2e}) m/s, largest speed {:.3e} m/s at y {:.4e} m, ρ {rho_lo:.2}–{rho_hi:.2}, p {p_lo:.1}–{p_hi:.1} Pa",
+            "t {t:.4e} s: mean u ({:+.2e}, {:+.2e}, {:+.2e}) m/s, largest speed {:.3e} m/s at y {:.4e} m, ρ {rho_lo:.2}–{rho_hi:.2}, p {p_lo:.1}–{p_hi:.1} Pa{ends}",
             mean[0],
             mean[1],
             mean[2],
@@ -64,13 +90,7 @@ fn main() {
     let (t, ps) = (rec.snapshots.iter())
         .min_by(|a, b| (a.0 - 1e-3 * at).abs().total_cmp(&(b.0 - 1e-3 * at).abs()))
         .unwrap();
-    let spacing = || {
-        let scene = std::path::Path::new(path).with_file_name("scene.toml");
-        let text = std::fs::read_to_string(&scene).ok()?;
-        let v: toml::Value = toml::from_str(&text).ok()?;
-        v.get("fluid")?.get("spacing")?.as_float()
-    };
-    let dy = option("--layer").or_else(spacing).unwrap_or_else(|| {
+    let dy = layer.unwrap_or_else(|| {
         eprintln!("no scene.toml beside the recording: give --layer M");
         std::process::exit(2)
     });
