@@ -29,7 +29,7 @@ use couplet_protocol::cell_hash::CellHash;
 /// right-hand side: 1e-10 of the density is 1e-5 Pa at c = 10 m/s, far below f32's
 /// 6e-8 once the masses are on the GPU.
 const TOLERANCE: f64 = 1e-10;
-/// The quick constant-porosity block converges in about 50 iterations; a system that
+/// The constant-porosity blocks converge in 37 (full) and 53 (quick) iterations; a system that
 /// has not in this many is not the one this module expects.
 const MAX_ITERATIONS: usize = 2000;
 /// The unknowns reach this many kernel supports beyond the last particle with ε < 1. The
