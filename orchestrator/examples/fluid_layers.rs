@@ -7,16 +7,17 @@
 //! `--at MS` also, at the snapshot nearest that time, the fluid in horizontal layers
 //! `--layer M` thick (default: the scene's spacing): count, mean and spread of the
 //! vertical velocity, mean horizontal speed, density and pressure per layer; and with
-//! `--particles Y` every particle of the layer at height Y, sorted across.
+//! `--particles Y` every particle of the layer at height Y, sorted across; with `--csv`
+//! every particle of that snapshot as CSV, in id order.
 //!
 //! `cargo run --release -p couplet-orchestrator --example fluid_layers -- OUT/run.mcap
-//! [--at MS [--layer M] [--particles Y]]`
+//! [--at MS [--layer M] [--particles Y] [--csv]]`
 use couplet_orchestrator::record::{Particle, particle_speed as speed, read_recording};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(path) = args.first() else {
-        eprintln!("usage: fluid_layers RUN.mcap [--at MS [--layer M] [--particles Y]]");
+        eprintln!("usage: fluid_layers RUN.mcap [--at MS [--layer M] [--particles Y] [--csv]]");
         std::process::exit(2);
     };
     let option = |name: &str| -> Option<f64> {
@@ -114,6 +115,14 @@ fn main() {
             avg(&|p| f64::from(p[7])),
             avg(&|p| f64::from(p[3])),
         );
+    }
+    if args.iter().any(|a| a == "--csv") {
+        // Every particle of the snapshot, in id order, for analysis elsewhere.
+        println!("\nx,y,z,p,vx,vy,vz,rho");
+        for p in ps {
+            let f: Vec<String> = p.iter().map(|v| format!("{v:e}")).collect();
+            println!("{}", f.join(","));
+        }
     }
     if let Some(y) = option("--particles") {
         let mut l: Vec<&Particle> = (ps.iter())
