@@ -273,33 +273,30 @@ rigid = true
             .collect();
         let eps = field.porosity(&set.pos[..n_fluid], &solids);
         let r = c.support_radius();
+        // The masses before: ε m0 for fluid, m0 for walls.
+        let before: Vec<f64> = (0..set.len())
+            .map(|b| if b < n_fluid { eps[b] * c.mass } else { c.mass })
+            .collect();
+        // Σ_b W_ab times the solved masses, the masses before, and m0.
         let sums = |a: usize| {
-            let (mut with, mut lattice) = (0.0, 0.0);
+            let mut out = [0.0; 3];
             for b in 0..set.len() {
                 let d = nearest_image(set.pos[a], set.pos[b], field.period);
                 if dot(d, d) < r * r {
                     let w = c.kernel.w(dot(d, d).sqrt());
-                    with += set.mass[b] * w;
-                    lattice += c.mass * w;
+                    for (o, m) in out.iter_mut().zip([set.mass[b], before[b], c.mass]) {
+                        *o += m * w;
+                    }
                 }
             }
-            (with, lattice)
+            out
         };
         let (mut worst, mut worst_before, mut range) = (0.0f64, 0.0f64, (2.0f64, 0.0f64));
         let mut porous = 0;
         for a in 0..n_fluid {
-            let (with, lattice) = sums(a);
+            let [with, with_before, lattice] = sums(a);
             worst = worst.max((with / (eps[a] * lattice) - 1.0).abs());
-            // The masses before: ε m0 for fluid, m0 for walls.
-            let mut before = 0.0;
-            for b in 0..set.len() {
-                let d = nearest_image(set.pos[a], set.pos[b], field.period);
-                if dot(d, d) < r * r {
-                    let m = if b < n_fluid { eps[b] * c.mass } else { c.mass };
-                    before += m * c.kernel.w(dot(d, d).sqrt());
-                }
-            }
-            worst_before = worst_before.max((before / (eps[a] * lattice) - 1.0).abs());
+            worst_before = worst_before.max((with_before / (eps[a] * lattice) - 1.0).abs());
             let ratio = set.mass[a] / (eps[a] * c.mass);
             range = (range.0.min(ratio), range.1.max(ratio));
             porous += usize::from(eps[a] < 1.0);
@@ -308,10 +305,8 @@ rigid = true
             "{n_fluid} fluid, {porous} with ε < 1: mismatch {worst:.3e} (before {worst_before:.3e}), m/(ε m0) {:.4}–{:.4}",
             range.0, range.1
         );
-        // The solve's own account, run again from the masses ε m0.
-        let mut mass: Vec<f64> = (0..set.len())
-            .map(|b| if b < n_fluid { eps[b] * c.mass } else { c.mass })
-            .collect();
+        // The solve's own account, run again from the masses before.
+        let mut mass = before.clone();
         let solve = super::summation_consistent_masses(
             &c,
             &set.pos,
