@@ -9,10 +9,12 @@ fn continuity_term(m_j: f32, u_ij: vec3<f32>, grad_w: vec3<f32>) -> f32 {
 
 // δ-SPH density diffusion (Antuono, Colagrossi, Marrone & Molteni 2010, eq. 5) for a fluid
 // neighbour j: δ h c_s V_j ψ_ij·∇W_ij, ψ_ij = 2(ρ_j − ρ_i) r_ji/r² − (⟨∇ρ⟩ᶜ_i + ⟨∇ρ⟩ᶜ_j), with
-// r_ji = −r_ij and the renormalised gradients of the gradient pass.
-fn antuono2010_diffusion_term(m_j: f32, rho_i: f32, rho_j: f32, r_ij: vec3<f32>, r2: f32, grad_w: vec3<f32>,
+// r_ji = −r_ij and the renormalised gradients of the gradient pass. `rho_f_*` is the density
+// diffused: the intrinsic ρ/ε among grains (the caller multiplies by ε_i), ρ otherwise;
+// V_j = m_j/ρ_j takes the superficial one.
+fn antuono2010_diffusion_term(m_j: f32, rho_f_i: f32, rho_f_j: f32, rho_j: f32, r_ij: vec3<f32>, r2: f32, grad_w: vec3<f32>,
                               grad_rho_i: vec3<f32>, grad_rho_j: vec3<f32>) -> f32 {
-    let psi = (-2.0 * (rho_j - rho_i) / r2) * r_ij - (grad_rho_i + grad_rho_j);
+    let psi = (-2.0 * (rho_f_j - rho_f_i) / r2) * r_ij - (grad_rho_i + grad_rho_j);
     return DIFFUSION_DELTA * H * SOUND_SPEED * (m_j / rho_j) * dot(psi, grad_w);
 }
 

@@ -27,6 +27,7 @@
 // (P_i/ρ_i) ∇ε_i (porosity_gradient): with the EOS on ρ/ε (Robinson eq. 15) these are the
 // terms that conserve energy; each grain gets the opposite of the ∇ε term
 // (unresolved_coupling.wgsl). Otherwise pressure_porosity is 1 and the gradient 0.
+// δ-SPH diffuses ρ/ε (`porosity(i)`, 1 without grains) and adds ε_i times it to dρ/dt.
 // One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
 
 // ---- kernels ----
@@ -56,6 +57,7 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     // The free-surface zone takes the standard forms (effects.free_surface).
     let corrected_i = !near_free_surface(i);
     let grad_rho_i = grad_rho(i);
+    let eps_i = porosity(i);
     var drho_i = 0.0;
     var acc = vec3<f32>(0.0);
     var lap_a = vec3<f32>(0.0);
@@ -117,7 +119,7 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                     mc_div += v_j * dot(g_j - g_i, b_i * grad_w);
                 }
                 if DENSITY_DIFFUSION && is_fluid(id[j]) {
-                    drho_i += antuono2010_diffusion_term(m_j, rho_i, rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
+                    drho_i += eps_i * antuono2010_diffusion_term(m_j, rho_i / eps_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
                 }
                 // Free-slip walls carry pressure but no shear.
                 let wall = is_wall(id[j]);

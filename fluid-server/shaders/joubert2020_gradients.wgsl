@@ -5,8 +5,9 @@
 //   M_i = −Σ_j V_j ∇W_ij ⊗ r_ij                  the truncation matrix (Joubert eq. 10;
 //                                               ⟨∇f⟩_i = M_i ∇f_i for a linear f)
 //   B_i = M_i⁻¹ if det M_i ≥ B_DET_MIN, else I   (near-singular: counted in diag[1])
-//   ⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij      for f = u_x, u_y, u_z, p, ρ (eqs. 7, 9–10;
-//                                               ρ: the renormalised gradient of δ-SPH)
+//   ⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij      for f = u_x, u_y, u_z, p, ρ/ε (eqs. 7, 9–10;
+//                                               ρ/ε: the renormalised gradient of δ-SPH,
+//                                               of the intrinsic density among grains)
 //   s_i = r̄_i² Σ_j (m_j/m_0) e_ij / r_ij²       the shift direction of eq. (17) before
 //                                               its factor β ‖u‖max Δt, each neighbour
 //                                               counted as the lattice particles
@@ -24,7 +25,7 @@
 // diag[1] with the B fallbacks; `store_bhat` writes it (joubert2020_gradients.rs).
 // With variable h (robinson_variable_h.rs) every sum takes particle i's own h_i.
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, store_bhat,
-// smoothing_length.
+// smoothing_length, porosity (porosity.rs: 1 without grains).
 
 // Exponents (of e_x, e_y, e_z) of the symmetric pairs xx, yy, zz, xy, xz, yz: the
 // order of B̂'s entries and of the system's rows and columns.
@@ -181,6 +182,8 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     var gp = vec3<f32>(0.0);
     var grho = vec3<f32>(0.0);
     let rho_i = rho[i];
+    // δ-SPH's renormalised gradient is of the intrinsic density ρ/ε (1 without grains).
+    let rho_f_i = rho_i / porosity(i);
     var r_sum = 0.0;
     var count = 0.0;
     var s = vec3<f32>(0.0);
@@ -220,7 +223,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 guy += du.y * vgw;
                 guz += du.z * vgw;
                 gp += (press[j] - pr_i) * vgw;
-                grho += (rho_j - rho_i) * vgw;
+                grho += (rho_j / porosity(j) - rho_f_i) * vgw;
                 r_sum += r;
                 count += 1.0;
                 s += (pos[j].w / LATTICE_MASS) * r_ij / (r2 * r);

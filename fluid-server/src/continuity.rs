@@ -14,6 +14,11 @@
 //! Molteni 2010, eq. 5) adds over fluid neighbours `δ h c_s Σ_j V_j ψ_ij·∇W_ij`,
 //! `ψ_ij = 2(ρ_j − ρ_i) r_ji/r_ij² − (⟨∇ρ⟩ᶜ_i + ⟨∇ρ⟩ᶜ_j)`, with the renormalised density
 //! gradients of the gradient pass (h: the smoothing length of the kernel in use).
+//! Among unresolved grains it diffuses the intrinsic density ρ/ε (Robinson eq. 15's
+//! argument): ρ stands for ρ/ε in ψ and in the gradients, and the term is multiplied by
+//! ε_i, the rate of ρ = ε ρ_f at fixed ε. On the superficial ρ it would diffuse the
+//! porosity's own step at a block's faces (ARCHITECTURE.md, "An odd-even pressure mode
+//! among grains").
 //!
 //! With `effects.mass_correction` = Γ > 0, Joubert eq. (14) adds
 //! `ρ_i Γ Δt (L15_i − L16_i)` with
@@ -46,6 +51,21 @@ pub fn continuity_cpu(
     grads: &[Option<Gradients>],
     dt: f64,
 ) -> f64 {
+    continuity_among_grains_cpu(c, set, i, grads, dt, None)
+}
+
+/// [`continuity_cpu`] among unresolved grains, with `porosity` ε at every entry of `set`
+/// (`None`: 1): δ-SPH diffuses the intrinsic density ρ/ε, `grads` from
+/// [`crate::joubert2020_gradients::gradients_among_grains_cpu`] with the same ε.
+pub fn continuity_among_grains_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    i: usize,
+    grads: &[Option<Gradients>],
+    dt: f64,
+    porosity: Option<&[f64]>,
+) -> f64 {
+    let eps = |k: usize| porosity.map_or(1.0, |e| e[k]);
     let t = c.uses_b_matrix().then(|| truncation_cpu(c, set, i));
     let b = t
         .filter(|t| c.corrected_continuity && !t.near_free_surface)
@@ -96,14 +116,15 @@ pub fn continuity_cpu(
         }
         if c.density_diffusion > 0.0 && set.kinds.kind(set.id[j]) == Kind::Fluid {
             let r_ij = sub(set.pos[i], set.pos[j]);
-            let (rho_i, rho_j) = (set.rho[i], set.rho[j]);
-            let f = -2.0 * (rho_j - rho_i) / dot(r_ij, r_ij);
+            let (rho_f_i, rho_f_j) = (set.rho[i] / eps(i), set.rho[j] / eps(j));
+            let f = -2.0 * (rho_f_j - rho_f_i) / dot(r_ij, r_ij);
             let (gi, gj) = (grad_rho(i), grad_rho(j));
             let psi: [f64; 3] = std::array::from_fn(|k| f * r_ij[k] - (gi[k] + gj[k]));
-            d += c.density_diffusion
+            d += eps(i)
+                * c.density_diffusion
                 * c.kernel.h
                 * c.sound_speed
-                * (set.mass[j] / rho_j)
+                * (set.mass[j] / set.rho[j])
                 * dot(psi, grad_w);
         }
     }

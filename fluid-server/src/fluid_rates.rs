@@ -4,14 +4,14 @@
 //! compiled out (constants generated from the scene), so they cost nothing.
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
-use crate::continuity::{CONTINUITY_WGSL, continuity_cpu};
+use crate::continuity::{CONTINUITY_WGSL, continuity_among_grains_cpu};
 use crate::gpu::Gpu;
-use crate::joubert2020_gradients::gradients_cpu;
+use crate::joubert2020_gradients::gradients_among_grains_cpu;
 use crate::kernel::kernel_library;
 use crate::momentum::{MOMENTUM_WGSL, momentum_cpu};
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet};
-use crate::porosity::porosity_pair_wgsl;
+use crate::porosity::{porosity_pair_wgsl, porosity_wgsl};
 use crate::robinson_variable_h::smoothing_wgsl;
 use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 
@@ -123,6 +123,8 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     let g = if grads { GRADS_WGSL } else { NO_GRADS_WGSL };
     let (smoothing, smoothing_binding) = smoothing_wgsl(c);
     bindings.extend(smoothing_binding);
+    let (porosity, porosity_binding) = porosity_wgsl(c);
+    bindings.extend(porosity_binding);
     let (pair, pair_bindings) = porosity_pair_wgsl(c);
     bindings.extend(pair_bindings);
     SphKernel::new(
@@ -140,7 +142,8 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             g,
             wall_velocity,
             smoothing,
-            &pair,
+            porosity,
+            pair,
             FLUID_RATES_WGSL,
         ],
         "fluid_rates",
@@ -168,15 +171,17 @@ pub struct PorosityAt<'a> {
 /// CPU twin among unresolved grains: as [`fluid_rates_cpu`], and with
 /// `coupling.porosity_pressure = "energy-pair"` ([`SphConstants::porosity_pair`]) the
 /// pressure sums take P ε (they are the sums of a set whose pressures are P ε) and each
-/// fluid entry gains (P/ρ) ∇ε, from `porosity` (required then).
+/// fluid entry gains (P/ρ) ∇ε, from `porosity` (required then). δ-SPH diffuses the
+/// intrinsic density ρ/ε with `porosity`'s ε (1 without it).
 pub fn fluid_rates_among_grains_cpu(
     c: &SphConstants,
     set: &ParticleSet,
     dt: f64,
     porosity: Option<PorosityAt>,
 ) -> Vec<Option<(f64, [f64; 3])>> {
+    let eps = porosity.as_ref().map(|e| e.porosity);
     let grads = if c.density_diffusion > 0.0 || c.mass_correction > 0.0 {
-        gradients_cpu(c, set)
+        gradients_among_grains_cpu(c, set, eps)
     } else {
         Vec::new()
     };
@@ -202,7 +207,7 @@ pub fn fluid_rates_among_grains_cpu(
                     }
                     None => momentum_cpu(c, set, i),
                 };
-                (continuity_cpu(c, set, i, &grads, dt), acc)
+                (continuity_among_grains_cpu(c, set, i, &grads, dt, eps), acc)
             })
         })
         .collect()

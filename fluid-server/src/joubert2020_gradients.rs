@@ -1,8 +1,8 @@
 //! The per-step gradient pass: the kernel-gradient correction matrix of Joubert eq. (10),
 //! the corrected gradients of velocity and pressure (eqs. 7, 9–10) and the shift
 //! direction of particle shifting (eq. 17). It runs once per step after the grid sort,
-//! only when the scene switches on `effects.gradient_correction` or
-//! `effects.particle_shifting` ([`SphConstants::gradient_pass`]).
+//! only when a scene's effect reads it ([`SphConstants::gradient_pass`]: the gradient
+//! and Laplacian corrections, the mass correction, particle shifting, δ-SPH).
 //!
 //! For a fluid particle i, over its support (every kind of neighbour, `V_j = m/ρ_j`):
 //!
@@ -11,8 +11,9 @@
 //!   with the other contraction convention). A full support gives `M ≈ I`.
 //! - `B_i = M_i⁻¹` when `det M_i ≥` [`B_DET_MIN`]; otherwise `B_i = I` and the particle
 //!   is counted (see [`B_DET_MIN`]): the count is reported per window, never hidden.
-//! - `⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij` for `f = u_x, u_y, u_z, p, ρ` (ρ: the
-//!   renormalised density gradient of δ-SPH, Antuono et al. 2010).
+//! - `⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij` for `f = u_x, u_y, u_z, p, ρ/ε` (ρ/ε: the
+//!   renormalised density gradient of δ-SPH, Antuono et al. 2010, of the intrinsic
+//!   density among unresolved grains, ε = 1 elsewhere; [`crate::continuity`]).
 //! - `s_i = r̄_i² Σ_j (m_j/m_0) e_ij / r_ij²` with `r̄_i` the mean neighbour distance
 //!   and `m_0 = ρ0 δ³` the lattice mass: eq. (17) without its factor `β ‖u‖max Δt`,
 //!   which [`crate::particle_shifting`] applies. Joubert's sum counts every neighbour
@@ -32,6 +33,7 @@ use crate::gpu::Gpu;
 use crate::kernel::{SmoothingKernel, kernel_library};
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::porosity::porosity_wgsl;
 use crate::robinson_variable_h::{kernel_at, smoothing_wgsl};
 use crate::sph_kernel::{
     Access, PARAMS, PARTICLES, SphKernel, param_binding as qb, particle_binding as pb,
@@ -132,6 +134,8 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     };
     let (smoothing, smoothing_binding) = smoothing_wgsl(c);
     particles.extend(smoothing_binding);
+    let (porosity, porosity_binding) = porosity_wgsl(c);
+    particles.extend(porosity_binding);
     SphKernel::new(
         gpu,
         "sph: joubert2020_gradients",
@@ -143,6 +147,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             kernel_library(),
             store,
             smoothing,
+            porosity,
             GRADIENTS_WGSL,
         ],
         "gradients",
@@ -173,7 +178,7 @@ pub struct Gradients {
     pub grad_p: [f64; 3],
     /// `s_i = r̄_i² Σ e_ij / r_ij²` (dimensionless).
     pub shift: [f64; 3],
-    /// Corrected density gradient, kg/m⁴.
+    /// Corrected gradient of the intrinsic density ρ/ε (ρ without grains), kg/m⁴: δ-SPH's.
     pub grad_rho: [f64; 3],
 }
 
@@ -255,6 +260,17 @@ fn add_to_truncation(m: &mut Mat3, k: &SmoothingKernel, v_j: f64, r_ij: [f64; 3]
 
 /// CPU twin of the gradient pass for every entry (`None` for non-fluid entries).
 pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradients>> {
+    gradients_among_grains_cpu(c, set, None)
+}
+
+/// [`gradients_cpu`] among unresolved grains: `grad_rho` is the gradient of the
+/// intrinsic density ρ/ε, with `porosity` ε at every entry of `set` (`None`: 1).
+pub fn gradients_among_grains_cpu(
+    c: &SphConstants,
+    set: &ParticleSet,
+    porosity: Option<&[f64]>,
+) -> Vec<Option<Gradients>> {
+    let intrinsic = |k: usize| set.rho[k] / porosity.map_or(1.0, |e| e[k]);
     (0..set.len())
         .map(|i| {
             if set.kinds.kind(set.id[i]) != Kind::Fluid {
@@ -274,7 +290,7 @@ pub fn gradients_cpu(c: &SphConstants, set: &ParticleSet) -> Vec<Option<Gradient
                     set.vel[j][1] - set.vel[i][1],
                     set.vel[j][2] - set.vel[i][2],
                     set.press[j] - set.press[i],
-                    set.rho[j] - set.rho[i],
+                    intrinsic(j) - intrinsic(i),
                 ];
                 for (f, acc) in raw.iter_mut().enumerate() {
                     for k in 0..3 {

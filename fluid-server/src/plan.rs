@@ -251,7 +251,12 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(
             DENSITY_DIFFUSION,
             format!(
-                "effects.density_diffusion δ = {delta}: δ-SPH (Antuono et al. 2010) in the continuity pair loop"
+                "effects.density_diffusion δ = {delta}: δ-SPH (Antuono et al. 2010) in the continuity pair loop{}",
+                if scene.grains().is_empty() {
+                    ""
+                } else {
+                    ", of the intrinsic density ρ/ε among grains"
+                }
             ),
         );
     }

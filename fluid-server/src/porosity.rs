@@ -133,15 +133,16 @@ const NO_POROSITY_GRADIENT_ADD_WGSL: &str =
 /// The fluid's pressure terms under `energy-pair`: `pressure_porosity(i)` (the ε that
 /// multiplies P in the pair sum) and `porosity_gradient(i)` (∇ε_i, read from the sums
 /// of [`POROSITY_GRADIENT_ADD_WGSL`]); 1 and 0 otherwise, so the terms are Robinson's.
-/// Returns the WGSL and the bindings to add to group 0.
-pub fn porosity_pair_wgsl(c: &SphConstants) -> (String, Vec<(u32, Access)>) {
+/// Needs `porosity(i)` ([`porosity_wgsl`]). Returns the WGSL and the bindings to add to
+/// group 0.
+pub fn porosity_pair_wgsl(c: &SphConstants) -> (&'static str, Vec<(u32, Access)>) {
     if c.porosity_pair {
         (
-            format!("{POROSITY_READ_WGSL}{POROSITY_GRADIENT_READ_WGSL}"),
-            vec![(pb::SOLID, Access::Read), (pb::SOLID_GRAD, Access::Read)],
+            POROSITY_GRADIENT_READ_WGSL,
+            vec![(pb::SOLID_GRAD, Access::Read)],
         )
     } else {
-        (NO_POROSITY_PAIR_WGSL.to_owned(), Vec::new())
+        (NO_POROSITY_PAIR_WGSL, Vec::new())
     }
 }
 

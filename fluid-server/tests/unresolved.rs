@@ -440,6 +440,219 @@ fn energy_pair_rates_match_cpu_twin() {
     );
 }
 
+/// δ-SPH among grains (`effects.density_diffusion`, continuity.rs) diffuses the
+/// intrinsic density ρ/ε: the gradient pass and `fluid_rates` against their CPU twins
+/// (`fluid_rates_among_grains_cpu` with ε from `PorosityField`), under both pressure
+/// forms (`porosity(i)` reaches `fluid_rates` through the energy pair's terms or on its
+/// own). 20 grains of radius 5 mm a support inside the periodic box (ε down to about 0.93),
+/// the fluid at random velocities and densities (±0.5 %); dρ/dt of every fluid particle
+/// two supports inside the box (the twins' sums have no periodic images, and δ-SPH
+/// reads the neighbours' gradients) within 1e-4 of its largest (the pair kernels' parity
+/// bound), and the diffusion not negligible in it (the twin's dρ/dt without δ-SPH
+/// differs by more than 10 % of the largest).
+#[test]
+fn density_diffusion_among_grains_matches_cpu_twin() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    for pressure in ["energy-pair", "robinson"] {
+        let mut s = grain_scene(20, true, pressure);
+        s.effects.density_diffusion = 0.1;
+        let c = SphConstants::from_scene(&s).unwrap();
+        let mut set = couplet_fluid::initial_particles(&s, &c).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(37);
+        for i in 0..set.len() {
+            set.vel[i] = std::array::from_fn(|_| rng.random_range(-0.05..0.05));
+            set.rho[i] *= 1.0 + rng.random_range(-0.005..0.005);
+        }
+        let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+        let origin = solver.origin();
+        let set0 = solver.data().read(&gpu).unwrap();
+        let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], c.support_radius(), 20, 11)
+            .into_iter()
+            .map(|g| Grain {
+                volume: 4.0 / 3.0 * std::f64::consts::PI * 0.005f64.powi(3),
+                ..g
+            })
+            .collect();
+        solver
+            .grain_loads(&gpu, &states(&grains, origin, 2500.0))
+            .unwrap();
+        solver
+            .run_ops(&gpu, &[Op::Gradients, Op::FluidRates], 1e-4, 1.0)
+            .unwrap();
+        let set = solver.data().read(&gpu).unwrap();
+        let (drho, _) = solver.data().read_rates(&gpu).unwrap();
+        let field = PorosityField::of_scene(&c, &s);
+        let world: Vec<[f64; 3]> = (set.pos.iter())
+            .map(|p| std::array::from_fn(|k| p[k] + origin[k]))
+            .collect();
+        let solids = solids(&grains, origin);
+        let porosity = field.porosity(&world, &solids);
+        let gradient = field.gradient(&world, &solids);
+        let at = || PorosityAt {
+            porosity: &porosity,
+            gradient: &gradient,
+        };
+        let want = fluid_rates_among_grains_cpu(&c, &set, 1e-4, Some(at()));
+        let plain = SphConstants {
+            density_diffusion: 0.0,
+            ..c.clone()
+        };
+        let without = fluid_rates_among_grains_cpu(&plain, &set, 1e-4, Some(at()));
+        let r = c.support_radius();
+        let inside = |p: [f64; 3]| p.iter().all(|x| x.abs() < 0.1 - 2.02 * r);
+        let fluid: Vec<usize> = (0..set.len())
+            .filter(|&i| want[i].is_some() && inside(set.pos[i]))
+            .collect();
+        let (e, m) = max_err(fluid.iter().map(|&i| (drho[i], want[i].unwrap().0)));
+        let (d, _) = max_err((fluid.iter()).map(|&i| (without[i].unwrap().0, want[i].unwrap().0)));
+        let eps_min = fluid.iter().map(|&i| porosity[i]).fold(1.0, f64::min);
+        println!(
+            "{pressure}: δ-SPH among grains dρ/dt max |Δ| = {e:e} of {m:e} kg/m³/s over {} particles (ε ≥ {eps_min:.4}), the diffusion's share {d:e}",
+            fluid.len()
+        );
+        assert!(
+            d > 0.1 * m,
+            "{pressure}: the diffusion is lost in dρ/dt: {d:e} of {m:e}"
+        );
+        assert!(
+            m > 0.0 && e <= 1e-4 * m,
+            "{pressure}: max |Δ| {e:e} of {m:e}"
+        );
+    }
+}
+
+/// The bug this guards (ARCHITECTURE.md, "An odd-even pressure mode among grains"): δ-SPH
+/// on the superficial density ρ = ε ρ_f would diffuse the porosity's own step at a
+/// block's faces, and without δ-SPH the intrinsic density's odd-even row mode is not
+/// damped at all. A closed 0.2 × 0.5 × 0.2 m box (δ = 1 cm, 20 000 particles) with a slab
+/// of grains at ε = 0.8 across y = 0.25–0.45 m, no gravity, the fluid at rest at ρ0
+/// (`initial_particles`: ρ = ε ρ0 among the grains); CPU twins, particles two supports
+/// from every wall. (1) The intrinsic density uniform: the δ-SPH rates among grains are
+/// round-off (below 1e-9 of ρ0 c/h; 8e-17 measured), where the superficial form's reach
+/// 6.7e-3 of ρ0 c/h at the slab's faces (held above 1e-3): 10 % of ρ0 in a millisecond. (2) An odd-even row mode ρ_f = ρ0 (1 ± 1e-4): it decays inside the
+/// slab (two supports from its faces) at the rate it decays in clear fluid, to 1e-3
+/// (861.2 and 861.3 1/s measured: the lattice volumes m/ρ are the same; the masses ripple
+/// with the lattice's porosity).
+#[test]
+fn density_diffusion_among_grains_damps_the_odd_even_mode_and_keeps_the_faces() {
+    use couplet_fluid::continuity::continuity_among_grains_cpu;
+    use couplet_fluid::joubert2020_gradients::gradients_among_grains_cpu;
+    let text = r#"
+[meta]
+name = "slab"
+[time]
+end = 1.0
+output_interval = 0.1
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.2, 0.5, 0.2]
+closed_top = true
+[gravity]
+vector = [0.0, 0.0, 0.0]
+[fluid]
+density = 1000.0
+kinematic_viscosity = 1e-3
+sound_speed = 20.0
+spacing = 0.01
+blocks = [{ min = [0.0, 0.0, 0.0], max = [0.2, 0.5, 0.2] }]
+[effects]
+density_diffusion = 0.1
+[coupling]
+drag = "stokes"
+[dem]
+engine = "soft-sphere"
+[dem.soft_sphere]
+contact = "linear"
+stiffness = 10.0
+[[grain_lattices]]
+name = "slab"
+min = [0.0, 0.25, 0.0]
+max = [0.2, 0.45, 0.2]
+radius = 0.003
+density = 2500.0
+porosity = 0.8
+rigid = true
+"#;
+    let s = Scene::parse(text, std::path::Path::new("slab.toml")).unwrap();
+    let c = SphConstants::from_scene(&s).unwrap();
+    let mut set = couplet_fluid::initial_particles(&s, &c).unwrap();
+    let field = PorosityField::of_scene(&c, &s);
+    let solids: Vec<Solid> = (s.bodies.iter())
+        .map(|b| Solid {
+            position: b.position,
+            volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
+        })
+        .collect();
+    // `initial_particles` gives world positions, as the field takes them.
+    let eps = field.porosity(&set.pos, &solids);
+    let r = c.support_radius();
+    let away = |p: [f64; 3]| {
+        (p[0] > 2.0 * r && p[0] < 0.2 - 2.0 * r)
+            && (p[2] > 2.0 * r && p[2] < 0.2 - 2.0 * r)
+            && (p[1] > 2.0 * r && p[1] < 0.5 - 2.0 * r)
+    };
+    let fluid: Vec<usize> = (0..set.len())
+        .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid && away(set.pos[i]))
+        .collect();
+    let rates = |set: &ParticleSet, e: Option<&[f64]>| -> Vec<f64> {
+        let grads = gradients_among_grains_cpu(&c, set, e);
+        (fluid.iter())
+            .map(|&i| continuity_among_grains_cpu(&c, set, i, &grads, 1e-4, e))
+            .collect()
+    };
+    let scale = c.rho0 * c.sound_speed / c.kernel.h;
+    let largest = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let intrinsic = largest(&rates(&set, Some(&eps)));
+    let superficial = largest(&rates(&set, None));
+    let spread = (fluid.iter())
+        .map(|&i| (set.rho[i] / eps[i] / c.rho0 - 1.0).abs())
+        .fold(0.0, f64::max);
+    println!(
+        "uniform ρ/ε (largest |ρ/ε/ρ0 − 1| {spread:.1e}): δ-SPH on ρ/ε {:.2e}, on ρ {:.2e} of ρ0 c/h",
+        intrinsic / scale,
+        superficial / scale
+    );
+    assert!(
+        intrinsic < 1e-9 * scale,
+        "on ρ/ε: {:e} of ρ0 c/h",
+        intrinsic / scale
+    );
+    assert!(
+        superficial > 1e-3 * scale,
+        "on ρ: {:e} of ρ0 c/h",
+        superficial / scale
+    );
+    // (2) The odd-even row mode of the intrinsic density.
+    let spacing = s.fluid.as_ref().unwrap().spacing;
+    let row = |i: usize| (set.pos[i][1] / spacing).floor() as i64;
+    let sign = |i: usize| if row(i) % 2 == 0 { 1.0 } else { -1.0 };
+    let amplitude = 1e-4;
+    for i in 0..set.len() {
+        set.rho[i] *= 1.0 + amplitude * sign(i);
+    }
+    let d = rates(&set, Some(&eps));
+    let rate = |keep: &dyn Fn(f64) -> bool| {
+        let (mut num, mut n) = (0.0, 0.0);
+        for (k, &i) in fluid.iter().enumerate() {
+            if keep(set.pos[i][1]) {
+                num -= d[k] / eps[i] * sign(i);
+                n += 1.0;
+            }
+        }
+        num / (n * c.rho0 * amplitude)
+    };
+    let in_slab = rate(&|y| y > 0.25 + 2.0 * r && y < 0.45 - 2.0 * r);
+    let clear = rate(&|y| y < 0.25 - 2.0 * r);
+    println!(
+        "odd-even mode: decay rate among grains {in_slab:.4e} 1/s, in clear fluid {clear:.4e} 1/s"
+    );
+    assert!(clear > 0.0, "the mode grows in clear fluid: {clear:e} 1/s");
+    assert!(
+        (in_slab / clear - 1.0).abs() < 1e-3,
+        "among grains {in_slab:e} 1/s against clear fluid's {clear:e} 1/s"
+    );
+}
+
 /// `spread_grain_reaction` + `add_grain_reaction` against the CPU twin: 20 grains with
 /// random velocities in the periodic box at rest, the fluid's du/dt before and after
 /// `add_grain_reaction` differ by the twin's acceleration to 1e-4 of its largest

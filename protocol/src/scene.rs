@@ -534,7 +534,10 @@ pub struct EffectsSpec {
     /// δ-SPH density diffusion (Antuono, Colagrossi, Marrone & Molteni 2010) with the
     /// renormalised density gradient: the coefficient δ; 0 switches it off. Antuono et
     /// al. use δ = 0.1; values outside (0, 1] are refused. Default 0 (off): it is the
-    /// free-surface stabiliser a scene picks instead of, or with, the correction.
+    /// free-surface stabiliser a scene picks instead of, or with, the correction. Among
+    /// unresolved grains it diffuses the intrinsic density ρ/ε, and it damps the odd-even
+    /// row mode of the pressure that a flow through a grain lattice raises
+    /// (ARCHITECTURE.md, "An odd-even pressure mode among grains").
     #[serde(default)]
     pub density_diffusion: f64,
     /// The gradient correction's free-surface switch: where a particle's support reaches
