@@ -323,6 +323,21 @@ fn main() {
     // from the walls) beside its density, both over its porosity at the snapshot.
     let points: Vec<[f64; 3]> = fluid.iter().map(|fl| fl.0).collect();
     let eps_fluid = field.porosity(&points, &solids_at(&gpos));
+    // What sets a closed column's pressure level: the fluid's volume Σ m_a/ρ_a and its
+    // intrinsic volume Σ ε_a m_a/ρ_a (the grains' volume is the difference).
+    let fluid_volume: f64 = (fluid.iter().enumerate())
+        .map(|(a, fl)| masses[a] / fl.3)
+        .sum();
+    let intrinsic: f64 = (fluid.iter().enumerate())
+        .map(|(a, fl)| eps_fluid[a] * masses[a] / fl.3)
+        .sum();
+    println!(
+        "fluid volume Σ m/ρ {:.6} mm³, intrinsic Σ ε m/ρ {:.6} mm³, grains Σ V_j {:.6} mm³, mean pressure {:.2} Pa",
+        fluid_volume * 1e9,
+        intrinsic * 1e9,
+        grains.len() as f64 * volume * 1e9,
+        fluid.iter().map(|fl| fl.2).sum::<f64>() / fluid.len() as f64
+    );
     let summation = |a: usize| -> f64 {
         let home = cell(fluid[a].0);
         let mut s = 0.0;
