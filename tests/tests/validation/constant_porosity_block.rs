@@ -1,8 +1,8 @@
 //! Robinson's constant-porosity block (scenes/constant-porosity-block.toml: glass grains
 //! d = 0.1 mm, ρp = 2500, on a cubic lattice of porosity ε = 0.8 that falls as a block
-//! through water in a column periodic across and closed at floor and lid; two-way
-//! coupling, Di Felice drag, superficial-density fluid at h = 2d in Robinson's
-//! h = 1.5 δ) end to end through `couplet validate constant-porosity-block --quick
+//! through water in a column periodic across, closed at the floor, with a free surface;
+//! two-way coupling, Di Felice drag, superficial-density fluid at h = 2d in Robinson's
+//! h = 1.5 δ, δ-SPH on the intrinsic density) end to end through `couplet validate constant-porosity-block --quick
 //! --variant "water, ε = 0.8"` cut to t = 6 ms: the quick's column, 10 lattice spacings
 //! and 11 fluid spacings across (h/d = 1.88; the counts differ so that the fluid's
 //! lattice is not the grains', ARCHITECTURE.md, "The fluid's lattice must not be the
@@ -14,9 +14,13 @@
 //! fails (ARCHITECTURE.md, "Among grains the pressure terms can be the energy-conserving
 //! pair").
 //!
-//! Measured 2026-11-28 (385 s on lavapipe beside two other runs): 2.8920e-3 m/s against
-//! 2.9573e-3 (−2.21 %), the speed moving 0.38 % across 3–6 ms, fluid force over weight
-//! 1.0007, the fluid's largest speed growing ×1.16 to 1.27e-3 m/s (0.44 of the block's).
+//! Measured 2026-11-29 (130 s on lavapipe, alone): 3.0119e-3 m/s against 2.9573e-3
+//! (+1.84 %), the speed moving 2.39 % across 3–6 ms, fluid force over weight 1.0017, the
+//! fluid's largest speed 1.40e-3 → 1.25e-3 m/s (growth 0.893, 0.47 of the block's).
+//! Closed at the lid and without δ-SPH, as until that day: 2.8920e-3 m/s (−2.21 %,
+//! 2026-11-28), but an odd-even row mode of the pressure grew in the fluid from the
+//! start and made the full column 13 % slow by 25–50 ms (ARCHITECTURE.md, "An odd-even
+//! pressure mode among grains").
 //! The column this test had before, 8 lattice spacings and 8 fluid spacings across
 //! (δ = Δr, h/d = 2.07), gave −2.71 % to 6 ms (2026-11-27) but grew the fluid past 9 ms;
 //! 8 and 9 across (h/d = 1.84) gave −5.98 %, 9 and 8 (h/d = 2.33) +3.73 %: at this
