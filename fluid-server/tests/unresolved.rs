@@ -342,6 +342,39 @@ fn energy_pair_pressure_forces_balance_exactly() {
     }
 }
 
+/// `s`'s fluid (a [`grain_scene`]) at random velocities (±5 cm/s) and densities (±0.5 %)
+/// from `seeds[0]`, and 20 grains of radius `radius` at random points a support inside
+/// the box (`grains_inside`, `seeds[1]`) already sent to the solver, positions relative
+/// to its origin.
+fn stirred_box_with_grains(
+    gpu: &Gpu,
+    s: &Scene,
+    seeds: [u64; 2],
+    radius: f64,
+) -> (FluidSolver, Vec<Grain>) {
+    let c = SphConstants::from_scene(s).unwrap();
+    let mut set = couplet_fluid::initial_particles(s, &c).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(seeds[0]);
+    for i in 0..set.len() {
+        set.vel[i] = std::array::from_fn(|_| rng.random_range(-0.05..0.05));
+        set.rho[i] *= 1.0 + rng.random_range(-0.005..0.005);
+    }
+    let mut solver = FluidSolver::from_particles(gpu, s, set).unwrap();
+    let set0 = solver.data().read(gpu).unwrap();
+    let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], c.support_radius(), 20, seeds[1])
+        .into_iter()
+        .map(|g| Grain {
+            volume: 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3),
+            ..g
+        })
+        .collect();
+    let origin = solver.origin();
+    solver
+        .grain_loads(gpu, &states(&grains, origin, 2500.0))
+        .unwrap();
+    (solver, grains)
+}
+
 /// `fluid_rates` and `grain_pressure_force` under `energy-pair` against their CPU twins
 /// (`fluid_rates_among_grains_cpu` with ε and ∇ε from `PorosityField`,
 /// `grain_pressure_force_cpu`): 20 grains a support inside the periodic box, the fluid
@@ -356,25 +389,8 @@ fn energy_pair_rates_match_cpu_twin() {
     let s = grain_scene(20, true, "energy-pair");
     let c = SphConstants::from_scene(&s).unwrap();
     assert!(c.porosity_pair);
-    let mut set = couplet_fluid::initial_particles(&s, &c).unwrap();
-    let mut rng = ChaCha8Rng::seed_from_u64(31);
-    for i in 0..set.len() {
-        set.vel[i] = std::array::from_fn(|_| rng.random_range(-0.05..0.05));
-        set.rho[i] *= 1.0 + rng.random_range(-0.005..0.005);
-    }
-    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    let (mut solver, grains) = stirred_box_with_grains(&gpu, &s, [31, 9], 0.003);
     let origin = solver.origin();
-    let set0 = solver.data().read(&gpu).unwrap();
-    let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], c.support_radius(), 20, 9)
-        .into_iter()
-        .map(|g| Grain {
-            volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
-            ..g
-        })
-        .collect();
-    solver
-        .grain_loads(&gpu, &states(&grains, origin, 2500.0))
-        .unwrap();
     solver.run_ops(&gpu, &[Op::FluidRates], 1e-4, 1.0).unwrap();
     let set = solver.data().read(&gpu).unwrap();
     let (_, dvel) = solver.data().read_rates(&gpu).unwrap();
@@ -457,25 +473,8 @@ fn density_diffusion_among_grains_matches_cpu_twin() {
         let mut s = grain_scene(20, true, pressure);
         s.effects.density_diffusion = 0.1;
         let c = SphConstants::from_scene(&s).unwrap();
-        let mut set = couplet_fluid::initial_particles(&s, &c).unwrap();
-        let mut rng = ChaCha8Rng::seed_from_u64(37);
-        for i in 0..set.len() {
-            set.vel[i] = std::array::from_fn(|_| rng.random_range(-0.05..0.05));
-            set.rho[i] *= 1.0 + rng.random_range(-0.005..0.005);
-        }
-        let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+        let (mut solver, grains) = stirred_box_with_grains(&gpu, &s, [37, 11], 0.005);
         let origin = solver.origin();
-        let set0 = solver.data().read(&gpu).unwrap();
-        let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], c.support_radius(), 20, 11)
-            .into_iter()
-            .map(|g| Grain {
-                volume: 4.0 / 3.0 * std::f64::consts::PI * 0.005f64.powi(3),
-                ..g
-            })
-            .collect();
-        solver
-            .grain_loads(&gpu, &states(&grains, origin, 2500.0))
-            .unwrap();
         solver
             .run_ops(&gpu, &[Op::Gradients, Op::FluidRates], 1e-4, 1.0)
             .unwrap();
