@@ -58,6 +58,7 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
     let corrected_i = !near_free_surface(i);
     let grad_rho_i = grad_rho(i);
     let eps_i = porosity(i);
+    let rho_f_i = rho_i / eps_i;
     var drho_i = 0.0;
     var acc = vec3<f32>(0.0);
     var lap_a = vec3<f32>(0.0);
@@ -119,7 +120,7 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                     mc_div += v_j * dot(g_j - g_i, b_i * grad_w);
                 }
                 if DENSITY_DIFFUSION && is_fluid(id[j]) {
-                    drho_i += eps_i * antuono2010_diffusion_term(m_j, rho_i / eps_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
+                    drho_i += eps_i * antuono2010_diffusion_term(m_j, rho_f_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
                 }
                 // Free-slip walls carry pressure but no shear.
                 let wall = is_wall(id[j]);

@@ -145,6 +145,25 @@ fn main() {
     for (a, f) in fluid.iter().enumerate() {
         cells.entry(wrap(cell(f.0))).or_default().push(a);
     }
+    // The fluid particles in the 27 cells around x, each once (a period of fewer than
+    // three cells wraps onto the same cell).
+    let near = |x: [f64; 3]| -> Vec<usize> {
+        let home = cell(x);
+        let mut keys: Vec<[i64; 3]> = (0..27)
+            .map(|n| {
+                wrap([
+                    home[0] + n % 3 - 1,
+                    home[1] + n / 3 % 3 - 1,
+                    home[2] + n / 9 - 1,
+                ])
+            })
+            .collect();
+        keys.sort_unstable();
+        keys.dedup();
+        (keys.iter())
+            .flat_map(|k| cells.get(k).into_iter().flatten().copied())
+            .collect()
+    };
     let law = DragLaw::from(scene.coupling.drag);
     let f = scene
         .fluid
@@ -193,21 +212,7 @@ fn main() {
     for (j, &(xj, vj)) in grains.iter().enumerate() {
         let (mut s, mut sp, mut su) = (0.0, 0.0, [0.0; 3]);
         let (mut grad_s, mut fp) = ([0.0; 3], [0.0; 3]);
-        let home = cell(xj);
-        let mut near = Vec::new();
-        for dx in -1..=1 {
-            for dyc in -1..=1 {
-                for dz in -1..=1 {
-                    let k = wrap([home[0] + dx, home[1] + dyc, home[2] + dz]);
-                    if let Some(l) = cells.get(&k) {
-                        near.extend_from_slice(l);
-                    }
-                }
-            }
-        }
-        near.sort_unstable();
-        near.dedup();
-        for &a in &near {
+        for a in near(xj) {
             let (xa, ua, pa, rho_a) = fluid[a];
             let rv = c.pair_vec(xj, xa);
             let d = rv.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -339,27 +344,17 @@ fn main() {
         fluid.iter().map(|fl| fl.2).sum::<f64>() / fluid.len() as f64
     );
     let summation = |a: usize| -> f64 {
-        let home = cell(fluid[a].0);
-        let mut s = 0.0;
-        let mut seen = std::collections::HashSet::new();
-        for dx in -1..=1 {
-            for dyc in -1..=1 {
-                for dz in -1..=1 {
-                    let k = wrap([home[0] + dx, home[1] + dyc, home[2] + dz]);
-                    if !seen.insert(k) {
-                        continue;
-                    }
-                    for &b in cells.get(&k).into_iter().flatten() {
-                        let rv = c.pair_vec(fluid[a].0, fluid[b].0);
-                        let d = rv.iter().map(|x| x * x).sum::<f64>().sqrt();
-                        if d < r {
-                            s += masses[b] * c.kernel.w(d);
-                        }
-                    }
+        (near(fluid[a].0).into_iter())
+            .map(|b| {
+                let rv = c.pair_vec(fluid[a].0, fluid[b].0);
+                let d = rv.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if d < r {
+                    masses[b] * c.kernel.w(d)
+                } else {
+                    0.0
                 }
-            }
-        }
-        s
+            })
+            .sum()
     };
     let mut bins: BTreeMap<i64, [f64; 8]> = BTreeMap::new();
     for (a, fl) in fluid.iter().enumerate() {
