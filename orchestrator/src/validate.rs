@@ -482,9 +482,9 @@ static CASES: [Case; 17] = [
     Case {
         name: "sedimentation-regimes",
         scene: "sedimentation-regimes.toml",
-        about: "DEMocritus §4.2: one unresolved grain (d = 0.1 m, ρs/ρf = 2.7) settling in the Newton, Allen and Stokes regimes — terminal velocity against the drag law's own force balance (< 2 %: the coupling) and against DEMocritus eq. (46) (within the law's known gap to eq. 46 plus 2 %)",
-        quick: &["fluid.spacing=0.2"],
-        quick_why: "δ = 0.2 m (the grain half a spacing): 1000 fluid particles",
+        about: "DEMocritus §4.2: one unresolved grain (d = 0.1 m, ρs/ρf = 2.7) settling in the Newton, Allen and Stokes regimes — one-way, terminal velocity against the drag law's own force balance at the porosity the lone grain sees (< 2 %: the coupling; that porosity ≥ 0.98) and against DEMocritus eq. (46) (within the law's known gap to eq. 46 plus 2 %)",
+        quick: &["fluid.spacing=0.2", "fluid.support=2.5"],
+        quick_why: "δ = 0.2 m (the grain half a spacing) with the full case's support radius, 0.5 m, so that the lone grain sees the same porosity (ε0 = 0.986): 1000 fluid particles",
         sweep_spacings: &[0.2, 0.1],
         sweep_schemes: &[("one-way, Di Felice drag", &[])],
         sweep_thin_axes: &[],
@@ -1855,10 +1855,12 @@ fn democritus_terminal_velocity(
     }
 }
 
-/// The speed at which the drag law balances the submerged weight of a lone grain
-/// (ε = 1, fluid at rest), by bisection on `couplet_fluid::drag::drag_force` to 1e-12.
+/// The speed at which the drag law balances the submerged weight of a grain at porosity
+/// `porosity` in fluid at rest, by bisection on `couplet_fluid::drag::drag_force` to
+/// 1e-12.
 fn drag_law_terminal_velocity(
     law: couplet_fluid::drag::DragLaw,
+    porosity: f64,
     d: f64,
     rho_s: f64,
     rho_f: f64,
@@ -1870,7 +1872,7 @@ fn drag_law_terminal_velocity(
         couplet_fluid::drag::drag_force(
             law,
             &couplet_fluid::drag::DragInput {
-                porosity: 1.0,
+                porosity,
                 diameter: d,
                 density: rho_f,
                 viscosity: mu,
@@ -1895,10 +1897,18 @@ fn drag_law_terminal_velocity(
 
 /// DEMocritus §4.2: the grain's terminal velocity — the mean downward velocity over the
 /// last tenth of the run, which must have levelled off (change over that tenth < 0.5 %)
-/// — against the speed where the scene's drag law balances the submerged weight (judged
-/// < 2 %: what the coupling adds, fluid sampling and the held window force) and against
-/// DEMocritus eq. (46) (judged within the law's own gap to eq. 46 plus 2 %: Dallavalle's
-/// C_D differs from eq. 46's regime laws, by 0.3 % at Re 2.3e4, 12 % in the Allen regime).
+/// — against the speed where the scene's drag law balances the submerged weight at the
+/// porosity the lone grain sees (judged < 2 %: what the coupling adds, fluid sampling
+/// and the held window force) and against DEMocritus eq. (46) (judged within the law's
+/// own gap to eq. 46 plus 2 %: Dallavalle's C_D differs from eq. 46's regime laws, by
+/// 0.3 % at Re 2.3e4, 12 % in the Allen regime).
+///
+/// The porosity a lone grain sees is Robinson eq. (9) at its centre with itself its only
+/// neighbour, ε0 = 1 − W(0) V. Eq. (46) is a grain in unbounded fluid, ε = 1, so ε0 is
+/// judged ≥ 0.98: DEMocritus's own porosity (his eq. 43, the grain's volume over a
+/// sphere of radius h) gives 0.984 for this grain at h = 2 dx. At the scene's first
+/// support, 2δ (h = d), ε0 was 0.781, the law's drag 1.5–1.9 times ε = 1's, and the
+/// grain fell 22–52 % slower than eq. (46) (2026-11-29).
 fn sedimentation_regimes(
     scene: &Scene,
     rec: &Recording,
@@ -1936,8 +1946,22 @@ fn sedimentation_regimes(
         "< 0.5 %".into(),
         Some(change < 0.005),
     );
+    let kernel = couplet_fluid::kernel::SmoothingKernel::new(
+        f.kernel,
+        f.support * f.spacing / f.kernel.radius_in_h(),
+    );
+    let volume = std::f64::consts::PI * d.powi(3) / 6.0;
+    // Robinson eq. (9) at the grain, the grain its only neighbour.
+    let eps0 = 1.0 - kernel.w(0.0) * volume;
+    report.judge(
+        "porosity the lone grain sees (Robinson eq. 9 at its centre, itself its only neighbour)",
+        format!("{eps0:.4}"),
+        "1 (unbounded fluid, eq. 46; DEMocritus eq. 43 at h = 2 dx: 0.984)".into(),
+        "≥ 0.98".into(),
+        Some(eps0 >= 0.98),
+    );
     let law = couplet_fluid::drag::DragLaw::from(scene.coupling.drag);
-    let balance = drag_law_terminal_velocity(law, d, body.density, f.density, mu, g);
+    let balance = drag_law_terminal_velocity(law, eps0, d, body.density, f.density, mu, g);
     let e_law = (terminal - balance).abs() / balance;
     report.headline = Some((
         "terminal velocity against the drag law's balance".into(),
@@ -1949,7 +1973,7 @@ fn sedimentation_regimes(
             f.density * terminal * d / mu
         ),
         format!("{terminal:.5e} m/s"),
-        format!("{balance:.5e} m/s ({law:?} balance of the submerged weight)"),
+        format!("{balance:.5e} m/s ({law:?} balance of the submerged weight at ε0)"),
         "< 2 %".into(),
         Some(e_law < 0.02),
     );
@@ -5004,6 +5028,85 @@ mod tests {
         let (saturated_growth, saturated) = rows(&|_| 5e-2);
         assert_eq!(saturated_growth.pass, Some(true), "{saturated_growth:?}");
         assert_eq!(saturated.pass, Some(false), "{saturated:?}");
+    }
+
+    /// Regression, 2026-11-29: `sedimentation-regimes` fell 22–52 % below DEMocritus eq.
+    /// (46) once grains saw Robinson eq. (9)'s porosity, 1 − W(0) V = 0.781 for the lone
+    /// grain at the scene's support 2δ (h = d), and once two-way became the default. The
+    /// scene is one-way, its lone grain sees ε0 = 1 − 21/(16π h³) π d³/6 = 0.014 less than
+    /// 1 at h = 0.25 m (by hand), and the coupling row judges the grain against the law's
+    /// balance at ε0: a grain at that balance passes, one at ε = 1's fails where ε0 is far
+    /// from 1 (support 2δ), and there the porosity row fails.
+    #[test]
+    fn sedimentation_regimes_judges_a_one_way_grain_at_the_porosity_it_sees() {
+        let case = find("sedimentation-regimes").unwrap();
+        let path = scene_path(case, None).unwrap();
+        let grain_at = |scene: &Scene, v: f64| {
+            let i = scene.grains()[0];
+            let y0 = scene.bodies[i].position[1];
+            let bodies = (0..=100)
+                .map(|k| {
+                    let t = 0.015 * f64::from(k);
+                    BodySample {
+                        time: t,
+                        body: i,
+                        position: [1.0, y0 - v * t, 0.5],
+                        orientation: [0.0, 0.0, 0.0, 1.0],
+                        velocity: [0.0, -v, 0.0],
+                    }
+                })
+                .collect();
+            let rec = Recording {
+                has_summary: true,
+                bodies,
+                ..Default::default()
+            };
+            let mut r = Report::default();
+            sedimentation_regimes(scene, &rec, &mut r).unwrap();
+            let row = |q: &str| {
+                (r.rows.iter().find(|r| r.quantity.starts_with(q)))
+                    .unwrap_or_else(|| panic!("{q}: {:?}", r.rows))
+                    .clone()
+            };
+            (
+                row("porosity the lone grain sees"),
+                row("terminal velocity (Re"),
+            )
+        };
+        let balance = |scene: &Scene, eps: f64| {
+            let f = scene.fluid.as_ref().unwrap();
+            drag_law_terminal_velocity(
+                couplet_fluid::drag::DragLaw::DiFelice,
+                eps,
+                0.1,
+                2700.0,
+                f.density,
+                f.density * f.kinematic_viscosity,
+                9.81,
+            )
+        };
+        let (scene, _) = resolve_scene(&path, &[]).unwrap();
+        assert!(!scene.coupling.two_way);
+        let eps0 = 1.0 - 0.014;
+        let (porosity, coupling) = grain_at(&scene, balance(&scene, eps0));
+        let measured = |row: &Row| row.measured.parse::<f64>().unwrap();
+        assert!((measured(&porosity) - eps0).abs() < 1e-4, "{porosity:?}");
+        assert_eq!(
+            (porosity.pass, coupling.pass),
+            (Some(true), Some(true)),
+            "{coupling:?}"
+        );
+        // Support 2δ: h = 0.1 m, ε0 = 1 − 0.014 × 2.5³ = 0.78125.
+        let (scene, _) = resolve_scene(&path, &pairs(&["fluid.support=2.0"])).unwrap();
+        let (porosity, coupling) = grain_at(&scene, balance(&scene, 1.0));
+        assert!((measured(&porosity) - 0.78125).abs() < 1e-4, "{porosity:?}");
+        assert_eq!(
+            (porosity.pass, coupling.pass),
+            (Some(false), Some(false)),
+            "{coupling:?}"
+        );
+        let (_, coupling) = grain_at(&scene, balance(&scene, 0.78125));
+        assert_eq!(coupling.pass, Some(true), "{coupling:?}");
     }
 
     /// The RTI judge on synthetic tracks of the quick scene (water, λ = 1.1026 mm:
