@@ -4733,6 +4733,30 @@ mod tests {
             }
         }
         assert!(lines >= 20, "{lines} lines in {}", dir.display());
+        // `GPU_CHECK_BENCHES` files (`scripts/gpu-benches/*.txt`): each line is `couplet
+        // bench`'s arguments, a scene path from the repository root and flags.
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let mut benches = 0;
+        for file in std::fs::read_dir(root.join("scripts/gpu-benches")).unwrap() {
+            let file = file.unwrap().path();
+            let text = std::fs::read_to_string(&file).unwrap();
+            for line in text
+                .lines()
+                .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+            {
+                let words: Vec<&str> = line.split_whitespace().collect();
+                let sets: Vec<(String, String)> = (words.windows(2).filter(|w| w[0] == "--set"))
+                    .map(|w| {
+                        let (k, v) = w[1].split_once('=').unwrap();
+                        (k.to_string(), v.to_string())
+                    })
+                    .collect();
+                resolve_scene(&root.join(words[0]), &sets)
+                    .unwrap_or_else(|e| panic!("{}: {line}: {e}", file.display()));
+                benches += 1;
+            }
+        }
+        assert!(benches >= 2, "{benches} bench lines");
     }
 
     /// The cavity's sweep keeps its periodic z span at 8 of each point's spacings (the
