@@ -4692,14 +4692,13 @@ mod tests {
         assert!(e.contains("of `hydrostatic-tank`"), "{e}");
     }
 
-    /// Every line of the GPU machine's VALS files (`scripts/gpu-vals/*.txt`, `LABEL CASE
-    /// ARGS...`) names a case, variants it has (`--variant`, by label or folder name)
-    /// and sweep points it has (`--point K`): a typo there would cost a GPU call its
-    /// minutes of set-up and come back empty.
-    #[test]
-    fn gpu_vals_files_name_cases_variants_and_points_that_exist() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/gpu-vals");
-        let mut lines = 0;
+    /// The lines of every file in `scripts/FOLDER`, less `#` comments and blank lines,
+    /// each with "FILE: LINE" for messages.
+    fn script_lines(folder: &str) -> Vec<(String, String)> {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scripts")
+            .join(folder);
+        let mut out = Vec::new();
         for file in std::fs::read_dir(&dir).unwrap() {
             let file = file.unwrap().path();
             let text = std::fs::read_to_string(&file).unwrap();
@@ -4707,56 +4706,58 @@ mod tests {
                 .lines()
                 .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
             {
-                let words: Vec<&str> = line.split_whitespace().collect();
-                let at = format!("{}: {line}", file.display());
-                let case = find(words[1]).unwrap_or_else(|e| panic!("{at}: {e}"));
-                let value = |flag: &str| -> Vec<String> {
-                    (words.windows(2).filter(|w| w[0] == flag))
-                        .map(|w| w[1].to_string())
-                        .collect()
-                };
-                let variants = value("--variant");
-                let chosen =
-                    chosen_variants(case, false, &variants).unwrap_or_else(|e| panic!("{at}: {e}"));
+                out.push((line.to_string(), format!("{}: {line}", file.display())));
+            }
+        }
+        out
+    }
+
+    /// Every line of the GPU machine's VALS files (`scripts/gpu-vals/*.txt`, `LABEL CASE
+    /// ARGS...`) names a case, variants it has (`--variant`, by label or folder name)
+    /// and sweep points it has (`--point K`), and every line of its bench files
+    /// (`scripts/gpu-benches/*.txt`, `couplet bench`'s arguments: a scene path from the
+    /// repository root, flags) a scene that resolves with its `--set`s: a typo there
+    /// would cost a GPU call its minutes of set-up and come back empty.
+    #[test]
+    fn gpu_vals_files_name_cases_variants_and_points_that_exist() {
+        let vals = script_lines("gpu-vals");
+        for (line, at) in &vals {
+            let words: Vec<&str> = line.split_whitespace().collect();
+            let case = find(words[1]).unwrap_or_else(|e| panic!("{at}: {e}"));
+            let value = |flag: &str| -> Vec<String> {
+                (words.windows(2).filter(|w| w[0] == flag))
+                    .map(|w| w[1].to_string())
+                    .collect()
+            };
+            let variants = value("--variant");
+            let chosen =
+                chosen_variants(case, false, &variants).unwrap_or_else(|e| panic!("{at}: {e}"));
+            assert!(
+                variants.is_empty() || chosen.len() == variants.len(),
+                "{at}"
+            );
+            for k in value("--point") {
+                let k: usize = k.parse().unwrap_or_else(|e| panic!("{at}: {e}"));
                 assert!(
-                    variants.is_empty() || chosen.len() == variants.len(),
-                    "{at}"
+                    k < sweep_specs(case.name).unwrap().len(),
+                    "{at}: no point {k}"
                 );
-                for k in value("--point") {
-                    let k: usize = k.parse().unwrap_or_else(|e| panic!("{at}: {e}"));
-                    assert!(
-                        k < sweep_specs(case.name).unwrap().len(),
-                        "{at}: no point {k}"
-                    );
-                }
-                lines += 1;
             }
         }
-        assert!(lines >= 20, "{lines} lines in {}", dir.display());
-        // `GPU_CHECK_BENCHES` files (`scripts/gpu-benches/*.txt`): each line is `couplet
-        // bench`'s arguments, a scene path from the repository root and flags.
+        assert!(vals.len() >= 20, "{} VALS lines", vals.len());
+        let benches = script_lines("gpu-benches");
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let mut benches = 0;
-        for file in std::fs::read_dir(root.join("scripts/gpu-benches")).unwrap() {
-            let file = file.unwrap().path();
-            let text = std::fs::read_to_string(&file).unwrap();
-            for line in text
-                .lines()
-                .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
-            {
-                let words: Vec<&str> = line.split_whitespace().collect();
-                let sets: Vec<(String, String)> = (words.windows(2).filter(|w| w[0] == "--set"))
-                    .map(|w| {
-                        let (k, v) = w[1].split_once('=').unwrap();
-                        (k.to_string(), v.to_string())
-                    })
-                    .collect();
-                resolve_scene(&root.join(words[0]), &sets)
-                    .unwrap_or_else(|e| panic!("{}: {line}: {e}", file.display()));
-                benches += 1;
-            }
+        for (line, at) in &benches {
+            let words: Vec<&str> = line.split_whitespace().collect();
+            let sets: Vec<(String, String)> = (words.windows(2).filter(|w| w[0] == "--set"))
+                .map(|w| {
+                    let (k, v) = w[1].split_once('=').unwrap();
+                    (k.to_string(), v.to_string())
+                })
+                .collect();
+            resolve_scene(&root.join(words[0]), &sets).unwrap_or_else(|e| panic!("{at}: {e}"));
         }
-        assert!(benches >= 2, "{benches} bench lines");
+        assert!(benches.len() >= 2, "{} bench lines", benches.len());
     }
 
     /// The cavity's sweep keeps its periodic z span at 8 of each point's spacings (the
