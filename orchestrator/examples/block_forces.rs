@@ -33,6 +33,7 @@ use couplet_fluid::drag::{DragInput, DragLaw, drag_force};
 use couplet_fluid::porosity::{PorosityField, Solid};
 use couplet_fluid::{Kind, SphConstants, initial_particles};
 use couplet_orchestrator::record::read_recording;
+use couplet_protocol::cell_hash::CellHash;
 use couplet_protocol::{Scene, Shape};
 use std::collections::{BTreeMap, HashMap};
 
@@ -123,47 +124,19 @@ fn main() {
             ([v(0), v(1), v(2)], [v(4), v(5), v(6)], v(3), v(7))
         })
         .collect();
-    // Cells of the support's size; the periodic axes wrap.
+    // The fluid binned in cells of the support's size, the periodic axes wrapped (the
+    // hash the porosity's grains use): `near(x)` is every fluid particle in the 27 cells
+    // around x, each once.
     let r = c.support_radius();
-    let cell = |x: [f64; 3]| -> [i64; 3] { std::array::from_fn(|k| (x[k] / r).floor() as i64) };
-    let ncell: [i64; 3] = std::array::from_fn(|k| {
-        if c.period[k] > 0.0 {
-            (c.period[k] / r).floor().max(1.0) as i64
-        } else {
-            0
-        }
-    });
-    let wrap = |mut k: [i64; 3]| {
-        for a in 0..3 {
-            if ncell[a] > 0 {
-                k[a] = k[a].rem_euclid(ncell[a]);
-            }
-        }
-        k
-    };
-    let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-    for (a, f) in fluid.iter().enumerate() {
-        cells.entry(wrap(cell(f.0))).or_default().push(a);
-    }
-    // The fluid particles in the 27 cells around x, each once (a period of fewer than
-    // three cells wraps onto the same cell).
-    let near = |x: [f64; 3]| -> Vec<usize> {
-        let home = cell(x);
-        let mut keys: Vec<[i64; 3]> = (0..27)
-            .map(|n| {
-                wrap([
-                    home[0] + n % 3 - 1,
-                    home[1] + n / 3 % 3 - 1,
-                    home[2] + n / 9 - 1,
-                ])
-            })
-            .collect();
-        keys.sort_unstable();
-        keys.dedup();
-        (keys.iter())
-            .flat_map(|k| cells.get(k).into_iter().flatten().copied())
-            .collect()
-    };
+    let mut hash = CellHash::default();
+    let at: Vec<[f64; 3]> = fluid.iter().map(|f| f.0).collect();
+    hash.build(
+        &at,
+        r,
+        [0.0; 3],
+        std::array::from_fn(|k| (c.period[k] > 0.0).then_some(c.period[k])),
+    );
+    let near = |x: [f64; 3]| hash.candidates(x).map(|a| a as usize);
     let law = DragLaw::from(scene.coupling.drag);
     let f = scene
         .fluid
@@ -344,7 +317,7 @@ fn main() {
         fluid.iter().map(|fl| fl.2).sum::<f64>() / fluid.len() as f64
     );
     let summation = |a: usize| -> f64 {
-        (near(fluid[a].0).into_iter())
+        near(fluid[a].0)
             .map(|b| {
                 let rv = c.pair_vec(fluid[a].0, fluid[b].0);
                 let d = rv.iter().map(|x| x * x).sum::<f64>().sqrt();

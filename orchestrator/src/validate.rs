@@ -1946,13 +1946,16 @@ fn sedimentation_regimes(
         "< 0.5 %".into(),
         Some(change < 0.005),
     );
-    let kernel = couplet_fluid::kernel::SmoothingKernel::new(
-        f.kernel,
-        f.support * f.spacing / f.kernel.radius_in_h(),
-    );
-    let volume = std::f64::consts::PI * d.powi(3) / 6.0;
-    // Robinson eq. (9) at the grain, the grain its only neighbour.
-    let eps0 = 1.0 - kernel.w(0.0) * volume;
+    // Robinson eq. (9) at the grain, the grain its only neighbour, by the fluid server's
+    // own field (the sum it gives the drag each window).
+    use couplet_fluid::porosity::{PorosityField, Solid};
+    let consts =
+        couplet_fluid::constants::SphConstants::from_scene(scene).map_err(|e| e.to_string())?;
+    let grain = Solid {
+        position: body.position,
+        volume: std::f64::consts::PI * d.powi(3) / 6.0,
+    };
+    let eps0 = PorosityField::of_scene(&consts, scene).porosity(&[grain.position], &[grain])[0];
     report.judge(
         "porosity the lone grain sees (Robinson eq. 9 at its centre, itself its only neighbour)",
         format!("{eps0:.4}"),
@@ -2380,10 +2383,7 @@ fn single_particle_sedimentation(
     // For `sps_two_way_against_one_way`: the excess at the end, and the part of it that
     // the coupling's own flow at the grain makes, in a continuum.
     let two_way = scene.coupling.two_way;
-    let kernel = couplet_fluid::kernel::SmoothingKernel::new(
-        f.kernel,
-        f.support * f.spacing / f.kernel.radius_in_h(),
-    );
+    let kernel = couplet_fluid::kernel::SmoothingKernel::new(f.kernel, f.smoothing_length());
     let own = crate::robinson_reference::grain_own_flow(
         |r| kernel.w(r),
         kernel.radius(),

@@ -2,11 +2,11 @@
 //! d = 0.1 mm, ρp = 2500, on a cubic lattice of porosity ε = 0.8 that falls as a block
 //! through water in a column periodic across, closed at the floor, with a free surface;
 //! two-way coupling, Di Felice drag, superficial-density fluid at h = 2d in Robinson's
-//! h = 1.5 δ, δ-SPH on the intrinsic density) end to end through `couplet validate constant-porosity-block --quick
-//! --variant "water, ε = 0.8"` cut to t = 6 ms: the quick's column, 10 lattice spacings
-//! and 11 fluid spacings across (h/d = 1.88; the counts differ so that the fluid's
-//! lattice is not the grains', ARCHITECTURE.md, "The fluid's lattice must not be the
-//! grains'").
+//! h = 1.5 δ, δ-SPH on the intrinsic density) end to end through `couplet validate
+//! constant-porosity-block --quick --variant "water, ε = 0.8"` cut to t = 6 ms: the
+//! quick's column, 10 lattice spacings and 11 fluid spacings across (h/d = 1.88; the
+//! counts differ so that the fluid's lattice is not the grains', ARCHITECTURE.md, "The
+//! fluid's lattice must not be the grains'").
 //! The block's settling speed over the second half must be within Robinson §6.2's 5 %
 //! of eq. (35) as printed, and the report's other judged rows must pass, among them the
 //! fluid's largest speed: its growth across the judged stretch (≤ 2) and its level
