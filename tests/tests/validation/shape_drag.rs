@@ -16,7 +16,9 @@
 //! against 11.6) and in the 25 mm box its last fifth caught the floor's approach: force
 //! 2.51 % off (Γ = 2 there: 0.17 %). In the quick's box to 0.4 s: 1.49 % off, Re 13.55,
 //! tilt 17.8° (three runs, identical; the same run to 0.6 s, whose time steps differ by
-//! round-off: 0.29 %, Re 13.78, tilt 5.8°). Measured
+//! round-off: 0.29 %, Re 13.78, tilt 5.8°). At Γ = 2 again, once particle shifting
+//! stopped δ/2 short of a surface (2026-11-29): 3.32 % off, failing, Re 12.75, tilt
+//! 48.7°, while the full size at Γ = 2 now runs smoothly on an H200. Measured
 //! 2026-11-26 (lavapipe, 2 cores, 214 s with the cylinder, which CI ran until it had to
 //! come back under 40 minutes): force 0.32 % (ring) and 0.17 % (cross) off the
 //! submerged weight, Re 16.35 and 13.50 (the cylinder 0.46 %, Re 12.75). The quick
