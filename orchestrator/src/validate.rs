@@ -1577,12 +1577,16 @@ fn sweep_svg(
         "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
     ];
     let (w, h, left, right, top, bottom) = (960.0, 440.0, 70.0, 400.0, 40.0, 50.0);
+    let error = |p: &SweepPoint| p.headline.as_ref().map_or(f64::NAN, |h| h.1);
+    // On a log axis: positive and finite (NaN fails both).
     let plotted = |p: &&SweepPoint| {
-        let e = p.headline.as_ref().map_or(f64::NAN, |h| h.1);
-        p.failure.is_none() && e > 0.0 && e.is_finite() && x(p) > 0.0 && x(p).is_finite()
+        p.failure.is_none()
+            && error(p) > 0.0
+            && error(p) < f64::INFINITY
+            && x(p) > 0.0
+            && x(p) < f64::INFINITY
     };
     let good: Vec<&SweepPoint> = points.iter().filter(plotted).collect();
-    let error = |p: &SweepPoint| p.headline.as_ref().map_or(f64::NAN, |h| h.1);
     // Whole decades around the data, so that the ticks are 10^k.
     let decades = |v: &mut dyn Iterator<Item = f64>| {
         let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| {
