@@ -65,11 +65,19 @@ pub enum FluidError {
     BadWindow { window: f64 },
     #[error(
         "blow-up at step {step} (t = {time:.6e} s): particle {id} ({kind}) has {what} = {value}; \
-         valid: finite, density within [{rho_min}, {rho_max}] kg/m³, speed below {u_max} m/s"
+         valid: finite, density within [{rho_min}, {rho_max}] kg/m³, speed below {u_max} m/s \
+         (checked once a coupling window: it began after step {since_step}, t = {since_time:.6e} s, \
+         where the last check passed)"
     )]
     BlowUp {
         step: u64,
         time: f64,
+        /// The window's start: the last step at which the check passed. The state is
+        /// checked once a window, so the blow-up began in (since_step, step]; by the
+        /// check, NaN may have spread to every particle, which is why `id` (the smallest
+        /// bad id) need not be where it began.
+        since_step: u64,
+        since_time: f64,
         id: u32,
         kind: &'static str,
         what: &'static str,

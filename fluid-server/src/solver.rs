@@ -1508,6 +1508,7 @@ impl FluidSolver {
                 t.collect(gpu)?;
             }
         }
+        let since = (self.steps, self.time);
         self.time += window;
         self.steps += u64::from(substeps);
         self.loads_ready = self.data.bodies.is_some();
@@ -1515,7 +1516,7 @@ impl FluidSolver {
             self.near_singular,
             [self.reflected, self.shift_limited],
             self.stats,
-        ) = self.check(gpu)?;
+        ) = self.check(gpu, since)?;
         Ok(substeps)
     }
 
@@ -1525,7 +1526,12 @@ impl FluidSolver {
     /// into `status[1..3]` so that one readback serves both; the particle-steps kept out
     /// of bodies (`status[3]`) and those whose shift was cut short in front of one
     /// (`status[4]`); and the window's telemetry.
-    fn check(&self, gpu: &Gpu) -> Result<(u32, [u32; 2], WindowStats), FluidError> {
+    /// `since` is the window's start (step, time), where the last check passed.
+    fn check(
+        &self,
+        gpu: &Gpu,
+        since: (u64, f64),
+    ) -> Result<(u32, [u32; 2], WindowStats), FluidError> {
         let d = &self.data;
         // status[3], status[4] hold the window's body counts: left alone.
         gpu.queue.write_buffer(
@@ -1597,6 +1603,8 @@ impl FluidSolver {
             return Err(FluidError::BlowUp {
                 step: self.steps,
                 time: self.time,
+                since_step: since.0,
+                since_time: since.1,
                 id,
                 kind: match d.kinds.kind(id) {
                     Kind::Fluid => "fluid",

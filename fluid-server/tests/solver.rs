@@ -210,11 +210,20 @@ fn blow_up_names_the_particle() {
     let msg = err.to_string();
     println!("{msg}");
     match err {
-        FluidError::BlowUp { id, step, .. } => {
+        FluidError::BlowUp {
+            id,
+            step,
+            since_step,
+            since_time,
+            ..
+        } => {
             // NaN spreads to the neighbours within the window; the smallest bad id is
             // reported, which can only be the seeded one or a neighbour.
             assert!(id as usize <= bad || msg.contains("NaN"), "{msg}");
             assert_eq!(step, 2);
+            // Checked once a window: the one window of two steps began at step 0.
+            assert_eq!((since_step, since_time), (0, 0.0));
+            assert!(msg.contains("it began after step 0"), "{msg}");
         }
         other => panic!("expected a blow-up, got {other}"),
     }
