@@ -130,6 +130,9 @@ pub struct Series {
 pub struct Report {
     pub case: String,
     pub quick: bool,
+    /// A point of `--sweep` (its index and spacing, m): the quick's run at that spacing,
+    /// titled so rather than "quick".
+    pub sweep_point: Option<(usize, f64)>,
     /// Analysed from a run made elsewhere (`--recording`): neither the quick nor the full
     /// version is known to be what ran, and the wall time is not this process's.
     pub from_recording: bool,
@@ -177,11 +180,14 @@ impl Report {
         let mut t = if self.from_recording {
             format!("## {} (analysed from a recording)\n\n", self.case)
         } else {
+            let kind = match (self.sweep_point, self.quick) {
+                (Some((k, d)), _) => format!("sweep point {k}, δ = {d:e} m"),
+                (None, true) => "quick".into(),
+                (None, false) => "full".into(),
+            };
             format!(
-                "## {} ({}), wall time {:.1} s\n\n",
-                self.case,
-                if self.quick { "quick" } else { "full" },
-                self.wall_s
+                "## {} ({kind}), wall time {:.1} s\n\n",
+                self.case, self.wall_s
             )
         };
         t.push_str(
@@ -789,7 +795,7 @@ pub fn validate(
     let base = if quick { pairs(case.quick) } else { Vec::new() };
     let out = out.unwrap_or_else(|| PathBuf::from("out").join("validate").join(name));
     run_case(
-        case, &variants, quick, &base, extra, out, scenes_dir, progress,
+        case, &variants, quick, None, &base, extra, out, scenes_dir, progress,
     )
 }
 
@@ -869,6 +875,7 @@ fn run_case(
     case: &Case,
     variants: &[Variant],
     quick: bool,
+    point: Option<&SweepSpec>,
     base: &[(String, String)],
     extra: &[(String, String)],
     out: PathBuf,
@@ -881,8 +888,10 @@ fn run_case(
         o.extend_from_slice(extra);
         o
     };
+    let sweep_point = point.map(|p| (p.index, p.spacing));
     if variants.is_empty() {
-        let report = run_one(case, quick, with(&[]), out, scenes_dir, progress)?;
+        let mut report = run_one(case, quick, with(&[]), out, scenes_dir, progress)?;
+        report.sweep_point = sweep_point;
         write_outputs(&report)?;
         return Ok(report);
     }
@@ -904,6 +913,7 @@ fn run_case(
             Err(e) if e.is_interrupted() => return Err(e),
             Ok(mut r) => {
                 r.case = format!("{} ({label})", case.name);
+                r.sweep_point = sweep_point;
                 write_outputs(&r)?;
                 r
             }
@@ -913,6 +923,7 @@ fn run_case(
                 let mut r = Report {
                     case: format!("{} ({label})", case.name),
                     quick,
+                    sweep_point,
                     wall_s: t0.elapsed().as_secs_f64(),
                     ..Default::default()
                 };
@@ -931,6 +942,7 @@ fn run_case(
     let mut report = Report {
         case: case.name.to_owned(),
         quick,
+        sweep_point,
         wall_s: parts.iter().map(|r| r.wall_s).sum(),
         out: out.clone(),
         particles: parts.iter().map(|r| r.particles).max().unwrap_or(0),
@@ -1209,6 +1221,7 @@ fn sweep_point_into(
         case,
         &variants,
         true,
+        Some(spec),
         &o,
         extra,
         spec.dir(out),
@@ -5429,7 +5442,7 @@ mod tests {
     /// Regression (recording_report_titled_full, 2026-11-27): `--recording` titled its
     /// report "(full)" with "wall time 0.0 s" whatever had run (a quick run analysed so
     /// read as the full case). The title says where the report came from, and a run's
-    /// title still says quick or full with its wall time.
+    /// title still says quick, full or which sweep point, with its wall time.
     #[test]
     fn a_report_from_a_recording_is_titled_so_without_a_wall_time() {
         let title = |r: &Report| r.markdown().lines().next().unwrap().to_owned();
@@ -5442,6 +5455,13 @@ mod tests {
         assert_eq!(title(&r), "## shape-drag (quick), wall time 12.3 s");
         r.quick = false;
         assert_eq!(title(&r), "## shape-drag (full), wall time 12.3 s");
+        // A sweep point runs the quick at the point's spacing (an H200's δ = L/100 cavity
+        // was titled "quick", 2026-11-29).
+        r.sweep_point = Some((6, 0.01));
+        assert_eq!(
+            title(&r),
+            "## shape-drag (sweep point 6, δ = 1e-2 m), wall time 12.3 s"
+        );
         r.from_recording = true;
         assert_eq!(title(&r), "## shape-drag (analysed from a recording)");
     }
