@@ -33,7 +33,7 @@ use crate::gpu::{Gpu, GpuError};
 use crate::kernel::KERNEL_WGSL;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::{Kind, ParticleSet};
-use crate::porosity::{PorosityField, Solid, solid_fraction_kernel};
+use crate::porosity::{GrainPorosity, PorosityField, Solid, solid_fraction_kernel};
 use crate::solver::{Op, SphData, missing};
 use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 use couplet_protocol::{BodyLoad, BodyState, Scene, Shape};
@@ -569,8 +569,9 @@ pub struct GrainCoupling {
     kernel: SphKernel,
     /// `grain_solid_fraction` (Robinson eq. 9 at the fluid particles).
     solid: SphKernel,
-    /// Robinson eq. (9) at the grains, on the CPU.
-    field: PorosityField,
+    /// Robinson eq. (9) at the grains, on the CPU, from neighbour lists kept across
+    /// windows (behind a lock: [`GrainCoupling::sample`] takes `&self`).
+    porosity: std::sync::Mutex<GrainPorosity>,
     /// `spread_grain_reaction`, with `coupling.two_way`.
     spread: Option<SphKernel>,
     /// `grain_pressure_force`, with `coupling.porosity_pressure = "energy-pair"`.
@@ -611,7 +612,7 @@ impl GrainCoupling {
         Some(GrainCoupling {
             kernel: kernel(gpu, c, scene.coupling.drag.into(), grid_layout),
             solid: solid_fraction_kernel(gpu, c, grid_layout),
-            field: PorosityField::of_scene(c, scene),
+            porosity: std::sync::Mutex::new(GrainPorosity::new(PorosityField::of_scene(c, scene))),
             spread: c.grain_reaction.then(|| spread_kernel(gpu, c, grid_layout)),
             pressure: c
                 .porosity_pair
@@ -642,7 +643,9 @@ impl GrainCoupling {
             })
             .collect();
         let centres: Vec<[f64; 3]> = solids.iter().map(|s| s.position).collect();
-        let porosity = self.field.porosity(&centres, &solids);
+        let porosity = (self.porosity.lock())
+            .unwrap_or_else(|e| e.into_inner())
+            .porosity(&solids);
         if let Some((i, &e)) = (porosity.iter().enumerate()).find(|(_, e)| !(**e > 0.0)) {
             return Err(FluidError::Porosity {
                 at: format!("grain body {} at {:?} m", self.bodies[i], centres[i]),
