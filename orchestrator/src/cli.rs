@@ -550,15 +550,8 @@ fn summary_text(s: &RunSummary) -> String {
         s.wall_s,
         s.sim_time / s.wall_s.max(1e-9)
     );
-    t += &format!(
-        "per window: {:.1} µs wall; fluid {:.1} µs ({} substeps total); DEM {:.1} µs; exchange {:.1} µs ({:.2} %)\n",
-        s.window_wall_us,
-        s.fluid_compute_us,
-        s.fluid_substeps,
-        s.dem_compute_us,
-        s.exchange_us,
-        100.0 * s.exchange_us / s.window_wall_us.max(1e-9)
-    );
+    t += &s.per_window();
+    t.push('\n');
     if s.near_singular > 0 {
         t += &format!(
             "gradient correction: {} particle-steps had a near-singular truncation matrix (det M < {}) and kept the uncorrected gradient (per window in /run/windows)\n",

@@ -143,6 +143,22 @@ pub struct RunSummary {
     pub body0_track: Vec<(f64, [f64; 3], [f64; 3])>,
 }
 
+impl RunSummary {
+    /// Where a window's time went, on one line (`couplet run`'s summary; `couplet
+    /// validate` and a stopped run print it too).
+    pub fn per_window(&self) -> String {
+        format!(
+            "per window: {:.1} µs wall; fluid {:.1} µs ({} substeps total); DEM {:.1} µs; exchange {:.1} µs ({:.2} %)",
+            self.window_wall_us,
+            self.fluid_compute_us,
+            self.fluid_substeps,
+            self.dem_compute_us,
+            self.exchange_us,
+            100.0 * self.exchange_us / self.window_wall_us.max(1e-9)
+        )
+    }
+}
+
 /// Loads a scene and applies the command-line overrides; returns the scene and the TOML
 /// text the servers will load (written next to the recording).
 pub fn resolve_scene(
@@ -275,6 +291,11 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
         result = Err(interrupted(&run, signal, recording.as_deref(), true));
     }
     let summary = run.close(matches!(result, Ok(()) | Err(RunError::Interrupted { .. })));
+    // A stopped run's summary is not returned: where its windows' time went is said here
+    // (a run cut by a time limit on a GPU machine is often all there is to go by).
+    if let (Err(RunError::Interrupted { .. }), Ok(s), true) = (&result, &summary, opts.progress) {
+        eprintln!("{}", s.per_window());
+    }
     result?;
     summary
 }

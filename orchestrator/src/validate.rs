@@ -1004,7 +1004,7 @@ fn run_one(
     let scene_file = scene_path(case, scenes_dir)?;
     let (scene, _) = resolve_scene(&scene_file, &overrides)?;
     let t0 = Instant::now();
-    run(&RunOptions {
+    let summary = run(&RunOptions {
         scene: scene_file,
         out: Some(out.clone()),
         overrides,
@@ -1026,6 +1026,9 @@ fn run_one(
         }
         e
     })?;
+    if progress {
+        eprintln!("{}", summary.per_window());
+    }
     let wall_s = t0.elapsed().as_secs_f64();
     let rec = read_recording(&out.join("run.mcap")).map_err(ValidateError::Recording)?;
     Ok(Report {
