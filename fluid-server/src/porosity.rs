@@ -569,8 +569,9 @@ mod tests {
         }
     }
 
-    /// Grains jittered about a lattice at ε ≈ 0.8, 1 mm wide and periodic in x so that
-    /// lists cross the period; `seed` picks the jitter.
+    /// Grains jittered (±0.15 of the spacing) about a lattice at ε = 0.8, six spacings
+    /// across in y and z and filling x's period, so that lists cross it; `seed` picks the
+    /// jitter.
     fn jittered_grains(f: &PorosityField, seed: u64) -> Vec<Solid> {
         let d: f64 = 1e-4;
         let v = std::f64::consts::PI / 6.0 * d.powi(3);
@@ -601,9 +602,10 @@ mod tests {
     /// The grains' porosity from the lists kept across windows equals eq. (9) summed
     /// afresh ([`PorosityField::porosity`], to f64 round-off: the terms are added in
     /// another order) at the build, after moves under half the skin (no rebuild), after
-    /// one grain moves past it and after it is carried two periods on (rebuilds). Its bits do not depend on when the lists were
-    /// built: lists built at the first positions and used at the moved ones give what
-    /// lists built at the moved ones give (a run restored from a checkpoint builds anew).
+    /// one grain moves past it and after it is carried two periods on (rebuilds). Its
+    /// bits do not depend on when the lists were built: lists built at the first
+    /// positions and used at the moved ones give what lists built at the moved ones give
+    /// (a run restored from a checkpoint builds anew).
     #[test]
     fn grain_lists_give_eq_9_and_the_same_bits_whenever_built() {
         let mut f = field([0.0; 3]);
@@ -623,9 +625,8 @@ mod tests {
         assert!(e.iter().all(|x| *x > 0.6 && *x < 0.95), "{e:?}");
         assert_eq!(lists.builds(), 1);
         // Every grain 0.9 of half the skin along a diagonal of its own (random signs),
-        // some across the period: pairs close by up to
-        // 0.9 of the skin, so lists without one would miss grains that came into the
-        // support.
+        // some across the period: pairs close in by up to 0.9 of the skin, so lists
+        // without one would miss grains that came into the support.
         let step = 0.9 * 0.5 * GRAIN_LIST_SKIN * f.support / 3f64.sqrt();
         let mut state = 11u64;
         for s in g.iter_mut() {
