@@ -642,13 +642,15 @@ impl GrainCoupling {
                 volume: states[b as usize].volume,
             })
             .collect();
-        let centres: Vec<[f64; 3]> = solids.iter().map(|s| s.position).collect();
         let porosity = (self.porosity.lock())
             .unwrap_or_else(|e| e.into_inner())
             .porosity(&solids);
         if let Some((i, &e)) = (porosity.iter().enumerate()).find(|(_, e)| !(**e > 0.0)) {
             return Err(FluidError::Porosity {
-                at: format!("grain body {} at {:?} m", self.bodies[i], centres[i]),
+                at: format!(
+                    "grain body {} at {:?} m",
+                    self.bodies[i], solids[i].position
+                ),
                 porosity: e,
             });
         }

@@ -871,6 +871,19 @@ fn pairs(list: &[&str]) -> Vec<(String, String)> {
 /// between `base` and `extra`, and writes the combined report, with the comparison
 /// across variants, to `out`.
 #[allow(clippy::too_many_arguments)]
+/// The overrides one run of a case takes: the version's (`base`: the full case's none,
+/// the quick's, a sweep point's), its variant's, then the command line's (`extra`).
+fn run_overrides(
+    base: &[(String, String)],
+    variant: &[&str],
+    extra: &[(String, String)],
+) -> Vec<(String, String)> {
+    let mut o = base.to_vec();
+    o.extend(pairs(variant));
+    o.extend_from_slice(extra);
+    o
+}
+
 fn run_case(
     case: &Case,
     variants: &[Variant],
@@ -882,12 +895,7 @@ fn run_case(
     scenes_dir: Option<&Path>,
     progress: bool,
 ) -> Result<Report, ValidateError> {
-    let with = |variant: &[&str]| {
-        let mut o = base.to_vec();
-        o.extend(pairs(variant));
-        o.extend_from_slice(extra);
-        o
-    };
+    let with = |variant: &[&str]| run_overrides(base, variant, extra);
     let sweep_point = point.map(|p| (p.index, p.spacing));
     if variants.is_empty() {
         let mut report = run_one(case, quick, with(&[]), out, scenes_dir, progress)?;
@@ -4979,36 +4987,30 @@ mod tests {
     #[test]
     fn every_case_plans_every_run_it_can_make() {
         let mut runs = 0;
-        let check = |case: &Case, what: &str, o: &[(String, String)], runs: &mut usize| {
-            let file = scene_path(case, None).unwrap();
-            crate::plan::plan(&file, o).unwrap_or_else(|e| panic!("{} ({what}): {e}", case.name));
-            *runs += 1;
-        };
         for case in cases() {
-            for quick in [false, true] {
-                let base = if quick { pairs(case.quick) } else { Vec::new() };
-                let variants = chosen_variants(case, quick, &[]).unwrap();
-                let what = if quick { "quick" } else { "full" };
-                if variants.is_empty() {
-                    check(case, what, &base, &mut runs);
-                }
-                for (label, v) in &variants {
-                    let mut o = base.clone();
-                    o.extend(pairs(v));
-                    check(case, &format!("{what}, {label}"), &o, &mut runs);
-                }
-            }
+            let file = scene_path(case, None).unwrap();
+            // (what, quick, base) of each version: as `validate` and `sweep_point_into`
+            // make them.
+            let mut versions = vec![
+                ("full".to_string(), false, Vec::new()),
+                ("quick".to_string(), true, pairs(case.quick)),
+            ];
             for spec in sweep_specs(case.name).unwrap_or_default() {
                 let base = sweep_point_overrides(case, &spec, None).unwrap();
-                let what = format!("sweep point {}", spec.index);
-                let variants = chosen_variants(case, true, &[]).unwrap();
-                if variants.is_empty() {
-                    check(case, &what, &base, &mut runs);
-                }
-                for (label, v) in &variants {
-                    let mut o = base.clone();
-                    o.extend(pairs(v));
-                    check(case, &format!("{what}, {label}"), &o, &mut runs);
+                versions.push((format!("sweep point {}", spec.index), true, base));
+            }
+            for (what, quick, base) in &versions {
+                let variants = chosen_variants(case, *quick, &[]).unwrap();
+                // A case without variants is one run of the base, as in `run_case`.
+                let runs_of: Vec<(&str, &[&str])> = if variants.is_empty() {
+                    vec![("", &[])]
+                } else {
+                    variants.iter().map(|(l, v)| (*l, *v)).collect()
+                };
+                for (label, v) in runs_of {
+                    crate::plan::plan(&file, &run_overrides(base, v, &[]))
+                        .unwrap_or_else(|e| panic!("{} ({what} {label}): {e}", case.name));
+                    runs += 1;
                 }
             }
         }
