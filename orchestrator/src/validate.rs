@@ -866,11 +866,6 @@ fn pairs(list: &[&str]) -> Vec<(String, String)> {
         .collect()
 }
 
-/// Runs `case` with `base` then `extra` overrides into `out`, compares, writes the
-/// report. A case with variants runs each into `out/<variant>/` with its overrides
-/// between `base` and `extra`, and writes the combined report, with the comparison
-/// across variants, to `out`.
-#[allow(clippy::too_many_arguments)]
 /// The overrides one run of a case takes: the version's (`base`: the full case's none,
 /// the quick's, a sweep point's), its variant's, then the command line's (`extra`).
 fn run_overrides(
@@ -884,6 +879,12 @@ fn run_overrides(
     o
 }
 
+/// Runs `case` with `base` then `extra` overrides into `out`, compares, writes the
+/// report. A case with variants runs each into `out/<variant>/` with its overrides
+/// between `base` and `extra`, and writes the combined report, with the comparison
+/// across variants, to `out`. `point` is the sweep point it runs, if it is one (its
+/// reports are titled so).
+#[allow(clippy::too_many_arguments)]
 fn run_case(
     case: &Case,
     variants: &[Variant],
