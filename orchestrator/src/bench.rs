@@ -144,6 +144,8 @@ pub fn bench(
             progress: false,
             run_id: None,
             external: Vec::new(),
+            checkpoint_every: None,
+            restore: None,
         })?;
         let _ = std::fs::remove_dir_all(&out);
         let _ = writeln!(

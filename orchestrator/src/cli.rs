@@ -50,6 +50,30 @@ impl Overrides {
     }
 }
 
+/// A run longer than one sitting (`crate::resume`), shared by `run` and `validate`.
+#[derive(clap::Args, Clone, Default)]
+struct Sittings {
+    /// Write a checkpoint (OUT/checkpoints/step-N: both servers' whole state and the
+    /// orchestrator's) after the window that ends each SECONDS of wall time, keeping only
+    /// the newest, so that --resume can continue the run after a time limit or a crash.
+    /// Taking one does not change the run.
+    #[arg(long, value_name = "SECONDS", value_parser = seconds)]
+    checkpoint_every: Option<std::time::Duration>,
+    /// Continue the run in OUT from its newest checkpoint, recording the rest into
+    /// OUT/resume-N (N its first window); the analysis and `validate --recording` read all
+    /// the sittings as one recording. Give the first sitting's command line again: a
+    /// scene (with --set/--spacing) other than OUT/scene.toml is refused.
+    #[arg(long)]
+    resume: bool,
+}
+
+/// A wall-time interval in seconds: finite and not negative (0: after every window).
+fn seconds(s: &str) -> Result<std::time::Duration, String> {
+    let x: f64 = s.parse().map_err(|e| format!("{s}: {e}"))?;
+    std::time::Duration::try_from_secs_f64(x)
+        .map_err(|_| format!("{s}: a wall time in seconds, finite and at least 0"))
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run a scene end to end and record it to OUT/run.mcap.
@@ -77,6 +101,8 @@ enum Cmd {
               conflicts_with_all = ["spacing", "set"],
               value_parser = ["fluid-server", "dem-server"])]
         external: Vec<String>,
+        #[command(flatten)]
+        sittings: Sittings,
     },
     /// Print the processes, GPU stages and time-step limits a scene will use, and why.
     Plan {
@@ -156,6 +182,8 @@ enum Cmd {
         recording: Option<PathBuf>,
         #[command(flatten)]
         overrides: Overrides,
+        #[command(flatten)]
+        sittings: Sittings,
     },
     /// Serve the gRPC control API (protocol/proto/couplet/v1/couplet.proto), with
     /// reflection and the standard health service; Ctrl-C or SIGTERM stops every live
@@ -304,8 +332,9 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             windows,
             run_id,
             external,
+            sittings,
         } => {
-            let s = run(&RunOptions {
+            let opts = RunOptions {
                 scene: scene.clone(),
                 out,
                 overrides: overrides.list()?,
@@ -320,7 +349,37 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                         _ => Role::Dem,
                     })
                     .collect(),
-            })
+                checkpoint_every: sittings.checkpoint_every,
+                restore: None,
+            };
+            let s = if sittings.resume {
+                let (sc, text) = crate::run::resolve_scene(&scene, &opts.overrides)?;
+                let out = (opts.out.clone())
+                    .unwrap_or_else(|| PathBuf::from("out").join(&sc.meta.name));
+                match crate::resume::resume_point(&out, &text, sc.time.end)
+                    .map_err(|e| anyhow::anyhow!("--resume: {e}"))?
+                {
+                    crate::resume::Resume::Start(why) => {
+                        anyhow::bail!("--resume: nothing to continue: {why}")
+                    }
+                    crate::resume::Resume::Finished => anyhow::bail!(
+                        "--resume: the run in {} already ran to its end",
+                        out.display()
+                    ),
+                    crate::resume::Resume::Continue {
+                        step, checkpoint, ..
+                    } => {
+                        eprintln!(
+                            "resuming {} at window {step} from {}",
+                            out.display(),
+                            checkpoint.display()
+                        );
+                        crate::resume::continue_run(&opts, &out, step, &checkpoint)
+                    }
+                }
+            } else {
+                run(&opts)
+            }
             .with_context(|| format!("running {}", scene.display()))?;
             println!("{}", summary_text(&s));
         }
@@ -457,6 +516,7 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             out,
             scenes,
             overrides,
+            sittings,
             ..
         } => {
             let name = name.unwrap_or_default();
@@ -467,7 +527,11 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                 out,
                 &overrides.list()?,
                 scenes.as_deref(),
-                true,
+                &validate::HowToRun {
+                    progress: true,
+                    checkpoint_every: sittings.checkpoint_every,
+                    resume: sittings.resume,
+                },
             )
             .with_context(|| format!("validating {name}"))?;
             println!("{}", r.markdown());

@@ -13,6 +13,7 @@ pub mod launch;
 pub mod outputs;
 pub mod plan;
 pub mod record;
+pub mod resume;
 pub mod robinson_reference;
 pub mod run;
 pub mod serve;

@@ -165,10 +165,11 @@ impl Outputs {
         step: u64,
         time: f64,
         window: f64,
+        wall_s: f64,
         fluid: Option<&SideReport>,
         dem: Option<&SideReport>,
     ) -> Result<(), RecordError> {
-        self.mcap.window(step, time, window, fluid, dem);
+        self.mcap.window(step, time, window, wall_s, fluid, dem);
         self.write_pending()?;
         if let Some(csv) = self.csv.as_mut() {
             csv.flush()?;
@@ -353,7 +354,7 @@ rotation = [0.0, 0.0, 1.5707963267948966]
                 moment: [0.0; 3],
             };
             o.loads(t - window, &[load]).unwrap();
-            o.window(step, t - window, window, None, None).unwrap();
+            o.window(step, t - window, window, 0.0, None, None).unwrap();
         }
         let (fluid, bodies) = o.vtk.as_ref().unwrap().frames();
         o.close().unwrap();

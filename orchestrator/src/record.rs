@@ -203,6 +203,7 @@ pub fn window_schema() -> Value {
             "step": {"type": "integer", "minimum": 0},
             "time": {"type": "number", "description": "the window's start, s"},
             "window": {"type": "number", "description": "its length, s"},
+            "wall_s": {"type": "number", "minimum": 0, "description": "wall time of the run from its launch to this window's end, over every sitting of a resumed run, s"},
             "fluid": side.clone(),
             "dem": side,
         }),
@@ -514,6 +515,7 @@ impl Recorder {
         step: u64,
         time: f64,
         window: f64,
+        wall_s: f64,
         fluid: Option<&SideReport>,
         dem: Option<&SideReport>,
     ) {
@@ -531,7 +533,7 @@ impl Recorder {
         self.log_json(
             &self.windows,
             time,
-            &json!({ "step": step, "time": time, "window": window, "fluid": side(fluid), "dem": side(dem) }),
+            &json!({ "step": step, "time": time, "window": window, "wall_s": wall_s, "fluid": side(fluid), "dem": side(dem) }),
         );
     }
 
@@ -638,6 +640,19 @@ pub fn particle_speed(p: &Particle) -> f64 {
         .hypot(f64::from(p[6]))
 }
 
+/// A `/run/windows` message, decoded.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowRecord {
+    pub step: u64,
+    /// The window's start, s.
+    pub time: f64,
+    /// Its length, s.
+    pub window: f64,
+    /// Wall time of the run to the window's end over all its sittings, s (NaN in
+    /// recordings made before 2026-11-30).
+    pub wall_s: f64,
+}
+
 /// What a recording holds, decoded.
 #[derive(Debug, Default)]
 pub struct Recording {
@@ -645,6 +660,8 @@ pub struct Recording {
     pub bodies: Vec<BodySample>,
     pub loads: Vec<LoadSample>,
     pub windows: usize,
+    /// The last window recorded.
+    pub last_window: Option<WindowRecord>,
     /// The file ends with a summary and footer (it was closed properly).
     pub has_summary: bool,
     /// Why reading stopped early in a file that was never closed (a run killed mid-write):
@@ -667,6 +684,14 @@ fn arr<const N: usize>(v: &serde_json::Value) -> [f64; N] {
 /// to its last complete record, and `truncated` says where and why reading stopped, so that a
 /// run cut off by a time limit or a crash can still be analysed.
 pub fn read_recording(path: &Path) -> Result<Recording, String> {
+    read_recording_before(path, None)
+}
+
+/// [`read_recording`] of the windows before window `stop` only (all with `None`): a
+/// window's records precede its `/run/windows` message (`CoupledRun::advance`), so
+/// reading ends with the message of window `stop − 1`. A run resumed from a checkpoint
+/// at window `stop` recorded the rest again (`crate::resume`).
+pub fn read_recording_before(path: &Path, stop: Option<u64>) -> Result<Recording, String> {
     use foxglove::Decode;
     let buf = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let closed = match mcap::Summary::read(&buf) {
@@ -744,7 +769,23 @@ pub fn read_recording(path: &Path) -> Result<Recording, String> {
                     });
                 }
             }
-            "/run/windows" => rec.windows += 1,
+            "/run/windows" => {
+                let v: serde_json::Value =
+                    serde_json::from_slice(&m.data).map_err(|e| e.to_string())?;
+                let step = v["step"]
+                    .as_u64()
+                    .ok_or_else(|| format!("{}: a window without its step", path.display()))?;
+                rec.windows += 1;
+                rec.last_window = Some(WindowRecord {
+                    step,
+                    time: v["time"].as_f64().unwrap_or(f64::NAN),
+                    window: v["window"].as_f64().unwrap_or(f64::NAN),
+                    wall_s: v["wall_s"].as_f64().unwrap_or(f64::NAN),
+                });
+                if stop.is_some_and(|s| step + 1 >= s) {
+                    break;
+                }
+            }
             _ => {}
         }
     }

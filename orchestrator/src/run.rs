@@ -51,6 +51,9 @@ pub enum RunError {
     },
     #[error("the scene has neither fluid nor bodies: nothing to simulate")]
     Empty,
+    /// Resuming a run across sittings (`crate::resume`).
+    #[error("{0}")]
+    Resume(String),
     #[error(transparent)]
     State(#[from] StateError),
     /// A live change the run cannot take (the message says why and what can).
@@ -110,6 +113,14 @@ pub struct RunOptions {
     pub run_id: Option<String>,
     /// Servers started apart (`couplet ROLE RUN_ID SCENE --detached`), not by this run.
     pub external: Vec<Role>,
+    /// Write a checkpoint (`OUT/checkpoints/step-N`) whenever this much wall time has
+    /// passed since the run started or since the last one, keeping only the newest
+    /// (`crate::resume`). None: none.
+    pub checkpoint_every: Option<Duration>,
+    /// Continue from this checkpoint folder instead of the scene's initial state; `scene`
+    /// must be its `scene.toml` and `overrides` empty. None: a fresh run, which removes
+    /// the later sittings (`resume-N`) a resumed run left in OUT.
+    pub restore: Option<PathBuf>,
 }
 
 /// Measured over a run.
@@ -118,6 +129,9 @@ pub struct RunSummary {
     pub windows: u64,
     pub sim_time: f64,
     pub wall_s: f64,
+    /// Wall time of the sittings before this one, from the checkpoint it continued
+    /// from (0 for a run from the start), s.
+    pub earlier_wall_s: f64,
     pub plan: Option<WindowPlan>,
     pub recording: Option<PathBuf>,
     /// Mean per window (from window 1: window 0 carries set-up), µs: fluid compute, DEM
@@ -239,6 +253,9 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scene.meta.name));
     let end = scene.time.end;
+    if opts.restore.is_none() && opts.record {
+        crate::resume::remove_sittings_from(&out, 0).map_err(RunError::Resume)?;
+    }
     let launched = CoupledRun::launch(
         scene,
         &text,
@@ -247,7 +264,7 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
             record: opts.record,
             max_windows: opts.max_windows,
             server_exe: None,
-            restore: None,
+            restore: opts.restore.clone(),
             run_id: opts.run_id.clone(),
             external: opts.external.clone(),
         },
@@ -268,6 +285,7 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
     let mut progress = Progress::new(opts.progress, run.end_time());
     let mut result = Ok(());
     let recording = opts.record.then(|| out.join("run.mcap"));
+    let mut checkpoints = Checkpoints::new(opts.checkpoint_every);
     while !run.done() {
         match run.advance() {
             Ok(w) => progress.update(w.end),
@@ -275,6 +293,10 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
                 result = Err(e);
                 break;
             }
+        }
+        if let Err(e) = checkpoints.after_window(&mut run) {
+            result = Err(e);
+            break;
         }
         // Read after the window: one in progress when the signal came is finished.
         if let Some(signal) = crate::interrupt::requested() {
@@ -298,6 +320,44 @@ pub fn run(opts: &RunOptions) -> Result<RunSummary, RunError> {
     }
     result?;
     summary
+}
+
+/// `RunOptions::checkpoint_every` at work: a checkpoint after the window that ends a
+/// stretch of that much wall time, the one before removed once the new one is whole.
+struct Checkpoints {
+    every: Option<Duration>,
+    since: Instant,
+    last: Option<PathBuf>,
+}
+
+impl Checkpoints {
+    fn new(every: Option<Duration>) -> Self {
+        Self {
+            every,
+            since: Instant::now(),
+            last: None,
+        }
+    }
+
+    /// After each window: a checkpoint when one is due and the plan has windows left (a
+    /// run stopped by `max_windows` still has).
+    fn after_window(&mut self, run: &mut CoupledRun) -> Result<(), RunError> {
+        let Some(every) = self.every else {
+            return Ok(());
+        };
+        if self.since.elapsed() < every || run.windows_done() >= run.plan().windows {
+            return Ok(());
+        }
+        let dir = run.checkpoint()?;
+        if let Some(old) = self.last.replace(dir) {
+            std::fs::remove_dir_all(&old).map_err(|source| RunError::Io {
+                what: format!("removing the older checkpoint {}", old.display()),
+                source,
+            })?;
+        }
+        self.since = Instant::now();
+        Ok(())
+    }
 }
 
 /// The error of a run that `signal` stopped after its last complete window.
@@ -356,6 +416,8 @@ struct OrchestratorState {
     last_states: Vec<BodyState>,
     last_loads: Vec<BodyLoad>,
     prescribed: Vec<([f64; 3], [f64; 3])>,
+    /// Wall time the run had taken, over all its sittings, s.
+    wall_s: f64,
 }
 
 /// The scene file a checkpoint folder holds: the run's scene with every live change
@@ -400,6 +462,10 @@ pub struct CoupledRun {
     last_states: Vec<BodyState>,
     last_loads: Vec<BodyLoad>,
     summary: RunSummary,
+    /// When this sitting was launched, and the wall time of the earlier ones (s, from
+    /// the checkpoint it continued from).
+    launched: Instant,
+    wall_before: f64,
     /// Sums from window 1 (window 0 carries set-up), µs.
     fluid_compute: f64,
     dem_compute: f64,
@@ -431,6 +497,7 @@ impl CoupledRun {
         out: &Path,
         opts: &LaunchOptions,
     ) -> Result<Self, RunError> {
+        let launched = Instant::now();
         let has_fluid = scene.fluid.is_some();
         let has_dem = scene.needs_dem();
         if !has_fluid && !has_dem {
@@ -490,6 +557,8 @@ impl CoupledRun {
             last_states: Vec::new(),
             last_loads: Vec::new(),
             summary: RunSummary::default(),
+            launched,
+            wall_before: 0.0,
             fluid_compute: 0.0,
             dem_compute: 0.0,
             exchange: 0.0,
@@ -675,6 +744,8 @@ impl CoupledRun {
         self.last_states = saved.last_states;
         self.last_loads = saved.last_loads;
         self.prescribed = saved.prescribed;
+        self.wall_before = saved.wall_s;
+        self.summary.earlier_wall_s = saved.wall_s;
         Ok(())
     }
 
@@ -703,6 +774,7 @@ impl CoupledRun {
             last_states: self.last_states.clone(),
             last_loads: self.last_loads.clone(),
             prescribed: self.prescribed.clone(),
+            wall_s: self.wall_before + self.launched.elapsed().as_secs_f64(),
         };
         let time = self.step as f64 * self.plan.window;
         write_state(
@@ -977,6 +1049,7 @@ impl CoupledRun {
                 step,
                 time,
                 window,
+                self.wall_before + self.launched.elapsed().as_secs_f64(),
                 fluid_report.as_ref(),
                 dem_report.as_ref(),
             )?;

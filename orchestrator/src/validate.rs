@@ -6,7 +6,7 @@
 //! fails. Rows without a tolerance are reported, not judged (for instance a coarse run's
 //! distance from a correlation that only a finer resolution can meet).
 
-use crate::record::{BodySample, Particle, Recording, read_recording, track};
+use crate::record::{BodySample, Particle, Recording, track};
 use crate::run::{RunError, RunOptions, resolve_scene, run};
 use couplet_protocol::Scene;
 use std::fmt::Write as _;
@@ -781,6 +781,19 @@ fn scene_path(case: &Case, scenes_dir: Option<&Path>) -> Result<PathBuf, Validat
 /// case's own, into `out` (default `out/validate/NAME`), and writes the report there.
 /// `only` narrows a case of variants to those named (labels or their folder names);
 /// empty: all of them.
+/// How `validate` runs a case's runs: with progress lines, checkpoints every so often,
+/// and continuing each run from its newest checkpoint (`crate::resume`).
+#[derive(Debug, Clone, Default)]
+pub struct HowToRun {
+    pub progress: bool,
+    /// `RunOptions::checkpoint_every`.
+    pub checkpoint_every: Option<std::time::Duration>,
+    /// Continue each run from the newest checkpoint in its folder; a run that ran to its
+    /// end is analysed from its recording, and one without a checkpoint runs from the
+    /// start.
+    pub resume: bool,
+}
+
 pub fn validate(
     name: &str,
     quick: bool,
@@ -788,14 +801,14 @@ pub fn validate(
     out: Option<PathBuf>,
     extra: &[(String, String)],
     scenes_dir: Option<&Path>,
-    progress: bool,
+    how: &HowToRun,
 ) -> Result<Report, ValidateError> {
     let case = find(name)?;
     let variants = chosen_variants(case, quick, only)?;
     let base = if quick { pairs(case.quick) } else { Vec::new() };
     let out = out.unwrap_or_else(|| PathBuf::from("out").join("validate").join(name));
     run_case(
-        case, &variants, quick, None, &base, extra, out, scenes_dir, progress,
+        case, &variants, quick, None, &base, extra, out, scenes_dir, how,
     )
 }
 
@@ -841,7 +854,7 @@ fn chosen_variants(
 pub fn analyse_recording(name: &str, dir: &Path) -> Result<Report, ValidateError> {
     let case = find(name)?;
     let (scene, _) = resolve_scene(&dir.join("scene.toml"), &[])?;
-    let rec = read_recording(&dir.join("run.mcap")).map_err(ValidateError::Recording)?;
+    let rec = crate::resume::read_chain(dir).map_err(ValidateError::Recording)?;
     let report = Report {
         from_recording: true,
         ..analysed(case, &scene, &rec, dir.to_owned())?
@@ -894,12 +907,12 @@ fn run_case(
     extra: &[(String, String)],
     out: PathBuf,
     scenes_dir: Option<&Path>,
-    progress: bool,
+    how: &HowToRun,
 ) -> Result<Report, ValidateError> {
     let with = |variant: &[&str]| run_overrides(base, variant, extra);
     let sweep_point = point.map(|p| (p.index, p.spacing));
     if variants.is_empty() {
-        let mut report = run_one(case, quick, with(&[]), out, scenes_dir, progress)?;
+        let mut report = run_one(case, quick, with(&[]), out, scenes_dir, how)?;
         report.sweep_point = sweep_point;
         write_outputs(&report)?;
         return Ok(report);
@@ -916,7 +929,7 @@ fn run_case(
             with(variant),
             out.join(slug(label)),
             scenes_dir,
-            progress,
+            how,
         ) {
             // Ctrl-C or SIGTERM ends the case, not just this variant.
             Err(e) if e.is_interrupted() => return Err(e),
@@ -1001,45 +1014,93 @@ fn run_case(
     Ok(report)
 }
 
-/// One run of `case` with `overrides` into `out`, analysed (not yet written).
+/// One run of `case` with `overrides` into `out`, analysed (not yet written). With
+/// `how.resume` it continues from the newest checkpoint in `out`, or is only analysed
+/// when its recording runs to the end; the analysis reads every sitting
+/// ([`crate::resume::read_chain`]).
 fn run_one(
     case: &Case,
     quick: bool,
     overrides: Vec<(String, String)>,
     out: PathBuf,
     scenes_dir: Option<&Path>,
-    progress: bool,
+    how: &HowToRun,
 ) -> Result<Report, ValidateError> {
+    use crate::resume::{Resume, continue_run, resume_point};
     let scene_file = scene_path(case, scenes_dir)?;
-    let (scene, _) = resolve_scene(&scene_file, &overrides)?;
+    let (scene, text) = resolve_scene(&scene_file, &overrides)?;
     let t0 = Instant::now();
-    let summary = run(&RunOptions {
+    let opts = RunOptions {
         scene: scene_file,
         out: Some(out.clone()),
         overrides,
         max_windows: None,
         record: true,
-        progress,
+        progress: how.progress,
         run_id: None,
         external: Vec::new(),
-    })
-    .map_err(|mut e| {
-        if let RunError::Interrupted { windows, how, .. } = &mut e
-            && *windows > 0
-        {
-            *how += &format!(
-                "; `couplet validate {} --recording {}` analyses what ran",
+        checkpoint_every: how.checkpoint_every,
+        restore: None,
+    };
+    let start = if how.resume {
+        resume_point(&out, &text, scene.time.end).map_err(ValidateError::Recording)?
+    } else {
+        Resume::Start(String::new())
+    };
+    let ran = match start {
+        Resume::Finished => {
+            eprintln!(
+                "validate {}: {} ran to its end before: analysed from its recording",
                 case.name,
                 out.display()
             );
+            None
         }
-        e
-    })?;
-    if progress {
-        eprintln!("{}", summary.per_window());
+        Resume::Start(why) => {
+            if how.resume {
+                eprintln!("validate {}: nothing to resume ({why}): from the start", case.name);
+            }
+            Some(run(&opts))
+        }
+        Resume::Continue {
+            step, checkpoint, ..
+        } => {
+            eprintln!(
+                "validate {}: resuming {} at window {step} from {}",
+                case.name,
+                out.display(),
+                checkpoint.display()
+            );
+            Some(continue_run(&opts, &out, step, &checkpoint))
+        }
+    };
+    let summary = ran
+        .transpose()
+        .map_err(|mut e| {
+            if let RunError::Interrupted { windows, how: what, .. } = &mut e
+                && *windows > 0
+            {
+                *what += &format!(
+                    "; `couplet validate {} --recording {}` analyses what ran",
+                    case.name,
+                    out.display()
+                );
+                if how.checkpoint_every.is_some() {
+                    *what += ", and the same command with `--resume` continues it from its newest checkpoint";
+                }
+            }
+            e
+        })?;
+    if let Some(s) = summary.as_ref().filter(|_| how.progress) {
+        eprintln!("{}", s.per_window());
     }
-    let wall_s = t0.elapsed().as_secs_f64();
-    let rec = read_recording(&out.join("run.mcap")).map_err(ValidateError::Recording)?;
+    let rec = crate::resume::read_chain(&out).map_err(ValidateError::Recording)?;
+    // Over every sitting: this one's and the earlier ones' (from the checkpoint, or the
+    // recording of a run that had ended).
+    let wall_s = match &summary {
+        Some(s) => t0.elapsed().as_secs_f64() + s.earlier_wall_s,
+        None => rec.last_window.map_or(f64::NAN, |w| w.wall_s),
+    };
     Ok(Report {
         quick,
         wall_s,
@@ -1238,7 +1299,10 @@ fn sweep_point_into(
         extra,
         spec.dir(out),
         scenes_dir,
-        progress,
+        &HowToRun {
+            progress,
+            ..Default::default()
+        },
     ) {
         Ok(r) => SweepPoint {
             scheme: spec.scheme.into(),
