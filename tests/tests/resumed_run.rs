@@ -44,10 +44,16 @@ fn a_run_resumed_from_its_checkpoint_records_what_one_sitting_records() {
     let two = tempfile::tempdir().unwrap();
     let first = run(two.path(), &["--windows", "150", "--checkpoint-every", "0.3"]);
     assert!(first.status.success());
+    assert_eq!(read_recording(&two.path().join("run.mcap")).unwrap().windows, 150);
     let second = run(two.path(), &["--resume"]);
     assert!(second.status.success());
     let stderr = String::from_utf8_lossy(&second.stderr);
     assert!(stderr.contains("resuming"), "{stderr}");
+    let sittings = couplet_orchestrator::resume::sittings(two.path()).unwrap();
+    assert!(
+        sittings.len() == 2 && sittings[1].0 <= 150,
+        "one later sitting, from the newest checkpoint: {sittings:?}"
+    );
     let chain = read_chain(two.path()).unwrap();
     assert_eq!(chain.windows, one.windows);
     assert!(chain.has_summary);
