@@ -884,6 +884,12 @@ pub struct FluidSolver {
     step_params: StepParams,
     time: f64,
     steps: u64,
+    /// CPU time spent recording and submitting the steps of every `advance`, s: where
+    /// the GPU runs behind the CPU, a step whose GPU time is below its share of this is
+    /// bound by the CPU (`couplet bench` prints it). Lavapipe's submit returns only once
+    /// the work before it is done (2026-11-30: 0.3 ms to record a CPB step here, 240 ms
+    /// in the submit), so there it is the wall time.
+    record_s: f64,
     loads_ready: bool,
     /// Particle-steps of the last window whose truncation matrix was near-singular
     /// (kept the uncorrected gradient); 0 without the gradient pass.
@@ -1005,6 +1011,7 @@ impl FluidSolver {
             step_params,
             time: 0.0,
             steps: 0,
+            record_s: 0.0,
             loads_ready: false,
             near_singular: 0,
             reflected: 0,
@@ -1151,6 +1158,11 @@ impl FluidSolver {
 
     pub fn steps(&self) -> u64 {
         self.steps
+    }
+
+    /// CPU time spent recording and submitting steps so far, s (see the field).
+    pub fn record_seconds(&self) -> f64 {
+        self.record_s
     }
 
     /// Gravity becomes `g`, m/s², from the next step on. It reaches the fluid only when
@@ -1487,6 +1499,7 @@ impl FluidSolver {
         self.step_params.load_weight = (0.5 / f64::from(substeps)) as f32;
         self.write_params(gpu);
         for s in 0..substeps {
+            let recording = std::time::Instant::now();
             let mut encoder = gpu
                 .device
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -1504,6 +1517,7 @@ impl FluidSolver {
                 t.finish(gpu, &mut encoder);
             }
             gpu.queue.submit([encoder.finish()]);
+            self.record_s += recording.elapsed().as_secs_f64();
             if let Some(t) = timer.as_deref_mut() {
                 t.collect(gpu)?;
             }
