@@ -31,30 +31,36 @@ fn symmetry_mirror(x: vec3<f32>) -> vec3<bool> {
 @group(0) @binding(3) var<storage, read_write> press: array<f32>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
 
-// Threads of fluid particles return at once; wall and marker threads write only their
-// own entries and read only fluid entries, so there is no race.
+// A team of BOUNDARY_TEAM lanes per particle (adami2012_boundary_pressure.rs says why):
+// lane l sums the rows l, l + BOUNDARY_TEAM, … of the particle's (2R + 1)² rows, and the
+// team's first lane adds the partial sums in lane order (deterministic) and writes.
+// Teams of fluid particles sum nothing; wall and marker teams write only their own
+// entries and read only fluid entries, so there is no race.
+// BOUNDARY_TEAM: adami2012_boundary_pressure.rs.
+const ROW_SIDE: i32 = 2 * GRID_REACH + 1;
+// Per lane: (Σ ρ_f r_wf W, Σ p_f W) and (Σ v_f W, Σ W).
+var<workgroup> part_rp: array<vec4<f32>, WORKGROUP_SIZE>;
+var<workgroup> part_vw: array<vec4<f32>, WORKGROUP_SIZE>;
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
                                @builtin(local_invocation_index) lid: u32,
                                @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = linear_id(wid, lid, nwg);
-    if i >= params.n_total || is_fluid(id[i]) {
-        return;
-    }
-    let p_i = pos[i].xyz;
-    let c_i = cell_coord(p_i);
-    var sum_pw = 0.0;
-    var sum_rho_r_w = vec3<f32>(0.0);
-    var sum_w = 0.0;
-    var sum_vw = vec3<f32>(0.0);
-    // With variable h the extrapolation kernel is the largest h's, so that every wall
-    // layer a fluid particle can reach has fluid within its support (constants.rs,
-    // wall_kernel); otherwise H.
-    let reach2 = support2_at(MAX_H);
-    let side = fill_side(i);
-    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
-        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let rs = row_ranges(c_i, dy, dz);
+    let i = linear_id(wid, lid, nwg) / BOUNDARY_TEAM;
+    let lane = lid % BOUNDARY_TEAM;
+    let boundary = i < params.n_total && !is_fluid(id[i]);
+    var rp = vec4<f32>(0.0);
+    var vw = vec4<f32>(0.0);
+    if boundary {
+        let p_i = pos[i].xyz;
+        let c_i = cell_coord(p_i);
+        // With variable h the extrapolation kernel is the largest h's, so that every wall
+        // layer a fluid particle can reach has fluid within its support (constants.rs,
+        // wall_kernel); otherwise H.
+        let reach2 = support2_at(MAX_H);
+        let side = fill_side(i);
+        for (var row = i32(lane); row < ROW_SIDE * ROW_SIDE; row += i32(BOUNDARY_TEAM)) {
+            let rs = row_ranges(c_i, row % ROW_SIDE - GRID_REACH, row / ROW_SIDE - GRID_REACH);
             for (var k = 0u; k < row_length(rs); k++) {
                 let j = row_slot(rs, k);
                 let r_wf = pair_vec(p_i, pos[j].xyz);
@@ -63,13 +69,26 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
                     continue;
                 }
                 let w = w_at(sqrt(r2), MAX_H);
-                sum_pw += press[j] * w;
-                sum_rho_r_w += rho[j] * w * r_wf;
-                sum_w += w;
-                sum_vw += vel[j].xyz * w;
+                rp += vec4<f32>(rho[j] * w * r_wf, press[j] * w);
+                vw += vec4<f32>(vel[j].xyz * w, w);
             }
         }
     }
+    part_rp[lid] = rp;
+    part_vw[lid] = vw;
+    workgroupBarrier();
+    if !boundary || lane != 0u {
+        return;
+    }
+    for (var l = 1u; l < BOUNDARY_TEAM; l++) {
+        rp += part_rp[lid + l];
+        vw += part_vw[lid + l];
+    }
+    let sum_rho_r_w = rp.xyz;
+    let sum_pw = rp.w;
+    let sum_vw = vw.xyz;
+    let sum_w = vw.w;
+    let p_i = pos[i].xyz;
     if sum_w > 0.0 {
         // a_w = 0 (see the header).
         let p_w = (sum_pw + dot(params.gravity.xyz, sum_rho_r_w)) / sum_w;

@@ -755,8 +755,14 @@ impl SphData {
                 return;
             }
         };
+        let threads = match op {
+            Op::BoundaryPressure if self.boundary_frame.is_none() => {
+                adami2012_boundary_pressure::dispatch_threads(n)
+            }
+            _ => n,
+        };
         let mut pass = timing::begin_pass(timer, gpu, encoder, label);
-        kernel.dispatch(&mut pass, n);
+        kernel.dispatch(&mut pass, threads);
     }
 
     /// Reads the particle arrays back (buffer order, positions relative to the origin).
