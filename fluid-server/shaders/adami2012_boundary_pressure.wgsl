@@ -31,13 +31,11 @@ fn symmetry_mirror(x: vec3<f32>) -> vec3<bool> {
 @group(0) @binding(3) var<storage, read_write> press: array<f32>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
 
-// A team of BOUNDARY_TEAM lanes per particle (adami2012_boundary_pressure.rs says why):
-// lane l sums the rows l, l + BOUNDARY_TEAM, … of the particle's (2R + 1)² rows, and the
-// team's first lane adds the partial sums in lane order (deterministic) and writes.
+// A team of TEAM_LANES lanes per particle (grid_common.wgsl; neighbour_grid.rs says
+// why): each lane sums its share of the particle's rows, and the team's first lane adds
+// the partial sums in lane order (deterministic) and writes.
 // Teams of fluid particles sum nothing; wall and marker teams write only their own
 // entries and read only fluid entries, so there is no race.
-// BOUNDARY_TEAM: adami2012_boundary_pressure.rs.
-const ROW_SIDE: i32 = 2 * GRID_REACH + 1;
 // Per lane: (Σ ρ_f r_wf W, Σ p_f W) and (Σ v_f W, Σ W).
 var<workgroup> part_rp: array<vec4<f32>, WORKGROUP_SIZE>;
 var<workgroup> part_vw: array<vec4<f32>, WORKGROUP_SIZE>;
@@ -46,8 +44,8 @@ var<workgroup> part_vw: array<vec4<f32>, WORKGROUP_SIZE>;
 fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
                                @builtin(local_invocation_index) lid: u32,
                                @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = linear_id(wid, lid, nwg) / BOUNDARY_TEAM;
-    let lane = lid % BOUNDARY_TEAM;
+    let i = linear_id(wid, lid, nwg) / TEAM_LANES;
+    let lane = lid % TEAM_LANES;
     let boundary = i < params.n_total && !is_fluid(id[i]);
     var rp = vec4<f32>(0.0);
     var vw = vec4<f32>(0.0);
@@ -59,8 +57,8 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
         // wall_kernel); otherwise H.
         let reach2 = support2_at(MAX_H);
         let side = fill_side(i);
-        for (var row = i32(lane); row < ROW_SIDE * ROW_SIDE; row += i32(BOUNDARY_TEAM)) {
-            let rs = row_ranges(c_i, row % ROW_SIDE - GRID_REACH, row / ROW_SIDE - GRID_REACH);
+        for (var r = i32(lane); r < ROWS; r += i32(TEAM_LANES)) {
+            let rs = row_ranges(c_i, team_row(r).x, team_row(r).y);
             for (var k = 0u; k < row_length(rs); k++) {
                 let j = row_slot(rs, k);
                 let r_wf = pair_vec(p_i, pos[j].xyz);
@@ -80,7 +78,7 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
     if !boundary || lane != 0u {
         return;
     }
-    for (var l = 1u; l < BOUNDARY_TEAM; l++) {
+    for (var l = 1u; l < TEAM_LANES; l++) {
         rp += part_rp[lid + l];
         vw += part_vw[lid + l];
     }

@@ -1,7 +1,9 @@
 // ---- grain_pressure.wgsl: each unresolved grain's pressure force under
 // coupling.porosity_pressure = "energy-pair" (CPU twin: unresolved_coupling.rs,
 // grain_pressure_force_cpu) ----
-// grain_pressure_force: one thread per grain j, after every fluid_rates of a window. The
+// grain_pressure_force: a team of TEAM_LANES threads per grain j (grid_common.wgsl), each
+// over its share of the grain's rows, their sums added in lane order by the first, after
+// every fluid_rates of a window. The
 // fluid's rates hold (P_a/ρ_a) ∇ε_a, ∇ε_a = Σ_j V_j F(r) (x_j − x_a) from the solid
 // fraction's pass (porosity.rs); the grains' share of it, summed over the same pairs
 // (fluid particles a, grains at x_j + v τ, this stage's P_a and ρ_a), is
@@ -26,20 +28,21 @@
 // Per grain: xyz the window's weighted sum of f_j, N.
 @group(2) @binding(12) var<storage, read_write> grain_pressure: array<vec4<f32>>;
 
+var<workgroup> part: array<vec3<f32>, WORKGROUP_SIZE>;
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn grain_pressure_force(@builtin(workgroup_id) wid: vec3<u32>,
                         @builtin(local_invocation_index) lid: u32,
                         @builtin(num_workgroups) nwg: vec3<u32>) {
-    let g = linear_id(wid, lid, nwg);
-    if g >= arrayLength(&grain_pressure) {
-        return;
-    }
-    let p = grain_pos[g].xyz + grain_tau.x * grain_vel[g].xyz;
-    let c = cell_coord(p);
+    let g = linear_id(wid, lid, nwg) / TEAM_LANES;
+    let lane = lid % TEAM_LANES;
+    let grain = g < arrayLength(&grain_pressure);
     var sum = vec3<f32>(0.0);
-    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
-        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let rs = row_ranges(c, dy, dz);
+    if grain {
+        let p = grain_pos[g].xyz + grain_tau.x * grain_vel[g].xyz;
+        let c = cell_coord(p);
+        for (var row = i32(lane); row < ROWS; row += i32(TEAM_LANES)) {
+            let rs = row_ranges(c, team_row(row).x, team_row(row).y);
             for (var k = 0u; k < row_length(rs); k++) {
                 let a = row_slot(rs, k);
                 if !is_fluid(id[a]) {
@@ -54,6 +57,14 @@ fn grain_pressure_force(@builtin(workgroup_id) wid: vec3<u32>,
                 sum += (pos[a].w / rho[a] * press[a] * kernel_grad_factor(sqrt(r2))) * r;
             }
         }
+    }
+    part[lid] = sum;
+    workgroupBarrier();
+    if !grain || lane != 0u {
+        return;
+    }
+    for (var l = 1u; l < TEAM_LANES; l++) {
+        sum += part[lid + l];
     }
     grain_pressure[g] += vec4<f32>(-params.load_weight * grain_pos[g].w * sum, 0.0);
 }

@@ -1,6 +1,6 @@
 // ---- grain_reaction.wgsl: the grains' reaction on the fluid, Robinson eqs. (26)–(27)
 // (CPU twin: unresolved_coupling.rs, grain_reaction_cpu) ----
-// spread_grain_reaction: one thread per grain j, at a window's start, after
+// spread_grain_reaction: a team of threads per grain j (below), at a window's start, after
 // sample_grains. To each fluid particle a within the support it adds the acceleration
 //     −f_j W_aj / (S_j ρ_a),
 // Robinson eq. (26) divided by m_a, with f_j the grain's whole fluid force (eq. 23) and
@@ -45,7 +45,10 @@ fn add_counts(k: u32, counts: f32) {
 fn spread_grain_reaction(@builtin(workgroup_id) wid: vec3<u32>,
                          @builtin(local_invocation_index) lid: u32,
                          @builtin(num_workgroups) nwg: vec3<u32>) {
-    let g = linear_id(wid, lid, nwg);
+    // A team of TEAM_LANES threads per grain (grid_common.wgsl), each over its share of
+    // the rows: the adds are integer, so the sums are the same whatever the order.
+    let t = linear_id(wid, lid, nwg);
+    let g = t / TEAM_LANES;
     if g >= arrayLength(&grain_sample) / 3u {
         return;
     }
@@ -58,25 +61,23 @@ fn spread_grain_reaction(@builtin(workgroup_id) wid: vec3<u32>,
     let f = grain_sample[3u * g + 1u].xyz + grain_sample[3u * g + 2u].xyz;
     let p = grain_pos[g].xyz;
     let c = cell_coord(p);
-    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
-        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let rs = row_ranges(c, dy, dz);
-            for (var k = 0u; k < row_length(rs); k++) {
-                let a = row_slot(rs, k);
-                if !is_fluid(id[a]) {
-                    continue;
-                }
-                let r = pair_vec(p, pos[a].xyz);
-                let r2 = dot(r, r);
-                if r2 >= SUPPORT_RADIUS2 {
-                    continue;
-                }
-                // Robinson eqs. (26)–(27), per unit mass, in counts.
-                let counts = round((-kernel_w(sqrt(r2)) / (s * rho[a] * params.reaction_unit)) * f);
-                add_counts(4u * a, counts.x);
-                add_counts(4u * a + 1u, counts.y);
-                add_counts(4u * a + 2u, counts.z);
+    for (var row = i32(t % TEAM_LANES); row < ROWS; row += i32(TEAM_LANES)) {
+        let rs = row_ranges(c, team_row(row).x, team_row(row).y);
+        for (var k = 0u; k < row_length(rs); k++) {
+            let a = row_slot(rs, k);
+            if !is_fluid(id[a]) {
+                continue;
             }
+            let r = pair_vec(p, pos[a].xyz);
+            let r2 = dot(r, r);
+            if r2 >= SUPPORT_RADIUS2 {
+                continue;
+            }
+            // Robinson eqs. (26)–(27), per unit mass, in counts.
+            let counts = round((-kernel_w(sqrt(r2)) / (s * rho[a] * params.reaction_unit)) * f);
+            add_counts(4u * a, counts.x);
+            add_counts(4u * a + 1u, counts.y);
+            add_counts(4u * a + 2u, counts.z);
         }
     }
 }

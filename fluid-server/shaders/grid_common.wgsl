@@ -40,7 +40,16 @@
 // `!cell_in_grid(c)` and visiting `cell_range(cell_index(c))` (no periodic wrap: only
 // for closed grids).
 //
-// Needs from the prelude: WORKGROUP_SIZE, GRID_REACH, linear_id.
+// A team of TEAM_LANES threads can share one item's rows (neighbour_grid.rs, TEAM_LANES):
+// thread t of the dispatch serves item t / TEAM_LANES as lane t % TEAM_LANES and visits
+// the rows lane, lane + TEAM_LANES, … below ROWS, `team_row(r)` giving row r's (dy, dz):
+//
+//   for (var r = i32(lane); r < ROWS; r += i32(TEAM_LANES)) {
+//       let rs = row_ranges(c_i, team_row(r).x, team_row(r).y);
+//       …
+//   }
+//
+// Needs from the prelude: WORKGROUP_SIZE, GRID_REACH, TEAM_LANES, linear_id.
 
 // Mirror of neighbour_grid::GridParams (112 bytes; checked by tests/grid.rs). Every
 // vec4's w is unused.
@@ -165,6 +174,13 @@ fn row_length(rs: vec4<u32>) -> u32 {
 fn row_slot(rs: vec4<u32>, k: u32) -> u32 {
     let first = rs.y - rs.x;
     return select(rs.z + (k - first), rs.x + k, k < first);
+}
+
+// Rows of a particle's neighbourhood, (2·GRID_REACH + 1)², numbered dy fastest.
+const ROWS: i32 = (2 * GRID_REACH + 1) * (2 * GRID_REACH + 1);
+// (dy, dz) of row r.
+fn team_row(r: i32) -> vec2<i32> {
+    return vec2<i32>(r % (2 * GRID_REACH + 1) - GRID_REACH, r / (2 * GRID_REACH + 1) - GRID_REACH);
 }
 
 // ---- end of grid_common.wgsl ----

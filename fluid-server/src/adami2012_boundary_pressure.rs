@@ -49,22 +49,6 @@ use crate::tait_eos::TAIT_EOS_WGSL;
 pub const BOUNDARY_PRESSURE_WGSL: &str =
     include_str!("../shaders/adami2012_boundary_pressure.wgsl");
 
-/// Lanes per boundary particle: the pass runs `BOUNDARY_TEAM` threads per particle
-/// ([`dispatch_threads`]), each summing every `BOUNDARY_TEAM`-th of its (2R + 1)² rows,
-/// and adds their sums in lane order. One thread per particle left a pass over a few
-/// thousand wall particles bound by the latency of each thread's ~300 dependent loads:
-/// on an H200 (2026-11-29, `results/2026-11-29-h200-2/grains-bench.txt`) the grain
-/// columns' 2 883 walls took 0.245 ms a step, half the time of the rates of 41 323 fluid
-/// particles (0.509 ms), where on lavapipe, which has no latency to hide, they took 6 %.
-/// 8 lanes give 3–4 rows each at R = 2.
-pub const BOUNDARY_TEAM: u32 = 8;
-const _: () = assert!(crate::shaders::WORKGROUP_SIZE % BOUNDARY_TEAM == 0);
-
-/// Threads the pass is dispatched with for `n` particles.
-pub fn dispatch_threads(n: u32) -> u32 {
-    n * BOUNDARY_TEAM
-}
-
 /// `store_wall_velocity`: writes the no-slip wall velocity, bound only when it is used.
 const STORE_WALL_VELOCITY_WGSL: &str =
     "@group(0) @binding(11) var<storage, read_write> wall_vel: array<vec4<f32>>;
@@ -127,13 +111,11 @@ pub fn kernel(
     if fill_side {
         groups.push((BODIES, bodies));
     }
-    let team = format!("const BOUNDARY_TEAM: u32 = {BOUNDARY_TEAM}u;\n");
     SphKernel::new(
         gpu,
         "sph: adami2012_boundary_pressure",
         &[
             &consts,
-            &team,
             STEP_PARAMS_WGSL,
             GRID_COMMON_WGSL,
             kernel_library(),

@@ -76,8 +76,28 @@ pub const GRID_REACH_RANGE: std::ops::RangeInclusive<u32> = 1..=4;
 pub fn grid_reach_wgsl(reach: u32) -> String {
     format!(
         "// Cells per grid radius: pair loops visit rows dy, dz in -GRID_REACH..=GRID_REACH.\n\
-         const GRID_REACH: i32 = {reach};\n"
+         const GRID_REACH: i32 = {reach};\n\
+         // Lanes of a team that shares one item's rows (grid_common.wgsl, team_row).\n\
+         const TEAM_LANES: u32 = {TEAM_LANES}u;\n"
     )
+}
+
+/// Lanes per item in the passes that run a team of threads per particle or grain, each
+/// lane summing every `TEAM_LANES`-th of the item's (2R + 1)² rows (`team_row` in
+/// `shaders/grid_common.wgsl`): the boundary pressure (per wall or marker particle), the
+/// grains' solid fraction and their pressure force (per grain). One thread per item
+/// left such a pass, over a few thousand items, bound by the latency of each thread's
+/// ~300 dependent loads: on an H200 (2026-11-29, `results/2026-11-29-h200-2/
+/// grains-bench.txt`) the grain columns' 2 883 wall particles took 0.245 ms a step, half
+/// the time of the rates of their 41 323 fluid particles (0.509 ms), where on lavapipe,
+/// which has no latency to hide, they took 6 %. 8 lanes give 3–4 rows each at R = 2.
+/// A multiple of it must divide `WORKGROUP_SIZE`, so that a team is never split.
+pub const TEAM_LANES: u32 = 8;
+const _: () = assert!(crate::shaders::WORKGROUP_SIZE % TEAM_LANES == 0);
+
+/// Threads a team pass is dispatched with for `n` items.
+pub fn team_threads(n: u32) -> u32 {
+    n * TEAM_LANES
 }
 
 /// Longest cell slice the `grid: order` pass orders (each of its k slots counts over

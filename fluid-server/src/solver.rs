@@ -757,7 +757,7 @@ impl SphData {
         };
         let threads = match op {
             Op::BoundaryPressure if self.boundary_frame.is_none() => {
-                adami2012_boundary_pressure::dispatch_threads(n)
+                crate::neighbour_grid::team_threads(n)
             }
             _ => n,
         };

@@ -31,7 +31,7 @@ use crate::drag::{DRAG_WGSL, DragInput, DragLaw, drag_force, law_constants_wgsl}
 use crate::error::FluidError;
 use crate::gpu::{Gpu, GpuError};
 use crate::kernel::KERNEL_WGSL;
-use crate::neighbour_grid::GRID_COMMON_WGSL;
+use crate::neighbour_grid::{GRID_COMMON_WGSL, team_threads};
 use crate::particles::{Kind, ParticleSet};
 use crate::porosity::{GrainPorosity, PorosityField, Solid, solid_fraction_kernel};
 use crate::solver::{Op, SphData, missing};
@@ -761,7 +761,7 @@ impl GrainCoupling {
             label: Some("sph: grain_solid_fraction"),
             timestamp_writes: None,
         });
-        solid.dispatch(&mut pass, self.buffers.count);
+        solid.dispatch(&mut pass, team_threads(self.buffers.count));
         Ok(())
     }
 
@@ -799,7 +799,7 @@ impl GrainCoupling {
             label: Some("sph: grain_pressure_force"),
             timestamp_writes: None,
         });
-        bound.dispatch(&mut pass, self.buffers.count);
+        bound.dispatch(&mut pass, team_threads(self.buffers.count));
         Ok(())
     }
 
@@ -867,7 +867,7 @@ impl GrainCoupling {
                 label: Some("sph: spread_grain_reaction"),
                 timestamp_writes: None,
             });
-            bound.dispatch(&mut pass, self.buffers.count);
+            bound.dispatch(&mut pass, team_threads(self.buffers.count));
         }
         gpu.queue.submit([encoder.finish()]);
         Ok(())
