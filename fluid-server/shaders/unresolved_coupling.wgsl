@@ -27,22 +27,26 @@
 // Three vec4 per grain: (u_f, Σ V_b W), (V ρθ̄, 0; 0 under energy-pair), (drag, 0).
 @group(2) @binding(10) var<storage, read_write> grain_sample: array<vec4<f32>>;
 
+// Per lane: (Σ V W u, Σ V W) and Σ m θ W.
+var<workgroup> part_u: array<vec4<f32>, WORKGROUP_SIZE>;
+var<workgroup> part_theta: array<vec3<f32>, WORKGROUP_SIZE>;
+
+// A team of TEAM_LANES threads per grain (grid_common.wgsl), each over its share of the
+// rows; the team's first lane adds their sums in lane order and writes.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
                  @builtin(local_invocation_index) lid: u32,
                  @builtin(num_workgroups) nwg: vec3<u32>) {
-    let g = linear_id(wid, lid, nwg);
-    if g >= arrayLength(&grain_porosity) {
-        return;
-    }
-    let p = grain_pos[g].xyz;
-    let c = cell_coord(p);
-    var shepard = 0.0;
-    var u = vec3<f32>(0.0);
+    let g = linear_id(wid, lid, nwg) / TEAM_LANES;
+    let lane = lid % TEAM_LANES;
+    let grain = g < arrayLength(&grain_porosity);
+    var uw = vec4<f32>(0.0);
     var theta = vec3<f32>(0.0);
-    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
-        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let rs = row_ranges(c, dy, dz);
+    if grain {
+        let p = grain_pos[g].xyz;
+        let c = cell_coord(p);
+        for (var row = i32(lane); row < ROWS; row += i32(TEAM_LANES)) {
+            let rs = row_ranges(c, team_row(row).x, team_row(row).y);
             for (var k = 0u; k < row_length(rs); k++) {
                 let j = row_slot(rs, k);
                 if !is_fluid(id[j]) {
@@ -55,8 +59,7 @@ fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
                 }
                 let w = kernel_w(sqrt(r2));
                 let vw = pos[j].w / rho[j] * w;
-                shepard += vw;
-                u += vw * vel[j].xyz;
+                uw += vec4<f32>(vw * vel[j].xyz, vw);
                 if !POROSITY_PAIR {
                     // Robinson eq. (24): Σ m_b θ_b W / Σ (m_b/ρ_b) W.
                     theta += pos[j].w * w * (dvel[j].xyz - params.gravity.xyz - grain_reaction(j));
@@ -64,6 +67,18 @@ fn sample_grains(@builtin(workgroup_id) wid: vec3<u32>,
             }
         }
     }
+    part_u[lid] = uw;
+    part_theta[lid] = theta;
+    workgroupBarrier();
+    if !grain || lane != 0u {
+        return;
+    }
+    for (var l = 1u; l < TEAM_LANES; l++) {
+        uw += part_u[lid + l];
+        theta += part_theta[lid + l];
+    }
+    let u = uw.xyz;
+    let shepard = uw.w;
     if shepard == 0.0 {
         // No fluid within the support: no fluid force (the grain is in the air).
         grain_sample[3u * g] = vec4<f32>(0.0);

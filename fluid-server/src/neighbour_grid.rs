@@ -93,7 +93,7 @@ pub fn grid_reach_wgsl(reach: u32) -> String {
 /// which has no latency to hide, they took 6 %. 8 lanes give 3–4 rows each at R = 2.
 /// A multiple of it must divide `WORKGROUP_SIZE`, so that a team is never split.
 pub const TEAM_LANES: u32 = 8;
-const _: () = assert!(crate::shaders::WORKGROUP_SIZE % TEAM_LANES == 0);
+const _: () = assert!(crate::shaders::WORKGROUP_SIZE.is_multiple_of(TEAM_LANES));
 
 /// Threads a team pass is dispatched with for `n` items.
 pub fn team_threads(n: u32) -> u32 {

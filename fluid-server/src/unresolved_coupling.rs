@@ -1,4 +1,4 @@
-//! The fluid's force on unresolved grains (issue 5; Robinson §3.3), one thread per
+//! The fluid's force on unresolved grains (issue 5; Robinson §3.3), a team of threads per
 //! grain: Shepard-corrected interpolation of the fluid velocity (Robinson eq. 8) and of
 //! the resolved force `V (−∇P + ∇·τ)` (eqs. 23–25) from the fluid particles within the
 //! support, then the drag of the scene's law on the slip at the grain's porosity
@@ -696,7 +696,7 @@ impl GrainCoupling {
                 label: Some("sph: sample_grains"),
                 timestamp_writes: None,
             });
-            bound.dispatch(&mut pass, self.buffers.count);
+            bound.dispatch(&mut pass, team_threads(self.buffers.count));
         }
         self.queue_solid_fraction(gpu, &mut encoder, data, 0.0)?;
         // The window's pressures at the new porosity (Robinson eq. 15).

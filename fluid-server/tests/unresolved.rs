@@ -9,6 +9,7 @@ use common::{max_err, random_set, scene};
 use couplet_fluid::drag::DragLaw;
 use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
+use couplet_fluid::neighbour_grid::team_threads;
 use couplet_fluid::porosity::{
     PorosityField, Solid, boundary_state_cpu, porosity_gradient_from_counts,
 };
@@ -66,7 +67,7 @@ fn sample(
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        bound.dispatch(&mut pass, buffers.count);
+        bound.dispatch(&mut pass, team_threads(buffers.count));
     }
     gpu.queue.submit([encoder.finish()]);
     let got = buffers.read(gpu).unwrap();

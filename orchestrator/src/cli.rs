@@ -354,8 +354,8 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             };
             let s = if sittings.resume {
                 let (sc, text) = crate::run::resolve_scene(&scene, &opts.overrides)?;
-                let out = (opts.out.clone())
-                    .unwrap_or_else(|| PathBuf::from("out").join(&sc.meta.name));
+                let out =
+                    (opts.out.clone()).unwrap_or_else(|| PathBuf::from("out").join(&sc.meta.name));
                 match crate::resume::resume_point(&out, &text, sc.time.end)
                     .map_err(|e| anyhow::anyhow!("--resume: {e}"))?
                 {

@@ -69,7 +69,8 @@ pub fn sittings(out: &Path) -> Result<Vec<(u64, PathBuf)>, String> {
 pub fn remove_sittings_from(out: &Path, from: u64) -> Result<(), String> {
     for (step, dir) in sittings(out)?.into_iter().skip(1) {
         if step >= from {
-            std::fs::remove_dir_all(&dir).map_err(|e| format!("removing {}: {e}", dir.display()))?;
+            std::fs::remove_dir_all(&dir)
+                .map_err(|e| format!("removing {}: {e}", dir.display()))?;
         }
     }
     Ok(())
@@ -294,7 +295,10 @@ mod tests {
         sitting(out.path(), 0, 5, 0.0, &[]);
         sitting(&sitting_dir(out.path(), 7), 7, 9, 0.0, &[]);
         let e = read_chain(out.path()).unwrap_err();
-        assert!(e.contains("windows end at 4") && e.contains("starts at window 7"), "{e}");
+        assert!(
+            e.contains("windows end at 4") && e.contains("starts at window 7"),
+            "{e}"
+        );
     }
 
     /// `--resume` continues from the newest whole checkpoint of any sitting, analyses a

@@ -1058,7 +1058,10 @@ fn run_one(
         }
         Resume::Start(why) => {
             if how.resume {
-                eprintln!("validate {}: nothing to resume ({why}): from the start", case.name);
+                eprintln!(
+                    "validate {}: nothing to resume ({why}): from the start",
+                    case.name
+                );
             }
             Some(run(&opts))
         }
