@@ -84,14 +84,16 @@ pub fn grid_reach_wgsl(reach: u32) -> String {
 
 /// Lanes per item in the passes that run a team of threads per particle or grain, each
 /// lane summing every `TEAM_LANES`-th of the item's (2R + 1)² rows (`team_row` in
-/// `shaders/grid_common.wgsl`): the boundary pressure (per wall or marker particle), the
-/// grains' solid fraction and their pressure force (per grain). One thread per item
+/// `shaders/grid_common.wgsl`): Adami's boundary pressure (per wall or marker particle)
+/// and the grains' passes (per grain: solid fraction, pressure force, sampling, reaction
+/// spread). Sums of integer counts are unchanged by the split; float sums are added in
+/// lane order by the team's first lane, so runs still repeat bit for bit. One thread per item
 /// left such a pass, over a few thousand items, bound by the latency of each thread's
 /// ~300 dependent loads: on an H200 (2026-11-29, `results/2026-11-29-h200-2/
 /// grains-bench.txt`) the grain columns' 2 883 wall particles took 0.245 ms a step, half
 /// the time of the rates of their 41 323 fluid particles (0.509 ms), where on lavapipe,
 /// which has no latency to hide, they took 6 %. 8 lanes give 3–4 rows each at R = 2.
-/// A multiple of it must divide `WORKGROUP_SIZE`, so that a team is never split.
+/// It divides `WORKGROUP_SIZE`, so that no team straddles two workgroups.
 pub const TEAM_LANES: u32 = 8;
 const _: () = assert!(crate::shaders::WORKGROUP_SIZE.is_multiple_of(TEAM_LANES));
 
