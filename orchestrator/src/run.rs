@@ -462,10 +462,9 @@ pub struct CoupledRun {
     last_states: Vec<BodyState>,
     last_loads: Vec<BodyLoad>,
     summary: RunSummary,
-    /// When this sitting was launched, and the wall time of the earlier ones (s, from
-    /// the checkpoint it continued from).
+    /// When this sitting was launched (`summary.earlier_wall_s` holds the wall time of
+    /// the earlier ones).
     launched: Instant,
-    wall_before: f64,
     /// Sums from window 1 (window 0 carries set-up), µs.
     fluid_compute: f64,
     dem_compute: f64,
@@ -558,7 +557,6 @@ impl CoupledRun {
             last_loads: Vec::new(),
             summary: RunSummary::default(),
             launched,
-            wall_before: 0.0,
             fluid_compute: 0.0,
             dem_compute: 0.0,
             exchange: 0.0,
@@ -727,6 +725,11 @@ impl CoupledRun {
         self.output_interval
     }
 
+    /// Wall time of the run so far over all its sittings, s.
+    fn wall_so_far(&self) -> f64 {
+        self.summary.earlier_wall_s + self.launched.elapsed().as_secs_f64()
+    }
+
     /// Takes up where the checkpoint in `dir` left off (the servers have read their
     /// parts at start): the window plan, the output clocks and the last exchange.
     fn resume(&mut self, dir: &Path, max_windows: Option<u64>) -> Result<(), RunError> {
@@ -744,7 +747,6 @@ impl CoupledRun {
         self.last_states = saved.last_states;
         self.last_loads = saved.last_loads;
         self.prescribed = saved.prescribed;
-        self.wall_before = saved.wall_s;
         self.summary.earlier_wall_s = saved.wall_s;
         Ok(())
     }
@@ -774,7 +776,7 @@ impl CoupledRun {
             last_states: self.last_states.clone(),
             last_loads: self.last_loads.clone(),
             prescribed: self.prescribed.clone(),
-            wall_s: self.wall_before + self.launched.elapsed().as_secs_f64(),
+            wall_s: self.wall_so_far(),
         };
         let time = self.step as f64 * self.plan.window;
         write_state(
@@ -1049,7 +1051,7 @@ impl CoupledRun {
                 step,
                 time,
                 window,
-                self.wall_before + self.launched.elapsed().as_secs_f64(),
+                summary.earlier_wall_s + self.launched.elapsed().as_secs_f64(),
                 fluid_report.as_ref(),
                 dem_report.as_ref(),
             )?;
