@@ -777,10 +777,6 @@ fn scene_path(case: &Case, scenes_dir: Option<&Path>) -> Result<PathBuf, Validat
         .ok_or_else(|| ValidateError::NoScene(candidates[0].clone()))
 }
 
-/// Runs case `name` (`quick`: its CI-sized version) with `extra` overrides after the
-/// case's own, into `out` (default `out/validate/NAME`), and writes the report there.
-/// `only` narrows a case of variants to those named (labels or their folder names);
-/// empty: all of them.
 /// How `validate` runs a case's runs: with progress lines, checkpoints every so often,
 /// and continuing each run from its newest checkpoint (`crate::resume`).
 #[derive(Debug, Clone, Default)]
@@ -794,6 +790,10 @@ pub struct HowToRun {
     pub resume: bool,
 }
 
+/// Runs case `name` (`quick`: its CI-sized version) with `extra` overrides after the
+/// case's own, into `out` (default `out/validate/NAME`), and writes the report there.
+/// `only` narrows a case of variants to those named (labels or their folder names);
+/// empty: all of them.
 pub fn validate(
     name: &str,
     quick: bool,
@@ -1043,7 +1043,8 @@ fn run_one(
         restore: None,
     };
     let start = if how.resume {
-        resume_point(&out, &text, scene.time.end).map_err(ValidateError::Recording)?
+        resume_point(&out, &text, scene.time.end)
+            .map_err(|e| ValidateError::Run(RunError::Resume(e)))?
     } else {
         Resume::Start(String::new())
     };
