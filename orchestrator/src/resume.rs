@@ -33,33 +33,33 @@ pub fn sitting_dir(out: &Path, step: u64) -> PathBuf {
     out.join(format!("{SITTING_PREFIX}{step}"))
 }
 
+/// The entries `<prefix><N>` of folder `dir` that are folders, as `(N, path)` sorted by
+/// N; none when `dir` does not exist.
+fn numbered(dir: &Path, prefix: &str) -> Result<Vec<(u64, PathBuf)>, String> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(format!("{}: {e}", dir.display())),
+    };
+    let mut found = Vec::new();
+    for e in entries {
+        let e = e.map_err(|e| format!("{}: {e}", dir.display()))?;
+        let n = (e.file_name().to_str())
+            .and_then(|n| n.strip_prefix(prefix))
+            .and_then(|n| n.parse::<u64>().ok());
+        if let Some(n) = n.filter(|_| e.path().is_dir()) {
+            found.push((n, e.path()));
+        }
+    }
+    found.sort();
+    Ok(found)
+}
+
 /// The sittings of the run in `out`, in order: `(first window, folder)`, `out` itself
 /// first (window 0), then its `resume-N` folders by N.
 pub fn sittings(out: &Path) -> Result<Vec<(u64, PathBuf)>, String> {
-    let mut later = Vec::new();
-    match std::fs::read_dir(out) {
-        Ok(entries) => {
-            for e in entries {
-                let e = e.map_err(|e| format!("{}: {e}", out.display()))?;
-                let name = e.file_name();
-                let Some(step) = name
-                    .to_str()
-                    .and_then(|n| n.strip_prefix(SITTING_PREFIX))
-                    .and_then(|n| n.parse::<u64>().ok())
-                else {
-                    continue;
-                };
-                if e.path().is_dir() {
-                    later.push((step, e.path()));
-                }
-            }
-        }
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(format!("{}: {e}", out.display())),
-    }
-    later.sort();
     let mut all = vec![(0, out.to_owned())];
-    all.extend(later);
+    all.extend(numbered(out, SITTING_PREFIX)?);
     Ok(all)
 }
 
@@ -86,24 +86,9 @@ fn complete(dir: &Path) -> bool {
 pub fn newest_checkpoint(out: &Path) -> Result<Option<(u64, PathBuf)>, String> {
     let mut best: Option<(u64, PathBuf)> = None;
     for (_, dir) in sittings(out)? {
-        let root = dir.join("checkpoints");
-        let entries = match std::fs::read_dir(&root) {
-            Ok(e) => e,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
-            Err(e) => return Err(format!("{}: {e}", root.display())),
-        };
-        for e in entries {
-            let e = e.map_err(|e| format!("{}: {e}", root.display()))?;
-            let Some(step) = e
-                .file_name()
-                .to_str()
-                .and_then(|n| n.strip_prefix("step-"))
-                .and_then(|n| n.parse::<u64>().ok())
-            else {
-                continue;
-            };
-            if complete(&e.path()) && best.as_ref().is_none_or(|b| step > b.0) {
-                best = Some((step, e.path()));
+        for (step, cp) in numbered(&dir.join("checkpoints"), "step-")? {
+            if complete(&cp) && best.as_ref().is_none_or(|b| step > b.0) {
+                best = Some((step, cp));
             }
         }
     }
