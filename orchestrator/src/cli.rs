@@ -353,6 +353,11 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                 restore: None,
             };
             let s = if sittings.resume {
+                if !opts.external.is_empty() {
+                    anyhow::bail!(
+                        "--resume starts both servers from the checkpoint: not with --external"
+                    );
+                }
                 let (sc, text) = crate::run::resolve_scene(&scene, &opts.overrides)?;
                 let out =
                     (opts.out.clone()).unwrap_or_else(|| PathBuf::from("out").join(&sc.meta.name));
@@ -366,9 +371,7 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
                         "--resume: the run in {} already ran to its end",
                         out.display()
                     ),
-                    crate::resume::Resume::Continue {
-                        step, checkpoint, ..
-                    } => {
+                    crate::resume::Resume::Continue { step, checkpoint } => {
                         eprintln!(
                             "resuming {} at window {step} from {}",
                             out.display(),
@@ -394,6 +397,18 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             contact,
             steps,
         } => print!("{}", bench::bench_dem(spheres, &contact, steps)?),
+        Cmd::Validate {
+            sweep,
+            recording,
+            sittings,
+            ..
+        } if (sweep || recording.is_some())
+            && (sittings.resume || sittings.checkpoint_every.is_some()) =>
+        {
+            anyhow::bail!(
+                "--checkpoint-every and --resume are for a case's runs: not with --sweep or --recording"
+            )
+        }
         Cmd::Validate { list: true, .. } => {
             for c in validate::cases() {
                 println!(

@@ -140,13 +140,9 @@ pub fn read_chain(out: &Path) -> Result<Recording, String> {
 pub enum Resume {
     /// Nothing to continue; why (no recording, or no checkpoint).
     Start(String),
-    /// Continue from checkpoint `checkpoint`, taken before window `step`, recording into
-    /// `out` (`resume-<step>`).
-    Continue {
-        step: u64,
-        checkpoint: PathBuf,
-        out: PathBuf,
-    },
+    /// Continue from checkpoint `checkpoint`, taken before window `step` ([`continue_run`]
+    /// records into `resume-<step>`).
+    Continue { step: u64, checkpoint: PathBuf },
     /// The recording runs to the end: the run is done.
     Finished,
 }
@@ -181,11 +177,7 @@ pub fn resume_point(out: &Path, text: &str, end: f64) -> Result<Resume, String> 
         return Ok(Resume::Finished);
     }
     Ok(match newest_checkpoint(out)? {
-        Some((step, checkpoint)) => Resume::Continue {
-            step,
-            checkpoint,
-            out: sitting_dir(out, step),
-        },
+        Some((step, checkpoint)) => Resume::Continue { step, checkpoint },
         None => Resume::Start(format!(
             "{} holds no checkpoint (`--checkpoint-every SECONDS` writes them)",
             out.display()
@@ -305,7 +297,6 @@ mod tests {
                     &sitting_dir(o, 4).join("checkpoints"),
                     9
                 ),
-                out: sitting_dir(o, 9),
             }
         );
         // The recording ends at t = 11 s: a run to 11 s is done (half a window's slack).

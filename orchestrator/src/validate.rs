@@ -1066,9 +1066,7 @@ fn run_one(
             }
             Some(run(&opts))
         }
-        Resume::Continue {
-            step, checkpoint, ..
-        } => {
+        Resume::Continue { step, checkpoint } => {
             eprintln!(
                 "validate {}: resuming {} at window {step} from {}",
                 case.name,
