@@ -17,7 +17,10 @@
 //! [`read_chain`] takes from each sitting the windows before the next one's first. On the
 //! same machine the continuation repeats the original to the last bit (ARCHITECTURE.md,
 //! "Checkpoints: each process saves its own state"), so the chain is the recording one
-//! sitting would have made. `bodies.csv` and VTK files stay per sitting.
+//! sitting would have made (`tests/tests/resumed_run.rs`, a sitting stopped by SIGTERM).
+//! A sitting stopped by `--windows` instead records a snapshot at its last window, as
+//! every run so stopped does, and the chain keeps it: one snapshot off the output clock.
+//! `bodies.csv` and VTK files stay per sitting.
 
 use crate::record::{Recording, read_recording_before};
 use crate::run::{RunError, RunOptions, RunSummary, checkpoint_scene, run};

@@ -1,14 +1,20 @@
 //! A run in two sittings (`orchestrator/src/resume.rs`): `couplet run --checkpoint-every`
-//! stopped part way, then `--resume` on the same folder, records what one sitting
-//! records, bit for bit on one machine; and `--resume` refuses what it cannot continue.
+//! stopped part way by SIGTERM to its process group (as `timeout` stops it), then
+//! `--resume` on the same folder, records what one sitting records, bit for bit on one
+//! machine; and `--resume` refuses what it cannot continue.
 
 use couplet_orchestrator::record::{Recording, read_recording};
-use couplet_orchestrator::resume::read_chain;
-use couplet_tests::{couplet_run, scene};
+use couplet_orchestrator::resume::{newest_checkpoint, read_chain, sittings};
+use couplet_tests::{couplet_run, exit_within, scene};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
 
 const CLI: &str = env!("CARGO_BIN_EXE_couplet-cli");
-/// The small dam break with boxes (fluid and DEM), 207 windows to 30 ms.
-const SCENE_ARGS: [&str; 4] = ["--spacing", "0.02", "--set", "time.end=0.03"];
+/// The small dam break with boxes (fluid and DEM), 688 windows to 0.1 s: several
+/// seconds, so that the first sitting is still running when it is stopped.
+const SCENE_ARGS: [&str; 4] = ["--spacing", "0.02", "--set", "time.end=0.1"];
+/// Only keep a broken build from hanging the suite; not performance figures.
+const LIMIT: Duration = Duration::from_secs(120);
 
 fn run(out: &std::path::Path, extra: &[&str]) -> std::process::Output {
     let args: Vec<&str> = SCENE_ARGS.iter().chain(extra).copied().collect();
@@ -40,40 +46,69 @@ fn bits(r: &Recording) -> (Vec<u64>, Vec<u64>, Vec<u32>) {
 }
 
 #[test]
-fn a_run_resumed_from_its_checkpoint_records_what_one_sitting_records() {
+fn a_run_stopped_and_resumed_from_its_checkpoint_records_what_one_sitting_records() {
     let whole = tempfile::tempdir().unwrap();
     assert!(run(whole.path(), &[]).status.success());
     let one = read_recording(&whole.path().join("run.mcap")).unwrap();
     assert_eq!(
-        one.windows, 207,
+        one.windows, 688,
         "the scene's plan changed: update this test"
     );
 
-    // First sitting: stopped after 150 windows, a checkpoint every 0.3 s of wall time
-    // (about every 15 windows on lavapipe): it ran past its newest checkpoint, unless
-    // that fell after window 150.
+    // First sitting: a checkpoint every 0.5 s of wall time, stopped by SIGTERM to its
+    // process group (the servers too) a quarter second after its first one, so that it
+    // has run windows past it (read_chain drops them; its unit tests fix the case).
     let two = tempfile::tempdir().unwrap();
-    let first = run(
-        two.path(),
-        &["--windows", "150", "--checkpoint-every", "0.3"],
-    );
-    assert!(first.status.success());
-    assert_eq!(
-        read_recording(&two.path().join("run.mcap"))
+    let scene_path = scene("dam-break-boxes");
+    let args: Vec<&str> = ["run", scene_path.to_str().unwrap(), "--out"]
+        .into_iter()
+        .chain([two.path().to_str().unwrap()])
+        .chain(SCENE_ARGS)
+        .chain(["--checkpoint-every", "0.5"])
+        .collect();
+    let mut cli = {
+        use std::os::unix::process::CommandExt;
+        Command::new(CLI)
+            .args(&args)
+            .process_group(0)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
             .unwrap()
-            .windows,
-        150
+    };
+    let start = Instant::now();
+    while newest_checkpoint(two.path()).unwrap().is_none() {
+        assert!(
+            cli.try_wait().unwrap().is_none(),
+            "the run ended before its first checkpoint"
+        );
+        assert!(start.elapsed() < LIMIT, "no checkpoint within {LIMIT:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(250));
+    // SAFETY: kill(2) on the process group our child leads.
+    unsafe { libc::kill(-(cli.id() as i32), libc::SIGTERM) };
+    let (status, stderr) = exit_within(&mut cli, LIMIT, "the first sitting stops");
+    assert_eq!(status.code(), Some(143), "{stderr}");
+    let cut = read_recording(&two.path().join("run.mcap")).unwrap();
+    let (step, _) = newest_checkpoint(two.path()).unwrap().unwrap();
+    assert!(
+        cut.windows < 688 && step <= cut.windows as u64,
+        "cut after {} windows, checkpoint at {step}",
+        cut.windows
     );
+
     let second = run(two.path(), &["--resume"]);
     assert!(second.status.success());
     let stderr = String::from_utf8_lossy(&second.stderr);
-    assert!(stderr.contains("resuming"), "{stderr}");
-    let sittings = couplet_orchestrator::resume::sittings(two.path()).unwrap();
-    assert!(
-        sittings.len() == 2 && sittings[1].0 <= 150,
-        "one later sitting, from the newest checkpoint: {sittings:?}"
-    );
+    assert!(stderr.contains(&format!("at window {step}")), "{stderr}");
+    assert_eq!(sittings(two.path()).unwrap().len(), 2);
     let chain = read_chain(two.path()).unwrap();
+    eprintln!(
+        "first sitting: {} windows, checkpoint at {step}; chain: {} windows",
+        cut.windows, chain.windows
+    );
     assert_eq!(chain.windows, one.windows);
     assert!(chain.has_summary);
     assert_eq!(chain.snapshots.len(), one.snapshots.len());
@@ -96,7 +131,7 @@ fn a_run_resumed_from_its_checkpoint_records_what_one_sitting_records() {
         CLI,
         &scene("dam-break-boxes"),
         two.path(),
-        &["--spacing", "0.02", "--set", "time.end=0.04", "--resume"],
+        &["--spacing", "0.02", "--set", "time.end=0.2", "--resume"],
     );
     let e = String::from_utf8_lossy(&other.stderr);
     assert!(
