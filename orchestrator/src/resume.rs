@@ -173,8 +173,12 @@ pub fn resume_point(out: &Path, text: &str, end: f64) -> Result<Resume, String> 
         }
         Err(e) => return Err(format!("{}: {e}", first.display())),
     }
-    let chain = read_chain(out)?;
-    if let (true, Some(w)) = (chain.has_summary, chain.last_window)
+    // Whether the run ended is the last sitting's to say: reading it alone spares
+    // decoding the others (the RTI's first sitting holds ~190 MB of grain states), which
+    // `validate` reads once more for its analysis.
+    let (_, dir) = (sittings(out)?.pop()).expect("`out` itself is the first sitting");
+    let last = read_recording_before(&dir.join("run.mcap"), None)?;
+    if let (true, Some(w)) = (last.has_summary, last.last_window)
         && w.time + w.window >= end - 0.5 * w.window
     {
         return Ok(Resume::Finished);
