@@ -5,7 +5,7 @@
 use crate::error::FluidError;
 use crate::gpu::Gpu;
 use crate::kernel::SmoothingKernel;
-use crate::neighbour_grid::{GRID_REACH_DEFAULT, grid_reach_wgsl};
+use crate::neighbour_grid::{GRID_REACH_DEFAULT, TEAM_LANES_GPU, grid_reach_wgsl, team_lanes_wgsl};
 use couplet_protocol::{KernelKind, PorosityPressure, Scene, ViscosityModel, WallKind, WallModel};
 
 /// Scene-fixed parameters of the standard WCSPH scheme, in SI units (`f64`; the WGSL
@@ -57,6 +57,11 @@ pub struct SphConstants {
     /// must be built with the reach of the grid it is bound to, or it misses neighbours:
     /// kernels built outside the solver take `FluidSolver::constants`.
     pub grid_reach: u32,
+    /// Lanes per item of the team passes (`TEAM_LANES` in WGSL, `neighbour_grid::
+    /// TEAM_LANES_GPU`): [`TEAM_LANES_GPU`] from the scene; the solver sets the device's
+    /// (`Gpu::team_lanes`) with [`Self::for_adapter`]. A team pass must be dispatched with
+    /// `team_threads(n, team_lanes)` of the constants it was compiled with.
+    pub team_lanes: u32,
     /// No-slip walls enter the viscous sums with the velocity 2 v_w − ṽ_w (Adami, Hu &
     /// Adams 2012, §2.3): ṽ_w the Shepard interpolation of the fluid's velocity at the
     /// wall particle, v_w the wall's own (0, or the lid's). The fluid then sees the
@@ -194,6 +199,7 @@ impl SphConstants {
                 !joubert_walls && !scene.domain.periodic[k] && scene.domain.symmetry[k]
             }),
             grid_reach: GRID_REACH_DEFAULT,
+            team_lanes: TEAM_LANES_GPU,
             wall_velocity_extrapolation: scene.domain.walls == WallKind::NoSlip
                 && !joubert_walls
                 && ((scene.effects.viscosity == ViscosityModel::Laminar
@@ -322,9 +328,10 @@ impl SphConstants {
     }
 
     /// These constants with the grid reach of `gpu` (`Gpu::grid_reach`: the default, or
-    /// `COUPLET_GRID_REACH`'s).
+    /// `COUPLET_GRID_REACH`'s) and its team lanes (`Gpu::team_lanes`).
     pub fn for_adapter(mut self, gpu: &Gpu) -> SphConstants {
         self.grid_reach = gpu.grid_reach();
+        self.team_lanes = gpu.team_lanes;
         self
     }
 
@@ -357,6 +364,7 @@ impl SphConstants {
              const NO_SLIP_WALLS: bool = {no_slip};\n\
              const ADAMI_SYMMETRY: vec3<bool> = vec3<bool>({adami_symmetry});\n\
              {grid_reach}\
+             {team_lanes}\
              const VISCOUS_ETA2: f32 = {eta2:e};\n\
              const GRADIENT_CORRECTION: bool = {correction};\n\
              const CORRECTED_CONTINUITY: bool = {corrected_continuity};\n\
@@ -402,6 +410,7 @@ impl SphConstants {
             no_slip = self.no_slip_walls,
             adami_symmetry = self.adami_symmetry.map(|b| b.to_string()).join(", "),
             grid_reach = grid_reach_wgsl(self.grid_reach),
+            team_lanes = team_lanes_wgsl(self.team_lanes),
             eta2 = VISCOUS_ETA2_H2 * k.h * k.h,
             correction = self.gradient_correction,
             corrected_continuity = self.corrected_continuity,

@@ -6,7 +6,9 @@
 
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
-use crate::neighbour_grid::{GRID_REACH_DEFAULT, GRID_REACH_RANGE};
+use crate::neighbour_grid::{
+    GRID_REACH_DEFAULT, GRID_REACH_RANGE, TEAM_LANES_ENV, team_lanes_for, team_lanes_valid,
+};
 
 /// Storage buffers a single kernel may bind. The corrected SPH scheme's pair kernels
 /// bind about this many particle arrays; lavapipe and NVIDIA both offer far more.
@@ -42,6 +44,16 @@ pub enum GpuError {
         GRID_REACH_RANGE.start(), GRID_REACH_RANGE.end(), GRID_REACH_DEFAULT
     )]
     BadGridReach { value: String },
+    /// `COUPLET_TEAM_LANES` is set to something other than a divisor of the workgroup size.
+    #[error(
+        "COUPLET_TEAM_LANES = {value:?} is not a whole number that divides the workgroup size \
+         ({}): it sets the lanes per item of the team passes (unset: {} on a CPU adapter, {} \
+         on a GPU)",
+        crate::shaders::WORKGROUP_SIZE,
+        crate::neighbour_grid::TEAM_LANES_CPU,
+        crate::neighbour_grid::TEAM_LANES_GPU
+    )]
+    BadTeamLanes { value: String },
 }
 
 /// The environment variable that overrides the neighbour grid's reach R (cells per
@@ -62,6 +74,14 @@ pub struct Gpu {
     /// The neighbour grid's reach R set by [`GRID_REACH_ENV`], if it is set: every grid
     /// takes it in place of `GRID_REACH_DEFAULT`.
     pub grid_reach_override: Option<u32>,
+    /// Lanes per item of the team passes (`neighbour_grid::team_lanes_for`), which every
+    /// solver created on this device compiles and dispatches with: [`TEAM_LANES_ENV`]'s if
+    /// set, else the adapter's ([`Gpu::adapter_team_lanes`]). Public so that a parity
+    /// test can run a pass at each count on the one test device (`shared_test_gpu`
+    /// restores it).
+    pub team_lanes: u32,
+    /// The lanes [`TEAM_LANES_ENV`] set, if it is set.
+    team_lanes_override: Option<u32>,
 }
 
 /// Adapters ordered by how much we want them: a real GPU before a software one.
@@ -129,12 +149,23 @@ impl Gpu {
                 _ => return Err(GpuError::BadGridReach { value }),
             },
         };
+        let team_lanes_override = match std::env::var(TEAM_LANES_ENV) {
+            Err(_) => None,
+            Ok(value) => match value.trim().parse::<u32>() {
+                Ok(l) if team_lanes_valid(l) => Some(l),
+                _ => return Err(GpuError::BadTeamLanes { value }),
+            },
+        };
+        let team_lanes =
+            team_lanes_override.unwrap_or_else(|| team_lanes_for(adapter_info.device_type));
         Ok(Gpu {
             device,
             queue,
             adapter_info,
             timestamps,
             grid_reach_override,
+            team_lanes,
+            team_lanes_override,
         })
     }
 
@@ -144,18 +175,30 @@ impl Gpu {
         self.grid_reach_override.unwrap_or(GRID_REACH_DEFAULT)
     }
 
-    /// One line for logs and `couplet plan`: name, driver, backend, timestamps (and the
-    /// grid reach when [`GRID_REACH_ENV`] sets it).
+    /// The team passes' lanes per item this device starts with: [`TEAM_LANES_ENV`]'s if
+    /// set, else `neighbour_grid::team_lanes_for` its adapter type.
+    pub fn adapter_team_lanes(&self) -> u32 {
+        self.team_lanes_override
+            .unwrap_or_else(|| team_lanes_for(self.adapter_info.device_type))
+    }
+
+    /// One line for logs and `couplet plan`: name, driver, backend, timestamps, the team
+    /// passes' lanes (and the grid reach when [`GRID_REACH_ENV`] sets it).
     pub fn describe(&self) -> String {
         let i = &self.adapter_info;
         format!(
-            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}{})",
+            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}, team lanes {}{}{})",
             i.name,
             i.device_type,
             i.driver,
             i.driver_info,
             i.backend,
             if self.timestamps { "yes" } else { "no" },
+            self.team_lanes,
+            match self.team_lanes_override {
+                Some(_) => format!(" from {TEAM_LANES_ENV}"),
+                None => String::new(),
+            },
             match self.grid_reach_override {
                 Some(r) => format!(", grid reach {r} from {GRID_REACH_ENV}"),
                 None => String::new(),
@@ -240,10 +283,16 @@ static TEST_GPU: OnceLock<Result<Mutex<Gpu>, GpuError>> = OnceLock::new();
 /// The one `Gpu` of a test process. Tests run on several threads but there is one
 /// GPU (or one lavapipe): every GPU test holds this lock for its whole body, which
 /// serialises them and spares each the cost of opening a device. A test that
-/// panicked while holding the lock does not poison the others.
+/// panicked while holding the lock does not poison the others. Each lock restores the
+/// device's own team lanes ([`Gpu::adapter_team_lanes`]), so a test that sets
+/// [`Gpu::team_lanes`] changes no other test.
 pub fn shared_test_gpu() -> Result<MutexGuard<'static, Gpu>, GpuError> {
     match TEST_GPU.get_or_init(|| Gpu::new().map(Mutex::new)) {
-        Ok(m) => Ok(m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())),
+        Ok(m) => {
+            let mut gpu = m.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+            gpu.team_lanes = gpu.adapter_team_lanes();
+            Ok(gpu)
+        }
         Err(e) => Err(e.clone()),
     }
 }

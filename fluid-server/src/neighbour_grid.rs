@@ -76,30 +76,69 @@ pub const GRID_REACH_RANGE: std::ops::RangeInclusive<u32> = 1..=4;
 pub fn grid_reach_wgsl(reach: u32) -> String {
     format!(
         "// Cells per grid radius: pair loops visit rows dy, dz in -GRID_REACH..=GRID_REACH.\n\
-         const GRID_REACH: i32 = {reach};\n\
-         // Lanes of a team that shares one item's rows (grid_common.wgsl, team_row).\n\
-         const TEAM_LANES: u32 = {TEAM_LANES}u;\n"
+         const GRID_REACH: i32 = {reach};\n"
     )
 }
 
-/// Lanes per item in the passes that run a team of threads per particle or grain, each
-/// lane summing every `TEAM_LANES`-th of the item's (2R + 1)² rows (`team_row` in
-/// `shaders/grid_common.wgsl`): Adami's boundary pressure (per wall or marker particle)
-/// and the grains' passes (per grain: solid fraction, pressure force, sampling, reaction
-/// spread). Sums of integer counts are unchanged by the split; float sums are added in
-/// lane order by the team's first lane, so runs still repeat bit for bit. One thread per item
-/// left such a pass, over a few thousand items, bound by the latency of each thread's
-/// ~300 dependent loads: on an H200 (2026-11-29, `results/2026-11-29-h200-2/
-/// grains-bench.txt`) the grain columns' 2 883 wall particles took 0.245 ms a step, half
-/// the time of the rates of their 41 323 fluid particles (0.509 ms), where on lavapipe,
-/// which has no latency to hide, they took 6 %. 8 lanes give 3–4 rows each at R = 2.
-/// It divides `WORKGROUP_SIZE`, so that no team straddles two workgroups.
-pub const TEAM_LANES: u32 = 8;
-const _: () = assert!(crate::shaders::WORKGROUP_SIZE.is_multiple_of(TEAM_LANES));
+/// The WGSL declaration of `TEAM_LANES` = `lanes`, which the team passes read (they get
+/// it from `SphConstants::wgsl`).
+pub fn team_lanes_wgsl(lanes: u32) -> String {
+    format!(
+        "// Lanes of a team that shares one item's rows (grid_common.wgsl, team_row).\n\
+         const TEAM_LANES: u32 = {lanes}u;\n"
+    )
+}
 
-/// Threads a team pass is dispatched with for `n` items.
-pub fn team_threads(n: u32) -> u32 {
-    n * TEAM_LANES
+/// Lanes per item on a GPU in the passes that run a team of threads per particle or
+/// grain, each lane summing every `TEAM_LANES`-th of the item's (2R + 1)² rows
+/// (`team_row` in `shaders/grid_common.wgsl`): Adami's boundary pressure (per wall or
+/// marker particle) and the grains' passes (per grain: solid fraction, pressure force,
+/// sampling, reaction spread). Sums of integer counts are unchanged by the split; float
+/// sums are added in lane order by the team's first lane, so runs still repeat bit for
+/// bit at any lane count. One thread per item left such a pass, over a few thousand
+/// items, bound by the latency of each thread's ~300 dependent loads: on an H200
+/// (2026-11-29, `results/2026-11-29-h200-2/grains-bench.txt`) the grain columns' 2 883
+/// wall particles took 0.245 ms a step, half the time of the rates of their 41 323 fluid
+/// particles (0.509 ms), where on lavapipe, which has no latency to hide, they took 6 %.
+/// 8 lanes give 3–4 rows each at R = 2.
+pub const TEAM_LANES_GPU: u32 = 8;
+
+/// Lanes per item on a CPU adapter (lavapipe). A CPU core runs a workgroup's threads
+/// one after another and has no load latency for a team to hide, so a team only adds
+/// the workgroup-memory sum and its barrier: the small dam break with boxes (`couplet
+/// bench scenes/dam-break-boxes.toml --spacing 0.02 --steps 50`, 7 296 wall and 600
+/// fluid particles) spends 14.1–14.5 ms a step in the boundary pass with 8 lanes and
+/// 7.3 ms with 1, 20.0–21.5 and 13.5–15.3 ms a step in all (2026-11-30, Mesa 25.0.7,
+/// 2 vCPU, runs alternated).
+pub const TEAM_LANES_CPU: u32 = 1;
+
+/// The environment variable that overrides the lanes per item of the team passes
+/// ([`team_lanes_for`]), for measuring them on a machine without a rebuild. Results do
+/// not depend on the lanes beyond round-off (the order of the float sums); speed does.
+pub const TEAM_LANES_ENV: &str = "COUPLET_TEAM_LANES";
+
+/// The lanes per item an adapter of `device_type` runs the team passes with, unless
+/// [`TEAM_LANES_ENV`] sets them: [`TEAM_LANES_CPU`] on a CPU adapter, else
+/// [`TEAM_LANES_GPU`].
+pub fn team_lanes_for(device_type: wgpu::DeviceType) -> u32 {
+    match device_type {
+        wgpu::DeviceType::Cpu => TEAM_LANES_CPU,
+        _ => TEAM_LANES_GPU,
+    }
+}
+
+/// Whether `lanes` may run the team passes: at least one, and a divisor of
+/// `WORKGROUP_SIZE`, so that no team straddles two workgroups (its lanes share
+/// workgroup memory).
+pub fn team_lanes_valid(lanes: u32) -> bool {
+    lanes >= 1 && crate::shaders::WORKGROUP_SIZE.is_multiple_of(lanes)
+}
+const _: () = assert!(crate::shaders::WORKGROUP_SIZE.is_multiple_of(TEAM_LANES_GPU));
+const _: () = assert!(crate::shaders::WORKGROUP_SIZE.is_multiple_of(TEAM_LANES_CPU));
+
+/// Threads a team pass of `lanes` lanes per item is dispatched with for `n` items.
+pub fn team_threads(n: u32, lanes: u32) -> u32 {
+    n * lanes
 }
 
 /// Longest cell slice the `grid: order` pass orders (each of its k slots counts over
@@ -813,6 +852,26 @@ impl NeighbourGrid {
 mod tests {
     use super::*;
     use crate::gpu::shared_test_gpu;
+
+    /// The team lanes by adapter type (one on a CPU adapter, where a team only adds its
+    /// sum and barrier; `TEAM_LANES_GPU` elsewhere) and the counts `COUPLET_TEAM_LANES`
+    /// may set: the divisors of the workgroup size (128), so that no team straddles two
+    /// workgroups. Reference: the definitions above.
+    #[test]
+    fn team_lanes_by_adapter_and_the_counts_allowed() {
+        assert_eq!(team_lanes_for(wgpu::DeviceType::Cpu), 1);
+        for t in [
+            wgpu::DeviceType::DiscreteGpu,
+            wgpu::DeviceType::IntegratedGpu,
+            wgpu::DeviceType::VirtualGpu,
+            wgpu::DeviceType::Other,
+        ] {
+            assert_eq!(team_lanes_for(t), 8, "{t:?}");
+        }
+        let allowed: Vec<u32> = (0..=300).filter(|&l| team_lanes_valid(l)).collect();
+        assert_eq!(allowed, [1, 2, 4, 8, 16, 32, 64, 128]);
+        assert_eq!(team_threads(1000, 8), 8000);
+    }
 
     /// Regression: the order pass was an insertion sort, one thread per cell. Where the
     /// atomics left a cell's slice far from its previous order (a lavapipe worker

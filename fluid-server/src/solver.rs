@@ -269,6 +269,9 @@ pub struct SphData {
     /// (written after every sort, not permuted), with variable h.
     pub smoothing: Option<wgpu::Buffer>,
     bound: Bound,
+    /// The lanes per item the team passes in `bound` were compiled with
+    /// (`SphConstants::team_lanes`), which their dispatches must match.
+    team_lanes: u32,
 }
 
 /// Buffers of the gradient pass (not permuted: written after every sort).
@@ -674,6 +677,7 @@ impl SphData {
             reaction,
             smoothing,
             bound,
+            team_lanes: c.team_lanes,
         })
     }
 
@@ -757,7 +761,7 @@ impl SphData {
         };
         let threads = match op {
             Op::BoundaryPressure if self.boundary_frame.is_none() => {
-                crate::neighbour_grid::team_threads(n)
+                crate::neighbour_grid::team_threads(n, self.team_lanes)
             }
             _ => n,
         };

@@ -579,6 +579,9 @@ pub struct GrainCoupling {
     buffers: GrainBuffers,
     bodies: Vec<u32>,
     diameters: Vec<f64>,
+    /// The lanes per grain the team passes above were compiled with
+    /// (`SphConstants::team_lanes`), which their dispatches must match.
+    team_lanes: u32,
 }
 
 impl GrainCoupling {
@@ -620,6 +623,7 @@ impl GrainCoupling {
             buffers: GrainBuffers::new(gpu, &grains),
             bodies: bodies.into_iter().map(|i| i as u32).collect(),
             diameters,
+            team_lanes: c.team_lanes,
         })
     }
 
@@ -696,7 +700,7 @@ impl GrainCoupling {
                 label: Some("sph: sample_grains"),
                 timestamp_writes: None,
             });
-            bound.dispatch(&mut pass, team_threads(self.buffers.count));
+            bound.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
         }
         self.queue_solid_fraction(gpu, &mut encoder, data, 0.0)?;
         // The window's pressures at the new porosity (Robinson eq. 15).
@@ -761,7 +765,7 @@ impl GrainCoupling {
             label: Some("sph: grain_solid_fraction"),
             timestamp_writes: None,
         });
-        solid.dispatch(&mut pass, team_threads(self.buffers.count));
+        solid.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
         Ok(())
     }
 
@@ -799,7 +803,7 @@ impl GrainCoupling {
             label: Some("sph: grain_pressure_force"),
             timestamp_writes: None,
         });
-        bound.dispatch(&mut pass, team_threads(self.buffers.count));
+        bound.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
         Ok(())
     }
 
@@ -867,7 +871,7 @@ impl GrainCoupling {
                 label: Some("sph: spread_grain_reaction"),
                 timestamp_writes: None,
             });
-            bound.dispatch(&mut pass, team_threads(self.buffers.count));
+            bound.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
         }
         gpu.queue.submit([encoder.finish()]);
         Ok(())

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{max_err, random_set, scene};
+use common::{at_each_team_width, max_err, random_set, scene};
 use couplet_fluid::adami2012_boundary_pressure::boundary_pressure_cpu;
 use couplet_fluid::fluid_rates::fluid_rates_cpu;
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
@@ -104,28 +104,29 @@ fn tait_pressure_keeps_its_digits_near_rho0() {
 /// lattice particles, gravity on: |Δp_w| ≤ 1e-4 · max |p_w|, |Δρ_w| ≤ 1e-6 ρ0.
 #[test]
 fn boundary_pressure_matches_cpu_twin() {
-    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    for kernel in ["wendland-c2", "quintic"] {
-        let s = scene(&format!("kernel = \"{kernel}\""), "");
-        let c = SphConstants::from_scene(&s).unwrap();
-        let (got, want, walls) = boundary_pass(&gpu, &s, &c);
-        let (ep, mp) = max_err(
-            walls
-                .iter()
-                .map(|&i| (got.press[i], want[i].map_or(0.0, |w| w.0))),
-        );
-        let (er, _) = max_err(
-            walls
-                .iter()
-                .map(|&i| (got.rho[i], want[i].map_or(0.0, |w| w.1))),
-        );
-        println!("{kernel}: max |Δp_w| = {ep:e} of {mp:e}, max |Δρ_w| = {er:e}");
-        assert!(
-            ep <= PAIR_RTOL * mp,
-            "{kernel}: max |Δp_w| = {ep:e}, max |p_w| = {mp:e}"
-        );
-        assert!(er <= 1e-6 * c.rho0, "{kernel}: max |Δρ_w| = {er:e}");
-    }
+    at_each_team_width(|gpu| {
+        for kernel in ["wendland-c2", "quintic"] {
+            let s = scene(&format!("kernel = \"{kernel}\""), "");
+            let c = SphConstants::from_scene(&s).unwrap();
+            let (got, want, walls) = boundary_pass(gpu, &s, &c);
+            let (ep, mp) = max_err(
+                walls
+                    .iter()
+                    .map(|&i| (got.press[i], want[i].map_or(0.0, |w| w.0))),
+            );
+            let (er, _) = max_err(
+                walls
+                    .iter()
+                    .map(|&i| (got.rho[i], want[i].map_or(0.0, |w| w.1))),
+            );
+            println!("{kernel}: max |Δp_w| = {ep:e} of {mp:e}, max |Δρ_w| = {er:e}");
+            assert!(
+                ep <= PAIR_RTOL * mp,
+                "{kernel}: max |Δp_w| = {ep:e}, max |p_w| = {mp:e}"
+            );
+            assert!(er <= 1e-6 * c.rho0, "{kernel}: max |Δρ_w| = {er:e}");
+        }
+    });
 }
 
 /// `fluid.background_pressure` P_b: the EOS and its inverse shift by P_b on both sides.

@@ -4999,7 +4999,8 @@ mod tests {
     /// ARGS...`) names a case, variants it has (`--variant`, by label or folder name)
     /// and sweep points it has (`--point K`), and every line of its bench files
     /// (`scripts/gpu-benches/*.txt`, `couplet bench`'s arguments: a scene path from the
-    /// repository root, flags) a scene that resolves with its `--set`s: a typo there
+    /// repository root, flags, after any `COUPLET_NAME=VALUE` words, each a variable the
+    /// fluid server reads with a value it takes) a scene that resolves with its `--set`s: a typo there
     /// would cost a GPU call its minutes of set-up and come back empty.
     #[test]
     fn gpu_vals_files_name_cases_variants_and_points_that_exist() {
@@ -5033,7 +5034,23 @@ mod tests {
         let benches = script_lines("gpu-benches");
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         for (line, at) in &benches {
-            let words: Vec<&str> = line.split_whitespace().collect();
+            let mut words: Vec<&str> = line.split_whitespace().collect();
+            // Leading `COUPLET_NAME=VALUE` words set the fluid server's knobs for one
+            // bench (scripts/gpu-check): each a known name with a value it accepts.
+            while let Some((name, value)) = words[0].split_once('=') {
+                let value: u32 = value.parse().unwrap_or_else(|e| panic!("{at}: {e}"));
+                let ok = match name {
+                    couplet_fluid::gpu::GRID_REACH_ENV => {
+                        couplet_fluid::neighbour_grid::GRID_REACH_RANGE.contains(&value)
+                    }
+                    couplet_fluid::neighbour_grid::TEAM_LANES_ENV => {
+                        couplet_fluid::neighbour_grid::team_lanes_valid(value)
+                    }
+                    _ => panic!("{at}: {name} is not a variable the fluid server reads"),
+                };
+                assert!(ok, "{at}: {name} = {value} is out of its range");
+                words.remove(0);
+            }
             let sets: Vec<(String, String)> = (words.windows(2).filter(|w| w[0] == "--set"))
                 .map(|w| {
                     let (k, v) = w[1].split_once('=').unwrap();

@@ -1,6 +1,8 @@
 //! Shared helpers of the fluid-server tests: scenes from TOML text, seeded particle sets.
 #![allow(dead_code)]
 
+use couplet_fluid::gpu::{Gpu, shared_test_gpu};
+use couplet_fluid::neighbour_grid::{TEAM_LANES_CPU, TEAM_LANES_GPU};
 use couplet_fluid::{ParticleKinds, ParticleSet, SphConstants};
 use couplet_protocol::{BodyState, CouplingPoint, Scene};
 use rand::{Rng, SeedableRng};
@@ -161,4 +163,16 @@ pub fn sphere_markers(centre: [f64; 3], radius: f64, n: usize) -> Vec<CouplingPo
             }
         })
         .collect()
+}
+
+/// Runs `check` on the one test device once at each lane count of the team passes
+/// (`neighbour_grid::TEAM_LANES_CPU`, which lavapipe runs, and `TEAM_LANES_GPU`, which a
+/// GPU runs), so that a parity test covers both forms whatever adapter it runs on.
+pub fn at_each_team_width(check: impl Fn(&Gpu)) {
+    let mut gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    for lanes in [TEAM_LANES_CPU, TEAM_LANES_GPU] {
+        gpu.team_lanes = lanes;
+        println!("team lanes {lanes}:");
+        check(&gpu);
+    }
 }
