@@ -84,6 +84,18 @@ pub struct Gpu {
     team_lanes_override: Option<u32>,
 }
 
+/// The whole number the environment variable `name` sets, if it is set: `Err` with what
+/// it holds when that is not a whole number `valid` accepts.
+fn env_knob(name: &str, valid: impl Fn(u32) -> bool) -> Result<Option<u32>, String> {
+    match std::env::var(name) {
+        Err(_) => Ok(None),
+        Ok(value) => match value.trim().parse::<u32>() {
+            Ok(v) if valid(v) => Ok(Some(v)),
+            _ => Err(value),
+        },
+    }
+}
+
 /// Adapters ordered by how much we want them: a real GPU before a software one.
 fn preference(device_type: wgpu::DeviceType) -> u32 {
     match device_type {
@@ -142,20 +154,10 @@ impl Gpu {
             })
             .await
             .map_err(|e| GpuError::Device(e.to_string()))?;
-        let grid_reach_override = match std::env::var(GRID_REACH_ENV) {
-            Err(_) => None,
-            Ok(value) => match value.trim().parse::<u32>() {
-                Ok(r) if GRID_REACH_RANGE.contains(&r) => Some(r),
-                _ => return Err(GpuError::BadGridReach { value }),
-            },
-        };
-        let team_lanes_override = match std::env::var(TEAM_LANES_ENV) {
-            Err(_) => None,
-            Ok(value) => match value.trim().parse::<u32>() {
-                Ok(l) if team_lanes_valid(l) => Some(l),
-                _ => return Err(GpuError::BadTeamLanes { value }),
-            },
-        };
+        let grid_reach_override = env_knob(GRID_REACH_ENV, |r| GRID_REACH_RANGE.contains(&r))
+            .map_err(|value| GpuError::BadGridReach { value })?;
+        let team_lanes_override = env_knob(TEAM_LANES_ENV, team_lanes_valid)
+            .map_err(|value| GpuError::BadTeamLanes { value })?;
         let team_lanes =
             team_lanes_override.unwrap_or_else(|| team_lanes_for(adapter_info.device_type));
         Ok(Gpu {
