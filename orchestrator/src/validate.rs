@@ -505,7 +505,7 @@ static CASES: [Case; 17] = [
     Case {
         name: "settling-cylinder",
         scene: "settling-cylinder.toml",
-        about: "Joubert §3.2/§4.1: the 12-face cylinder settling in a closed box, periodic along its axis — Re at the terminal velocity against Table 2 at the same spacing (coarse 17.03 at δ = 0.25 mm, medium 15.71, fine 14.64) within 5 %; C_D by force balance reported",
+        about: "Joubert §3.2/§4.1: the 12-face cylinder settling in a closed box, periodic along its axis — Re at the terminal velocity against Table 2 at the same spacing (coarse 17.03 at δ = 0.25 mm, medium 15.71, fine 14.64) within 5 %, and reported against a converged 2D lattice Boltzmann solution of the same body and channel (Re 13.65, tests/src/bin/lbm-cylinder.rs); C_D by force balance reported",
         quick: &[
             "fluid.spacing=1e-3",
             "domain.max=[0.02, 0.04, 0.008]",
