@@ -223,13 +223,7 @@ impl Lattice {
             let solid = &self.solid;
             let rho_out: Vec<&mut [f64]> = self.rho.chunks_mut(chunk).collect();
             let f = &mut self.f;
-            // Split f's nine planes into per-thread pieces.
-            let mut planes: Vec<Vec<&mut [f64]>> = (0..threads).map(|_| Vec::new()).collect();
-            for plane in f.chunks_mut(n) {
-                for (t, piece) in plane.chunks_mut(chunk).enumerate() {
-                    planes[t].push(piece);
-                }
-            }
+            let planes = per_thread(f, n, chunk, threads);
             std::thread::scope(|s| {
                 for (t, (mut p, r)) in planes.into_iter().zip(rho_out).enumerate() {
                     s.spawn(move || {
@@ -264,12 +258,7 @@ impl Lattice {
         // Stream (pull) into g, with the boundary rules; force by momentum exchange.
         let (nx, ny) = (self.nx, self.ny);
         let (f, solid, links, rho) = (&self.f, &self.solid, &self.links, &self.rho);
-        let mut planes: Vec<Vec<&mut [f64]>> = (0..threads).map(|_| Vec::new()).collect();
-        for plane in self.g.chunks_mut(n) {
-            for (t, piece) in plane.chunks_mut(chunk).enumerate() {
-                planes[t].push(piece);
-            }
-        }
+        let planes = per_thread(&mut self.g, n, chunk, threads);
         let forces: Vec<(f64, f64)> = std::thread::scope(|s| {
             let handles: Vec<_> = (planes.into_iter().enumerate())
                 .map(|(t, mut g)| {
@@ -378,6 +367,19 @@ impl Lattice {
             last = mean.0;
         }
     }
+}
+
+/// The nine planes of `n` values in `buf`, each cut into pieces of `chunk`: for every
+/// one of `threads` threads its nine pieces, for the collision and the streaming to
+/// share out the same nodes.
+fn per_thread(buf: &mut [f64], n: usize, chunk: usize, threads: usize) -> Vec<Vec<&mut [f64]>> {
+    let mut planes: Vec<Vec<&mut [f64]>> = (0..threads).map(|_| Vec::new()).collect();
+    for plane in buf.chunks_mut(n) {
+        for (t, piece) in plane.chunks_mut(chunk).enumerate() {
+            planes[t].push(piece);
+        }
+    }
+    planes
 }
 
 fn feq(i: usize, rho: f64, ux: f64, uy: f64) -> f64 {
