@@ -505,7 +505,7 @@ static CASES: [Case; 17] = [
     Case {
         name: "settling-cylinder",
         scene: "settling-cylinder.toml",
-        about: "Joubert §3.2/§4.1: the 12-face cylinder settling in a closed box, periodic along its axis — Re at the terminal velocity against Table 2 at the same spacing (coarse 17.03 at δ = 0.25 mm, medium 15.71, fine 14.64) within 5 %, and reported against a converged 2D lattice Boltzmann solution of the same body and channel (Re 13.65, tests/src/bin/lbm-cylinder.rs); C_D by force balance reported",
+        about: "Joubert §3.2/§4.1: the 12-face cylinder settling in a closed box, periodic along its axis — Re at the terminal velocity against Table 2 at the same spacing (coarse 17.03 at δ = 0.25 mm, medium 15.71, fine 14.64) within 5 %, and reported against a converged 2D lattice Boltzmann solution of the same body and channel (Re 13.65, tests/src/bin/lbm-reference.rs); C_D by force balance reported",
         quick: &[
             "fluid.spacing=1e-3",
             "domain.max=[0.02, 0.04, 0.008]",
@@ -3343,9 +3343,9 @@ const JOUBERT_CYLINDER: [(f64, f64, f64); 3] = [
 /// Terminal Re of Joubert's 12-face cylinder (a regular 12-gon with its corners on
 /// r = 1.25 mm and a face normal to the fall, ρs = 1250 and ρf = 1000 kg/m³, ν = 1e-5
 /// m²/s, g = 9.81 m/s²) settling along the centre line of an infinitely long channel 20
-/// mm wide, from the 2D lattice Boltzmann reference `tests/src/bin/lbm-cylinder.rs`
-/// (`lbm-cylinder settle 40 prism12`, 2026-11-30; ARCHITECTURE.md, "Joubert's settling
-/// cylinder against a lattice Boltzmann reference"): 13.624 at 20 cells across the body,
+/// mm wide, from the lattice Boltzmann reference `tests/src/bin/lbm-reference.rs`
+/// (`lbm-reference settle-2d 40 prism12`, 2026-11-30; ARCHITECTURE.md, "Joubert's
+/// settling bodies against a lattice Boltzmann reference"): 13.624 at 20 cells across the body,
 /// 13.652 at 40 (28 minutes on this repository's 2-core machine).
 const LBM_CYLINDER_RE: f64 = 13.652;
 
@@ -3428,7 +3428,7 @@ fn settling_cylinder(scene: &Scene, rec: &Recording, report: &mut Report) -> Res
                 100.0 * (re / LBM_CYLINDER_RE - 1.0)
             ),
             format!(
-                "{LBM_CYLINDER_RE:.2} (tests/src/bin/lbm-cylinder.rs, 40 cells across the body, an infinitely long channel)"
+                "{LBM_CYLINDER_RE:.2} (tests/src/bin/lbm-reference.rs, 40 cells across the body, an infinitely long channel)"
             ),
             "reported".into(),
             None,

@@ -22,10 +22,10 @@ fn value(line: &str, name: &str) -> f64 {
 
 #[test]
 fn lbm_reference_reproduces_schafer_turek_2d1() {
-    let out = Command::new(env!("CARGO_BIN_EXE_lbm-cylinder"))
-        .args(["schafer-turek", "10"])
+    let out = Command::new(env!("CARGO_BIN_EXE_lbm-reference"))
+        .args(["schafer-turek-2d", "10"])
         .output()
-        .expect("lbm-cylinder runs");
+        .expect("lbm-reference runs");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
