@@ -26,7 +26,8 @@
 //! force balance F = (ρs − ρf) g V with U = Re ν / l is, in units of ρf ν², F/(ρf ν²) =
 //! K = (ρs − ρf) g V / (ρf ν²), the same number in lattice units (F/ν² there): a secant
 //! iteration on ln Re solves it, one steady flow per iterate, each started from the last.
-//! In 2D, V is the area and F the force per unit length.
+//! In 2D, V is the area and F the force per unit length, and K a number per unit length
+//! (per cell on the lattice).
 //!
 //! Checks: Schäfer & Turek (1996)'s benchmarks at Re = 20.
 //! - 2D-1: channel 2.2 × 0.41, cylinder d = 0.1 centred at (0.2, 0.2), parabolic inflow of
@@ -681,10 +682,13 @@ fn schafer_turek(d: usize, three_d: bool) {
 /// `up`, `down`: the channel before and after the body, in 2.5 mm; `u`: the lattice
 /// velocity of the walls and the far fluid (the Mach number is u √3); `re0`: the
 /// secant's first guess (the second is 7 % above it); `conv`: when each iterate's flow
-/// is steady; `re_tol`: the secant stops when ln Re moves less than this.
+/// is steady; `re_tol`: the secant stops when ln Re moves less than this; `rho_s`: the
+/// body's density (Joubert's 1250, and 1100 and 1500 for §4.2's sphere against eqs.
+/// 37–38).
 struct Settle<'a> {
     d: usize,
     shape: &'a str,
+    rho_s: f64,
     width: f64,
     up: usize,
     down: usize,
@@ -695,8 +699,8 @@ struct Settle<'a> {
 }
 
 fn settle(s: &Settle) {
-    // Joubert §3.2, §4.2: ρs = 1250, ρf = 1000, ν = 1e-5, g = 9.81; Table 3's shapes.
-    let (rho_s, rho_f, nu, g) = (1250.0, 1000.0, 1e-5, 9.81);
+    // Joubert §3.2, §4.2: ρf = 1000, ν = 1e-5, g = 9.81; Table 3's shapes.
+    let (rho_s, rho_f, nu, g) = (s.rho_s, 1000.0, 1e-5, 9.81);
     let dx = 2.5e-3 / s.d as f64;
     let cells = |m: f64| m / dx;
     let ny = (s.width * 1e-3 / dx).round() as usize;
@@ -746,11 +750,13 @@ fn settle(s: &Settle) {
         body.length(),
         body.frontal(),
     );
-    let k = (rho_s - rho_f) * g * v_phys / (rho_f * nu * nu);
+    // In 2D F is per unit length, and F/(ρf ν²) a number per metre: per cell on the lattice.
+    let k = (rho_s - rho_f) * g * v_phys / (rho_f * nu * nu) * if two_d { dx } else { 1.0 };
     println!(
-        "settling {} in a {} of {} mm, {} cells per 2.5 mm ({} × {} × {}), l = {:.2} cells: \
-         F/(ρf ν²) = K = {k:.2}",
+        "settling {} (ρs = {}) in a {} of {} mm, {} cells per 2.5 mm ({} × {} × {}), \
+         l = {:.2} cells: F/(ρf ν²) = K = {k:.2}",
         s.shape,
+        s.rho_s,
         if two_d { "channel" } else { "square duct" },
         s.width,
         s.d,
@@ -836,6 +842,7 @@ fn main() {
             settle(&Settle {
                 d: d(if two_d { 20 } else { 10 }),
                 shape,
+                rho_s: opt("--rho-s", 1250.0),
                 // Joubert's channel (§3.2) is 20 mm wide, his box (§4.2) 15 mm.
                 width: opt("--box", if two_d { 20.0 } else { 15.0 }),
                 up: opt("--up", if two_d { 6.0 } else { 4.0 }) as usize,
@@ -856,13 +863,79 @@ fn main() {
         _ => eprintln!(
             "usage: lbm-reference schafer-turek-2d D | schafer-turek-3d D | \
              settle-2d D [circle|prism12] | settle D [sphere|cylinder|ring|cross] \
-             [--box MM] [--up N] [--down N] [--u U] [--re0 RE] [--window STEPS] [--rtol R] \
+             [--rho-s KG/M3] [--box MM] [--up N] [--down N] [--u U] [--re0 RE] [--window STEPS] [--rtol R] \
              [--re-tol R]\n\
-             (settle-2d: D cells per 2.5 mm, default 20, the 20 mm channel, 6 and 18 \
+             (ρs 1250 by default; settle-2d: D cells per 2.5 mm, default 20, the 20 mm channel, 6 and 18 \
              diameters before and after the body, U = 0.04, Re from 14, windows of 2000 \
              steps, rtol 1e-5, re-tol 2e-4; settle: D default 10, the 15 mm box, 4 and 10 \
              diameters, U = 0.05, Re from 12, windows of a sound period, rtol 3e-5, \
              re-tol 1e-3)"
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each shape's `inside`, counted on a grid 8 times finer than 10 cells per 2.5 mm,
+    /// against its `volume`, within 1 %; and the cross's volume and projected area
+    /// against Joubert Table 4 (1.031 times the sphere's, both: m_s/m_ref and A_p/A_ref
+    /// for a body of the sphere's density), which fixes the layout of its five cuboids.
+    #[test]
+    fn shapes_fill_their_volumes_and_the_cross_matches_table_4() {
+        let cells = |mm: f64| mm * 10.0 / 2.5;
+        let shapes = [
+            Shape::Sphere { r: cells(1.25) },
+            Shape::Prism {
+                r: cells(1.25),
+                sides: 12,
+                h: cells(0.875),
+            },
+            Shape::Ring {
+                ri: cells(0.725),
+                ro: cells(1.45),
+                sides: 12,
+                h: cells(0.875),
+            },
+            Shape::Cross {
+                b: cells(2.25),
+                w: cells(0.75),
+                h: cells(1.0),
+            },
+        ];
+        let fine = 8.0;
+        for shape in shapes {
+            let body = Body {
+                shape,
+                at: [0.0; 3],
+            };
+            let reach = (8.0 * fine) as i64;
+            let mut count = 0usize;
+            for i in -reach..=reach {
+                for j in -reach..=reach {
+                    for k in -reach..=reach {
+                        let p = [i as f64, j as f64, k as f64].map(|v| (v + 0.25) / fine);
+                        count += usize::from(body.inside(p));
+                    }
+                }
+            }
+            let counted = count as f64 / fine.powi(3);
+            assert!(
+                (counted / body.volume() - 1.0).abs() < 0.01,
+                "counted {counted} against {}",
+                body.volume()
+            );
+        }
+        let sphere = Body {
+            shape: shapes[0],
+            at: [0.0; 3],
+        };
+        let cross = Body {
+            shape: shapes[3],
+            at: [0.0; 3],
+        };
+        assert!((cross.volume() / sphere.volume() - 1.031).abs() < 1e-3);
+        assert!((cross.frontal() / sphere.frontal() - 1.031).abs() < 1e-3);
     }
 }
