@@ -3392,6 +3392,9 @@ const LBM_SHAPES: &[(&str, f64, f64, f64)] = &[
     ("sphere", 15e-3, 1250.0, 10.789),
     ("cylinder", 15e-3, 1250.0, 9.981),
     ("ring", 15e-3, 1250.0, 10.099),
+    ("cross", 15e-3, 1250.0, 10.032),
+    ("ring", 10e-3, 1250.0, 8.651),
+    ("ring", 7.5e-3, 1250.0, 6.590),
 ];
 
 /// The [`LBM_SHAPES`] figure for `scene`'s first body (`kind` as [`frontal`] names it)
@@ -6086,6 +6089,47 @@ mod tests {
             }
             assert_eq!(verdicts.len(), 4);
         }
+    }
+
+    /// The ring in each of Table 6's boxes falling at the 3D lattice Boltzmann
+    /// reference's Re for that box gets the reference's row at ±0.0 %, with the box's own
+    /// figure (the lookup goes by the box's width); the sphere of `settling-sphere` at
+    /// another density than the reference's has no row. Reference: [`LBM_SHAPES`].
+    #[test]
+    fn ring_walls_report_the_lattice_boltzmann_reference_of_each_box() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/ring-walls.toml");
+        for (label, variant) in RING_BOXES {
+            let (scene, _) = resolve_scene(&path, &pairs(variant)).unwrap();
+            let width = scene.domain.max[0] - scene.domain.min[0];
+            let (kind, _, length) = frontal(&scene.bodies[0]).unwrap();
+            let &(_, _, _, re_lbm) = (LBM_SHAPES.iter())
+                .find(|x| x.0 == kind && (x.1 - width).abs() < 1e-12)
+                .unwrap_or_else(|| panic!("{label}: no reference for a {width} m box"));
+            let u = re_lbm * 1e-5 / length;
+            let mut r = Report::default();
+            let rec = fall_recording(&scene, 0.5 * length, u, submerged_weight(&scene));
+            settling_shape(&scene, &rec, &mut r).unwrap();
+            let row = (r.rows.iter())
+                .find(|x| x.quantity.contains("lattice Boltzmann"))
+                .unwrap_or_else(|| panic!("{label}: {}", r.markdown()));
+            // The synthetic plateau sits a hair under u: ±0.0 %.
+            assert!(
+                row.measured.ends_with("0.0 %)"),
+                "{label}: {}",
+                row.measured
+            );
+            assert!(
+                row.reference.starts_with(&format!("{re_lbm:.2} ")),
+                "{label}: {}",
+                row.reference
+            );
+        }
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/settling-sphere.toml");
+        let (scene, _) =
+            resolve_scene(&path, &[("bodies.0.density".into(), "1300".into())]).unwrap();
+        assert_eq!(lbm_shape_re(&scene, "sphere"), None);
+        let (scene, _) = resolve_scene(&path, &[]).unwrap();
+        assert_eq!(lbm_shape_re(&scene, "sphere"), Some(10.789));
     }
 
     /// Synthetic DKT tracks in the shipped scene: the leading body falls at 50 mm/s, the
