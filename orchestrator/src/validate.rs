@@ -556,7 +556,7 @@ static CASES: [Case; 17] = [
     Case {
         name: "shape-drag",
         scene: "shape-drag.toml",
-        about: "Joubert §4.2, Tables 3–5: sphere, 12-face cylinder, ring and cross settling in the 15 × 50 × 15 mm box — Re at the plateau against Table 5 (13.15, 11.95, 12.55, 11.37) within 10 %, C_D by eq. (36) from the measured force as ratios to the sphere's against 14.76 : 18.76 : 22.57 : 15.98 within 10 %, and in the same order; judged at Joubert's δ = 0.25 mm",
+        about: "Joubert §4.2, Tables 3–5: sphere, 12-face cylinder, ring and cross settling in the 15 × 50 × 15 mm box — Re at the plateau against Table 5 (13.15, 11.95, 12.55, 11.37) within 10 %, C_D by eq. (36) from the measured force as ratios to the sphere's against 14.76 : 18.76 : 22.57 : 15.98 within 10 %, and in the same order; judged at Joubert's δ = 0.25 mm; Re also reported against a 3D lattice Boltzmann solution of the same body and box (tests/src/bin/lbm-reference.rs)",
         quick: SHAPE_QUICK,
         quick_why: SHAPE_QUICK_WHY,
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
@@ -570,7 +570,7 @@ static CASES: [Case; 17] = [
     Case {
         name: "ring-walls",
         scene: "ring-walls.toml",
-        about: "Joubert §4.3, Table 6: the ring settling in the full, 2/3 and 1/2 box — Re at the plateau against 12.55, 10.68, 8.12 within 10 %, C_D by eq. (36) from the measured force as ratios to the full box's against 1 : 1.38 : 2.39 within 10 %; judged at Joubert's δ = 0.25 mm",
+        about: "Joubert §4.3, Table 6: the ring settling in the full, 2/3 and 1/2 box — Re at the plateau against 12.55, 10.68, 8.12 within 10 %, C_D by eq. (36) from the measured force as ratios to the full box's against 1 : 1.38 : 2.39 within 10 %; judged at Joubert's δ = 0.25 mm; Re also reported against a 3D lattice Boltzmann solution of the same body and box (tests/src/bin/lbm-reference.rs)",
         quick: SHAPE_QUICK,
         quick_why: SHAPE_QUICK_WHY,
         sweep_spacings: &[1e-3, 5e-4, 2.5e-4],
@@ -1946,7 +1946,8 @@ fn hydrostatic(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<()
 /// (final height = radius ± 10 %) and rests (vertical speed < 1 mm/s at the end; the mean
 /// speed over the last 0.1 s is reported: the recirculating fluid rolls it slowly along
 /// the floor). The plateau against the correlation of
-/// Joubert eqs. (37)–(38) is reported.
+/// Joubert eqs. (37)–(38) is reported, and against the 3D lattice Boltzmann reference
+/// in this box where it has one ([`lbm_shape_re`]): the correlation's fluid is unbounded.
 fn settling_sphere(scene: &Scene, rec: &Recording, report: &mut Report) -> Result<(), String> {
     let body = scene.bodies.first().ok_or("the scene has no body")?;
     let couplet_protocol::Shape::Sphere { radius: r } = body.shape else {
