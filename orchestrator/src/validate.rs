@@ -3391,6 +3391,7 @@ fn lbm_cylinder_applies(scene: &Scene) -> bool {
 /// kg/m³, Re).
 const LBM_SHAPES: &[(&str, f64, f64, f64)] = &[
     ("sphere", 15e-3, 1250.0, 10.789),
+    ("sphere", 15e-3, 1100.0, 5.116),
     ("cylinder", 15e-3, 1250.0, 9.981),
     ("ring", 15e-3, 1250.0, 10.099),
     ("cross", 15e-3, 1250.0, 10.032),
