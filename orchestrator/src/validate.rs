@@ -3400,8 +3400,8 @@ const LBM_SHAPES: &[(&str, f64, f64, f64)] = &[
 ];
 
 /// The [`LBM_SHAPES`] figure for `scene`'s first body (`kind` as [`frontal`] names it)
-/// in its box, when the body has Table 3's dimensions, the box is square and the fluid
-/// is [`lbm_fluid`]'s.
+/// in its box, when the body has Table 3's dimensions and starts on the centre line of a
+/// square box, and the fluid is [`lbm_fluid`]'s.
 fn lbm_shape_re(scene: &Scene, kind: &str) -> Option<f64> {
     use couplet_protocol::Shape;
     let body = scene.bodies.first()?;
@@ -3431,7 +3431,10 @@ fn lbm_shape_re(scene: &Scene, kind: &str) -> Option<f64> {
     };
     let width = scene.domain.max[0] - scene.domain.min[0];
     let square = close(scene.domain.max[2] - scene.domain.min[2], width);
-    if !(table_3 && square && lbm_fluid(scene)) {
+    let centred = [0, 2]
+        .iter()
+        .all(|&a| close(body.position[a] - scene.domain.min[a], 0.5 * width));
+    if !(table_3 && square && centred && lbm_fluid(scene)) {
         return None;
     }
     LBM_SHAPES
@@ -6096,7 +6099,8 @@ mod tests {
     /// The ring in each of Table 6's boxes falling at the 3D lattice Boltzmann
     /// reference's Re for that box gets the reference's row at ±0.0 %, with the box's own
     /// figure (the lookup goes by the box's width); the sphere of `settling-sphere` at
-    /// another density than the reference's has no row. Reference: [`LBM_SHAPES`].
+    /// another density than the reference's, or off the centre line, has none.
+    /// Reference: [`LBM_SHAPES`].
     #[test]
     fn ring_walls_report_the_lattice_boltzmann_reference_of_each_box() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/ring-walls.toml");
@@ -6129,6 +6133,9 @@ mod tests {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/settling-sphere.toml");
         let (scene, _) =
             resolve_scene(&path, &[("bodies.0.density".into(), "1300".into())]).unwrap();
+        assert_eq!(lbm_shape_re(&scene, "sphere"), None);
+        let (scene, _) =
+            resolve_scene(&path, &[("bodies.0.position.0".into(), "0.007".into())]).unwrap();
         assert_eq!(lbm_shape_re(&scene, "sphere"), None);
         let (scene, _) = resolve_scene(&path, &[]).unwrap();
         assert_eq!(lbm_shape_re(&scene, "sphere"), Some(10.789));
