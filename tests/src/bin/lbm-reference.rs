@@ -780,7 +780,7 @@ fn settle(s: &Settle) {
     let mut lat = Lattice::new(stencil, n, body, &walls);
     // A surface through nodes (q = 0) is a limit of Bouzidi's rule that this solver does
     // not get right: at 10 cells per 2.5 mm every face of the cross lies on a plane of
-    // nodes, and its Re came out 10.03 there against 9.16 with the body 0.3 cells off
+    // nodes, and its Re came out 10.03 there against 9.14 with the body 0.3 cells off
     // and 9.23 at 14 cells (2026-11-30). Say so, and how to avoid it.
     let qs: Vec<f64> = (lat.fixes.iter())
         .filter_map(|(_, _, fix)| match fix {
