@@ -9,6 +9,8 @@
 //!     target/release/lbm-reference settle-2d 40 prism12  # Joubert's 12-face cylinder, 40 cells across
 //!     target/release/lbm-reference settle 10 ring        # Joubert's ring in the 15 mm box, 10 cells per 2.5 mm
 //!     target/release/lbm-reference settle 10 ring --box 7.5   # … in the 1/2 box (Table 6)
+//!     target/release/lbm-reference settle 14 cross       # the cross: at 10 cells its faces
+//!                                                        # lie on nodes (see `--offset`)
 //!
 //! `tests/tests/lbm_reference.rs` runs the 2D check at D = 10 in CI.
 //!
