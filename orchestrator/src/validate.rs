@@ -3387,11 +3387,12 @@ fn lbm_cylinder_applies(scene: &Scene) -> bool {
 /// `tests/src/bin/lbm-reference.rs` at 10 cells per 2.5 mm (`lbm-reference settle 10
 /// SHAPE [--box MM] [--rho-s KG/M3]`, 2026-11-30; ARCHITECTURE.md, "Joubert's settling
 /// bodies against a lattice Boltzmann reference"), the cross at 14 (at 10 its faces lie
-/// on planes of nodes, where the solver's drag is wrong). The sphere moves 0.1 % from
-/// 10 to 14 cells (10.789, 10.777): (shape, duct width in m, ρs in kg/m³, Re).
+/// on planes of nodes, which puts its drag off by about ±9 %). The sphere moves 0.1 %
+/// from 10 to 14 cells (10.789, 10.777): (shape, duct width in m, ρs in kg/m³, Re).
 const LBM_SHAPES: &[(&str, f64, f64, f64)] = &[
     ("sphere", 15e-3, 1250.0, 10.789),
     ("sphere", 15e-3, 1100.0, 5.116),
+    ("sphere", 15e-3, 1500.0, 18.327),
     ("cylinder", 15e-3, 1250.0, 9.981),
     ("ring", 15e-3, 1250.0, 10.099),
     ("cross", 15e-3, 1250.0, 9.229),
@@ -4609,8 +4610,6 @@ fn lid_driven_cavity(scene: &Scene, rec: &Recording, report: &mut Report) -> Res
     Ok(())
 }
 
-/// Terminal settling velocity of a sphere from the force balance of Joubert eq. (37)
-/// with the drag correlation of eq. (38), by fixed-point iteration on Re.
 /// Start-up flow between plates at y = 0 and y = `l` (Morris, Fox & Zhu 1997, the
 /// series of `../shared/validation/morris1997_*_startup.csv`): fluid at rest at t = 0,
 /// driven by a body force `f` along x (plane Poiseuille) and by the top plate sliding
@@ -4857,6 +4856,8 @@ fn scene_volume(scene: &Scene) -> f64 {
         .product()
 }
 
+/// Terminal settling velocity of a sphere from the force balance of Joubert eq. (37)
+/// with the drag correlation of eq. (38), by fixed-point iteration on Re.
 pub fn joubert_terminal_velocity(radius: f64, rho_s: f64, rho_f: f64, nu: f64, g: f64) -> f64 {
     let d = 2.0 * radius;
     let cd = |re: f64| {
@@ -6096,8 +6097,9 @@ mod tests {
 
     /// The ring in each of Table 6's boxes falling at the 3D lattice Boltzmann
     /// reference's Re for that box gets the reference's row at ±0.0 %, with the box's own
-    /// figure (the lookup goes by the box's width); the sphere of `settling-sphere` at
-    /// another density than the reference's, or off the centre line, has none.
+    /// figure (the lookup goes by the box's width); the sphere of `settling-sphere` finds
+    /// its figure at each of `sphere-density-sweep`'s densities, and at another density,
+    /// or off the centre line, none.
     /// Reference: [`LBM_SHAPES`].
     #[test]
     fn ring_walls_report_the_lattice_boltzmann_reference_of_each_box() {
@@ -6137,6 +6139,12 @@ mod tests {
         assert_eq!(lbm_shape_re(&scene, "sphere"), None);
         let (scene, _) = resolve_scene(&path, &[]).unwrap();
         assert_eq!(lbm_shape_re(&scene, "sphere"), Some(10.789));
+        // The density sweep's other two spheres.
+        for (rho_s, re) in [("1100", 5.116), ("1500", 18.327)] {
+            let (scene, _) =
+                resolve_scene(&path, &[("bodies.0.density".into(), rho_s.into())]).unwrap();
+            assert_eq!(lbm_shape_re(&scene, "sphere"), Some(re), "ρs = {rho_s}");
+        }
     }
 
     /// Synthetic DKT tracks in the shipped scene: the leading body falls at 50 mm/s, the
