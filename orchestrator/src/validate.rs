@@ -3388,8 +3388,8 @@ fn lbm_cylinder_applies(scene: &Scene) -> bool {
 /// SHAPE [--box MM] [--rho-s KG/M3]`, 2026-11-30; ARCHITECTURE.md, "Joubert's settling
 /// bodies against a lattice Boltzmann reference"), the cross at 14 (at 10 its faces lie
 /// on planes of nodes, which puts its drag off by about ±9 %). From 10 to 14 cells the
-/// sphere moves 0.1 % (10.789, 10.777) and the ring 0.86 % (10.099, 10.186): (shape,
-/// duct width in m, ρs in kg/m³, Re).
+/// sphere moves 0.1 % (10.789, 10.777), the ring 0.86 % (10.099, 10.186) and the
+/// cylinder 1.5 % (9.981, 10.133): (shape, duct width in m, ρs in kg/m³, Re).
 const LBM_SHAPES: &[(&str, f64, f64, f64)] = &[
     ("sphere", 15e-3, 1250.0, 10.789),
     ("sphere", 15e-3, 1100.0, 5.116),
