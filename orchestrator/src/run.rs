@@ -142,6 +142,10 @@ pub struct RunSummary {
     pub dem_compute_us: f64,
     pub exchange_us: f64,
     pub window_wall_us: f64,
+    /// Mean per window, µs: the orchestrator's own work after both reports came in
+    /// (the states and loads drained and recorded, a particle snapshot awaited and
+    /// written), during which neither server computes. Not in `window_wall_us`.
+    pub after_reports_us: f64,
     pub fluid_substeps: u64,
     /// Fluid particle-steps that kept the uncorrected gradient (near-singular truncation
     /// matrix, Joubert eq. 10), over the run.
@@ -162,13 +166,14 @@ impl RunSummary {
     /// validate` and a stopped run print it too).
     pub fn per_window(&self) -> String {
         format!(
-            "per window: {:.1} µs wall; fluid {:.1} µs ({} substeps total); DEM {:.1} µs; exchange {:.1} µs ({:.2} %)",
+            "per window: {:.1} µs wall; fluid {:.1} µs ({} substeps total); DEM {:.1} µs; exchange {:.1} µs ({:.2} %); then recording {:.1} µs",
             self.window_wall_us,
             self.fluid_compute_us,
             self.fluid_substeps,
             self.dem_compute_us,
             self.exchange_us,
-            100.0 * self.exchange_us / self.window_wall_us.max(1e-9)
+            100.0 * self.exchange_us / self.window_wall_us.max(1e-9),
+            self.after_reports_us,
         )
     }
 }
@@ -470,6 +475,7 @@ pub struct CoupledRun {
     dem_compute: f64,
     exchange: f64,
     window_wall: f64,
+    after_reports: f64,
     recorder: Option<Outputs>,
     peers: Peers,
     // The ports before the endpoint: fields drop in order, and the ports belong to it.
@@ -561,6 +567,7 @@ impl CoupledRun {
             dem_compute: 0.0,
             exchange: 0.0,
             window_wall: 0.0,
+            after_reports: 0.0,
             recorder,
             peers: Peers {
                 fluid: None,
@@ -981,10 +988,12 @@ impl CoupledRun {
             },
             || peers.check(),
         )?;
+        let reports_in = Instant::now();
         let summary = &mut self.summary;
         // Window 0 also carries one-off set-up (the fluid's first markers rebuild its
         // buffers), so the per-window means start at window 1 when there is one.
-        if step > 0 || windows == 1 {
+        let timed = step > 0 || windows == 1;
+        if timed {
             self.window_wall += w_start.elapsed().as_secs_f64() * 1e6;
             for r in [&fluid_report, &dem_report].into_iter().flatten() {
                 match Role::from_u32(r.role) {
@@ -1056,6 +1065,9 @@ impl CoupledRun {
                 dem_report.as_ref(),
             )?;
         }
+        if timed {
+            self.after_reports += reports_in.elapsed().as_secs_f64() * 1e6;
+        }
         let wall_s = w_start.elapsed().as_secs_f64();
         summary.wall_s += wall_s;
         summary.windows = step + 1;
@@ -1108,6 +1120,7 @@ impl CoupledRun {
         s.dem_compute_us = self.dem_compute / n;
         s.exchange_us = self.exchange / n;
         s.window_wall_us = self.window_wall / n;
+        s.after_reports_us = self.after_reports / n;
         s.final_states = std::mem::take(&mut self.last_states);
         Ok(s)
     }

@@ -879,7 +879,7 @@ fn vec3(v: [f64; 3]) -> Option<Vec3> {
 
 /// The telemetry frame of a window just done.
 fn frame(w: &WindowDone, run: &CoupledRun) -> WindowFrame {
-    let loads = run.loads();
+    let loads = crate::outputs::loads_by_body(run.loads());
     WindowFrame {
         step: w.step,
         time: w.end,
@@ -896,7 +896,7 @@ fn frame(w: &WindowDone, run: &CoupledRun) -> WindowFrame {
             .states()
             .iter()
             .map(|s| {
-                let load = loads.iter().find(|l| l.body == s.body);
+                let load = loads.get(s.body as usize).copied().flatten();
                 let o = s.orientation;
                 BodyFrame {
                     body: s.body,
