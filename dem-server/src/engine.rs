@@ -2,7 +2,7 @@
 //! (`rapier_engine.rs`, …), one registry (`registry.rs`), one conformance suite
 //! (`tests/conformance.rs`) that every engine passes.
 
-use crate::markers::quat_from_scaled_axis;
+use couplet_protocol::vec3::quat_from_scaled_axis;
 use couplet_protocol::{BodyLoad, BodyState, CouplingMode, Domain, Scene};
 
 /// How an engine resolves contacts. The orchestrator needs it to pick the window:

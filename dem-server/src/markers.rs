@@ -8,6 +8,7 @@
 use crate::engine::DemError;
 use crate::geometry::{BodyGeometry, Face, GEOMETRY_REL_TOL, Polyhedron};
 use couplet_protocol::scene::{EffectsSpec, FluidSpec, WallModel};
+use couplet_protocol::vec3::{add, cross, dot, norm, quat_from_scaled_axis, rotate, scale, sub};
 use couplet_protocol::{BodyState, CouplingPoint, Scene, Shape};
 use std::f64::consts::PI;
 use std::ops::Range;
@@ -651,45 +652,6 @@ fn clip_to_box(p: &[[f64; 2]], lo: [f64; 2], hi: [f64; 2]) -> Vec<[f64; 2]> {
         }
     }
     poly
-}
-
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
-    a.map(|x| x * s)
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-/// Unit quaternion [x, y, z, w] of the rotation by |a| about a/|a|.
-pub(crate) fn quat_from_scaled_axis(a: [f64; 3]) -> [f64; 4] {
-    let angle = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    if angle == 0.0 {
-        return [0.0, 0.0, 0.0, 1.0];
-    }
-    let s = (0.5 * angle).sin() / angle;
-    [a[0] * s, a[1] * s, a[2] * s, (0.5 * angle).cos()]
-}
-
-/// Rotates `v` by the unit quaternion `q = [x, y, z, w]`.
-pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let u = [q[0], q[1], q[2]];
-    let t = scale(cross(u, v), 2.0);
-    add(v, add(scale(t, q[3]), cross(u, t)))
 }
 
 /// The markers of a body minus those on faces pressed against the domain: along an

@@ -6,6 +6,7 @@ use crate::engine::{
     encode_state, gravity_scale, not_kinematic,
 };
 use crate::geometry::BodyGeometry;
+use couplet_protocol::vec3::sub;
 use couplet_protocol::{BodyLoad, BodyState, Motion, Scene};
 use rapier3d::prelude::{
     CoefficientCombineRule, ColliderBuilder, PhysicsWorld, Pose, Real, RigidBodyBuilder,
@@ -327,10 +328,6 @@ fn scaled(v: [f64; 3], scale: f64) -> Vector {
 /// A rapier length-dimensioned vector back in SI.
 fn unscaled(v: Vector, scale: f64) -> [f64; 3] {
     [v.x as f64, v.y as f64, v.z as f64].map(|x| x / scale)
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 impl DemEngine for RapierEngine {

@@ -39,8 +39,8 @@ use crate::engine::{
     encode_state, gravity_scale, not_kinematic,
 };
 use crate::geometry::BodyGeometry;
-use crate::markers::quat_from_scaled_axis;
 use couplet_protocol::cell_hash::CellHash;
+use couplet_protocol::vec3::{add, add_to, cross, dot, norm, quat_from_scaled_axis, scale, sub};
 use couplet_protocol::{BodyLoad, BodyState, ContactLaw, Domain, Motion, Scene, Shape};
 use std::ops::Range;
 
@@ -1300,34 +1300,6 @@ fn fall_speed(g: [f64; 3], height: f64) -> f64 {
         (2.0 * g * height).sqrt()
     } else {
         1.0
-    }
-}
-
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
-    a.map(|c| c * s)
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-fn add_to(a: &mut [f64; 3], b: [f64; 3]) {
-    for k in 0..3 {
-        a[k] += b[k];
     }
 }
 

@@ -20,6 +20,7 @@ use crate::gpu::Gpu;
 use crate::sph_kernel::{
     Access, BODIES, PARAMS, PARTICLES, SphKernel, body_binding as bb, particle_binding as pb,
 };
+use couplet_protocol::vec3::cross;
 use couplet_protocol::{BodyState, CouplingPoint};
 
 pub const MARKER_UPDATE_WGSL: &str = include_str!("../shaders/marker_update.wgsl");
@@ -155,14 +156,6 @@ pub struct BodyAcceleration {
     pub linear: [f64; 3],
     /// rad/s².
     pub angular: [f64; 3],
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// Acceleration of the body-fixed point at `r` from the centre of mass: the time

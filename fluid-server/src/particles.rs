@@ -9,6 +9,8 @@ use crate::constants::SphConstants;
 use crate::error::FluidError;
 use crate::initial_mass::summation_consistent_masses;
 use crate::porosity::{PorosityField, Solid};
+/// Re-exported for the CPU twins, which take them from here.
+pub use couplet_protocol::vec3::{dot, sub};
 use couplet_protocol::{InitialFlow, Scene, Shape, WallModel};
 
 /// A particle set in world coordinates (SI units), indexed by id: the initial state of
@@ -101,13 +103,6 @@ pub fn nearest_image(a: [f64; 3], b: [f64; 3], period: [f64; 3]) -> [f64; 3] {
         let p = period[k];
         if p > 0.0 { d - p * (d / p).round() } else { d }
     })
-}
-
-pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Number of wall layers: `ceil(support − ½)`. The first fluid row sits δ/2 inside the

@@ -20,7 +20,7 @@
 //! last one whole.
 
 use crate::record::{RecordError, Recorder, SceneBody, motion_of};
-use crate::vtk::{BodyMotion, VtkWriter, body_mesh, quaternion_from_scaled_axis};
+use crate::vtk::{BodyMotion, VtkWriter, body_mesh};
 use couplet_dem::BodyGeometry;
 use couplet_protocol::{BodyLoad, BodyState, ParticleRecord, Scene, SideReport};
 use std::fmt::Write as _;
@@ -78,7 +78,7 @@ impl Outputs {
                     geometry,
                     start: BodyMotion {
                         position: b.position,
-                        orientation: quaternion_from_scaled_axis(b.rotation),
+                        orientation: couplet_protocol::vec3::quat_from_scaled_axis(b.rotation),
                         velocity: b.velocity,
                         angular_velocity: b.angular_velocity,
                     },
@@ -206,7 +206,12 @@ impl Outputs {
         let load_of = loads_by_body(&loads);
         for s in &states {
             let name = self.names.get(s.body as usize).map_or("", String::as_str);
-            csv.row(time, s, name, load_of.get(s.body as usize).copied().flatten())?;
+            csv.row(
+                time,
+                s,
+                name,
+                load_of.get(s.body as usize).copied().flatten(),
+            )?;
         }
         Ok(())
     }

@@ -866,7 +866,7 @@ mod tests {
         let size = c.size.unwrap();
         assert_eq!((size.x, size.y, size.z), (0.2, 0.2, 1.0));
         let q = c.pose.unwrap().orientation.unwrap();
-        let axis = crate::vtk::rotate([q.x, q.y, q.z, q.w], [0.0, 0.0, 1.0]);
+        let axis = couplet_protocol::vec3::rotate([q.x, q.y, q.z, q.w], [0.0, 0.0, 1.0]);
         assert!(axis[0].abs() < 1e-15 && (axis[1] - 1.0).abs() < 1e-15 && axis[2].abs() < 1e-15);
         let e = scene_entity(0, &body(BodyGeometry::Sphere { radius: 0.25 }));
         assert_eq!(e.spheres[0].size.unwrap().y, 0.5);

@@ -4015,7 +4015,7 @@ fn placed_hull(
         .vertices
         .iter()
         .map(|v| {
-            let r = couplet_dem::markers::rotate(b.orientation, *v);
+            let r = couplet_protocol::vec3::rotate(b.orientation, *v);
             [0, 1, 2].map(|k| r[k] + b.position[k])
         })
         .collect();

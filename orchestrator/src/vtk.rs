@@ -26,6 +26,7 @@ use base64::write::EncoderWriter;
 use couplet_dem::BodyGeometry;
 use couplet_dem::geometry::Polyhedron;
 use couplet_protocol::ParticleRecord;
+use couplet_protocol::vec3::{cross, dot, rotate, sub};
 use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -48,41 +49,6 @@ pub struct TriMesh {
     pub points: Vec<[f64; 3]>,
     /// Vertex indices of each triangle.
     pub triangles: Vec<[u32; 3]>,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Rotates `v` by the unit quaternion `q = [x, y, z, w]`: v + 2w (q⃗ × v) + 2 q⃗ × (q⃗ × v).
-pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let u = [q[0], q[1], q[2]];
-    let t = cross(u, v).map(|c| 2.0 * c);
-    let ut = cross(u, t);
-    std::array::from_fn(|k| v[k] + q[3] * t[k] + ut[k])
-}
-
-/// The unit quaternion `[x, y, z, w]` of a rotation given as a scaled axis (axis × angle,
-/// rad), the form of `bodies.rotation` in a scene.
-pub fn quaternion_from_scaled_axis(r: [f64; 3]) -> [f64; 4] {
-    let angle = dot(r, r).sqrt();
-    if angle == 0.0 {
-        return [0.0, 0.0, 0.0, 1.0];
-    }
-    let s = (0.5 * angle).sin() / angle;
-    [r[0] * s, r[1] * s, r[2] * s, (0.5 * angle).cos()]
 }
 
 impl TriMesh {
@@ -730,14 +696,5 @@ mod tests {
             .count();
         assert_eq!(partial, 0);
         assert_eq!(w.frames(), (3, 3));
-    }
-
-    /// Rotating by the quaternion of a scaled axis turns x into y for π/2 about z.
-    #[test]
-    fn scaled_axis_quaternion_rotates() {
-        let q = quaternion_from_scaled_axis([0.0, 0.0, PI / 2.0]);
-        let v = rotate(q, [1.0, 0.0, 0.0]);
-        assert!((v[0]).abs() < 1e-15 && (v[1] - 1.0).abs() < 1e-15 && v[2].abs() < 1e-15);
-        assert_eq!(quaternion_from_scaled_axis([0.0; 3]), [0.0, 0.0, 0.0, 1.0]);
     }
 }

@@ -1,7 +1,7 @@
 //! The contract between couplet's processes: scene schema, zero-copy payloads,
 //! iceoryx2 service names, protocol version and handshake, validation of received data,
-//! checkpoint state files, the gRPC control API, and the cell hash both servers search
-//! neighbours with.
+//! checkpoint state files, the gRPC control API, the cell hash both servers search
+//! neighbours with, and the `[f64; 3]` arithmetic every crate uses.
 
 pub use handshake::{HandshakeError, check_hello, check_hello_for};
 pub use payload::{
@@ -25,6 +25,7 @@ pub mod service;
 pub mod state;
 pub mod transport;
 pub mod validate;
+pub mod vec3;
 
 /// The gRPC control API (`proto/couplet/v1/couplet.proto`): prost messages, the tonic
 /// client and server, and the encoded descriptor set for server reflection.

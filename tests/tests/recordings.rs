@@ -493,7 +493,7 @@ fn outputs_read_back_whole() {
     assert_eq!((size.x, size.z), (2.0 * CYLINDER.0, 2.0 * CYLINDER.1));
     // Its pose turns Foxglove's z (the cylinder's axis) onto the body's y.
     let q = cyl.pose.unwrap().orientation.unwrap();
-    let z_image = couplet_orchestrator::vtk::rotate([q.x, q.y, q.z, q.w], [0.0, 0.0, 1.0]);
+    let z_image = couplet_protocol::vec3::rotate([q.x, q.y, q.z, q.w], [0.0, 0.0, 1.0]);
     assert!((z_image[1] - 1.0).abs() < 1e-15, "{z_image:?}");
     // The cross's triangles enclose Joubert's 5 b w h (to round-off: the mesh is its faces).
     let tri = &scene.entities[2].triangles[0];
