@@ -1,7 +1,7 @@
 //! Start-up plane Couette and Poiseuille flow (scenes/couette.toml, poiseuille.toml)
 //! end to end through `couplet validate NAME --quick`: the relative L2 error of u(y, t)
 //! against the series solution of Morris, Fox & Zhu (1997) (`morris_channel_velocity`
-//! in orchestrator/src/validate.rs, itself checked against
+//! in orchestrator/src/validate/fluid.rs, itself checked against
 //! `../shared/validation/morris1997_*_startup.csv`) below 2 % during start-up and 1 % at
 //! the steady state (issue 3), with Adami's walls and the standard pressure terms, and
 //! with Joubert's gradient correction and one-layer walls.

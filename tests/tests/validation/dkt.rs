@@ -1,7 +1,7 @@
 //! Drafting, kissing and tumbling (Joubert §3.3, scenes/dkt.toml: two 12-face cylinders
 //! along a periodic z, the corrected scheme with particle shifting, contact by rapier)
 //! end to end through `couplet validate dkt --quick`, issue 4's reduced case 5. Every row
-//! is judged (`dkt` in `orchestrator/src/validate.rs`): the trailing body falls more than
+//! is judged (`dkt` in `orchestrator/src/validate/joubert.rs`): the trailing body falls more than
 //! 5 % faster than the leading one before they meet (drafting), their centres come within
 //! 2r + δ (kissing), the line between them turns past 90° from vertical (tumbling), the
 //! prisms never overlap by more than rapier's contact slop, and the states stay finite.

@@ -3,7 +3,7 @@
 //! ρ g h within 2 % of the bottom pressure away from the walls and the free surface
 //! (issue 2's bound for the standard scheme), and the fluid mass (particle count ×
 //! constant particle mass) is conserved exactly. The comparison and its reference are in
-//! `orchestrator/src/validate.rs` (`hydrostatic`); the quick overrides and why are the
+//! `orchestrator/src/validate/fluid.rs` (`hydrostatic`); the quick overrides and why are the
 //! case's own (`couplet validate --list`).
 //!
 //! Quick version: δ = 0.02 m, support 2 δ, c_s = 17.5 m/s, α = 0.2, ν = 0 to t = 0.3 s,

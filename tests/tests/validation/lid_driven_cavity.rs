@@ -1,6 +1,6 @@
 //! Lid-driven cavity at Re = 100 (scenes/lid-driven-cavity.toml, Joubert §3.1) end to
 //! end through `couplet validate lid-driven-cavity --quick`: the centreline velocities
-//! against Ghia, Ghia & Shin (1982) (`GHIA_U`, `GHIA_V` in orchestrator/src/validate.rs,
+//! against Ghia, Ghia & Shin (1982) (`GHIA_U`, `GHIA_V` in orchestrator/src/validate/fluid.rs,
 //! from `../shared/validation/ghia1982_re100.csv`).
 //!
 //! Quick version: δ = L/10 (800 fluid particles, z span 8 spacings) to t = 15 s. At that

@@ -5,7 +5,7 @@
 //! (ρs − ρf) V g within 3 % (reference: the body's own weight; the force is the recorded
 //! loads of Joubert eqs. 31 and 36); no NaN. The plateau itself (velocity change over the
 //! last fifth of the fall) is reported at this radius, r = 1.25δ (`PLATEAU_JUDGED_RADIUS`
-//! in `orchestrator/src/validate.rs`), and the test checks that it is. Re at the plateau is
+//! in `orchestrator/src/validate/joubert.rs`), and the test checks that it is. Re at the plateau is
 //! reported: Table 2's figures are at δ = 0.25 mm and finer, which need a GPU
 //! (`couplet validate settling-cylinder`).
 //!

@@ -4,7 +4,7 @@
 //! there through DEM contact (vertical speed below 1 mm/s; the recirculating fluid rolls
 //! it slowly along the floor, which is reported, not judged); no NaN. The plateau
 //! (velocity change over the last fifth of the fall, issue 2's 3 %) is judged from
-//! r = 2δ only (`PLATEAU_JUDGED_RADIUS` in `orchestrator/src/validate.rs`): at the quick's
+//! r = 2δ only (`PLATEAU_JUDGED_RADIUS` in `orchestrator/src/validate/joubert.rs`): at the quick's
 //! r = 1.25δ it is reported, and the test checks that it is. The plateau velocity is
 //! reported next to the correlation of Joubert eqs. (37)–(38).
 //!

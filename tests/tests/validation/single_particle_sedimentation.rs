@@ -4,7 +4,7 @@
 //! air and water–glycerol (Robinson Table 1) end to end through `couplet validate
 //! single-particle-sedimentation --quick`: the grain's velocity within 2 % of v_t of
 //! Robinson eq. (34) after one relaxation time (Robinson §5.1's bound). The comparison
-//! is in `orchestrator/src/validate.rs` (`single_particle_sedimentation`).
+//! is in `orchestrator/src/validate/robinson.rs` (`single_particle_sedimentation`).
 //!
 //! Quick version: δ = 0.5 mm at h = δ (h/d = 5), 800 fluid particles, about 50 s alone
 //! (85 s beside a sweep). Measured 2026-11-29, largest deviation after t_d: water
