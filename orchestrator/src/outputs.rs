@@ -219,9 +219,9 @@ impl Outputs {
 
 /// Each body's load by body index (`None` for a body without one), to pair every state
 /// with its load in one pass. Searching the loads for each state was quadratic: a
-/// record of 15 300 grains took 158 ms with the search and 97 ms without, on this
-/// repository's two-core machine (`couplet run scenes/rayleigh-taylor.toml --windows 8
-/// --set time.body_output_interval=1e-6`, its `then recording` figure).
+/// record of 15 300 grains took 158 ms with the search and 97 ms without, one run each
+/// on this repository's two-core machine (`couplet run scenes/rayleigh-taylor.toml
+/// --windows 8 --set time.body_output_interval=1e-6`, its `then recording` figure).
 pub(crate) fn loads_by_body(loads: &[BodyLoad]) -> Vec<Option<&BodyLoad>> {
     let n = loads.iter().map(|l| l.body as usize + 1).max().unwrap_or(0);
     let mut by_body = vec![None; n];
