@@ -391,6 +391,25 @@ const RING_BOXES: &[Variant] = &[
     ),
 ];
 
+/// Poiseuille and Couette: Morris, Fox & Zhu's resolution, and one sweep for both.
+const CHANNEL_QUICK_WHY: &str = "the scene itself: Morris et al.'s L/20 with 1 664 particles takes 1.5–4 minutes on lavapipe, no cheaper version keeps their resolution";
+const CHANNEL_SWEEP_SPACINGS: &[f64] = &[5e-5, 1e-3 / 30.0, 2.5e-5];
+const CHANNEL_SWEEP_SCHEMES: &[(&str, &[&str])] = &[
+    ("corrected Laplacian", &[]),
+    ("Morris Laplacian", &["effects.laplacian_correction=false"]),
+    (
+        "corrected gradient + Laplacian",
+        &["effects.gradient_correction=true"],
+    ),
+    (
+        "Joubert walls, corrected gradient + Laplacian",
+        &[
+            "effects.gradient_correction=true",
+            "domain.wall_model=\"joubert\"",
+        ],
+    ),
+];
+
 static CASES: [Case; 17] = [
     Case {
         name: "hydrostatic-tank",
@@ -656,23 +675,9 @@ static CASES: [Case; 17] = [
         scene: "poiseuille.toml",
         about: "start-up plane Poiseuille flow between fixed plates: L2 error of u(y, t) against the series solution of Morris, Fox & Zhu (1997), during start-up and at the steady state",
         quick: &[],
-        quick_why: "the scene itself: Morris et al.'s L/20 with 1 664 particles takes 1.5–4 minutes on lavapipe, no cheaper version keeps their resolution",
-        sweep_spacings: &[5e-5, 1e-3 / 30.0, 2.5e-5],
-        sweep_schemes: &[
-            ("corrected Laplacian", &[]),
-            ("Morris Laplacian", &["effects.laplacian_correction=false"]),
-            (
-                "corrected gradient + Laplacian",
-                &["effects.gradient_correction=true"],
-            ),
-            (
-                "Joubert walls, corrected gradient + Laplacian",
-                &[
-                    "effects.gradient_correction=true",
-                    "domain.wall_model=\"joubert\"",
-                ],
-            ),
-        ],
+        quick_why: CHANNEL_QUICK_WHY,
+        sweep_spacings: CHANNEL_SWEEP_SPACINGS,
+        sweep_schemes: CHANNEL_SWEEP_SCHEMES,
         sweep_thin_axes: &[0, 2],
         analyse: channel_flow,
         variants: &[],
@@ -684,23 +689,9 @@ static CASES: [Case; 17] = [
         scene: "couette.toml",
         about: "start-up plane Couette flow (top plate sliding at V0): L2 error of u(y, t) against the series solution of Morris, Fox & Zhu (1997), during start-up and at the steady state",
         quick: &[],
-        quick_why: "the scene itself: Morris et al.'s L/20 with 1 664 particles takes 1.5–4 minutes on lavapipe, no cheaper version keeps their resolution",
-        sweep_spacings: &[5e-5, 1e-3 / 30.0, 2.5e-5],
-        sweep_schemes: &[
-            ("corrected Laplacian", &[]),
-            ("Morris Laplacian", &["effects.laplacian_correction=false"]),
-            (
-                "corrected gradient + Laplacian",
-                &["effects.gradient_correction=true"],
-            ),
-            (
-                "Joubert walls, corrected gradient + Laplacian",
-                &[
-                    "effects.gradient_correction=true",
-                    "domain.wall_model=\"joubert\"",
-                ],
-            ),
-        ],
+        quick_why: CHANNEL_QUICK_WHY,
+        sweep_spacings: CHANNEL_SWEEP_SPACINGS,
+        sweep_schemes: CHANNEL_SWEEP_SCHEMES,
         sweep_thin_axes: &[0, 2],
         analyse: channel_flow,
         variants: &[],

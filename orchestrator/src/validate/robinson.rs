@@ -106,14 +106,7 @@ pub(super) fn sedimentation_regimes(
     rec: &Recording,
     report: &mut Report,
 ) -> Result<(), String> {
-    let i = *scene
-        .grains()
-        .first()
-        .ok_or("the scene has no unresolved grain")?;
-    let body = &scene.bodies[i];
-    let couplet_protocol::Shape::Sphere { radius } = body.shape else {
-        return Err("the grain is not a sphere".into());
-    };
+    let (i, body, radius) = first_grain(scene)?;
     let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
     let (d, g, mu) = (
         2.0 * radius,
@@ -503,14 +496,7 @@ pub(super) fn single_particle_sedimentation(
     rec: &Recording,
     report: &mut Report,
 ) -> Result<(), String> {
-    let i = *scene
-        .grains()
-        .first()
-        .ok_or("the scene has no unresolved grain")?;
-    let body = &scene.bodies[i];
-    let couplet_protocol::Shape::Sphere { radius } = body.shape else {
-        return Err("the grain is not a sphere".into());
-    };
+    let (i, body, radius) = first_grain(scene)?;
     let f = scene.fluid.as_ref().ok_or("the scene has no fluid")?;
     let (d, g) = (2.0 * radius, gravity_magnitude(scene));
     let volume = std::f64::consts::PI * d.powi(3) / 6.0;
@@ -1188,4 +1174,18 @@ pub(super) fn gravity_magnitude(scene: &Scene) -> f64 {
         .map(|x| x * x)
         .sum::<f64>()
         .sqrt()
+}
+
+/// The scene's first unresolved grain (body index, spec, radius): the lone grain of the
+/// single-grain cases.
+fn first_grain(scene: &Scene) -> Result<(usize, &couplet_protocol::BodySpec, f64), String> {
+    let i = *scene
+        .grains()
+        .first()
+        .ok_or("the scene has no unresolved grain")?;
+    let body = &scene.bodies[i];
+    match body.shape {
+        couplet_protocol::Shape::Sphere { radius } => Ok((i, body, radius)),
+        _ => Err("the grain is not a sphere".into()),
+    }
 }
