@@ -71,6 +71,9 @@ pub fn serve(
     };
     let coupled = scene.exchanges_loads();
     let resolved = scene.has_resolved_bodies();
+    // The same loads and states as when sent after the advance (serial-explicit,
+    // DESIGN.md); only the DEM's step leaves the window's critical path.
+    let loads_before_advance = scene.loads_known_at_window_start();
     let n_bodies = scene.bodies.len();
     let counts = solver.counts();
     let limits = solver.limits();
@@ -204,22 +207,30 @@ pub fn serve(
         // Unresolved grains: the force at t_n, held over the window like the markers' loads
         // (with energy-pair, plus the pressure force averaged over the window's stages).
         let mut grain_loads = solver.grain_loads(&gpu, &states)?;
-        let substeps = solver.advance(&gpu, cmd.window, None)?;
-        solver.add_grain_pressure_forces(&gpu, &mut grain_loads)?;
         let mut compute_us = compute.elapsed().as_secs_f64() * 1e6;
-
-        if coupled {
-            let t = Instant::now();
-            let mut loads = solver.loads(&gpu)?;
-            loads.extend_from_slice(&grain_loads);
-            compute_us += t.elapsed().as_secs_f64() * 1e6;
+        let mut send_loads = |loads: &[BodyLoad]| -> Result<(), ServerError> {
             let t = Instant::now();
             loads_tx.send(
                 WindowHeader::new(step, cmd.time, cmd.window, loads.len()),
-                &loads,
+                loads,
             )?;
             wake_dem.wake()?;
             exchange_us += t.elapsed().as_secs_f64() * 1e6;
+            Ok(())
+        };
+        if loads_before_advance {
+            send_loads(&grain_loads)?;
+        }
+        let compute = Instant::now();
+        let substeps = solver.advance(&gpu, cmd.window, None)?;
+        solver.add_grain_pressure_forces(&gpu, &mut grain_loads)?;
+        if coupled && !loads_before_advance {
+            let mut loads = solver.loads(&gpu)?;
+            loads.extend_from_slice(&grain_loads);
+            compute_us += compute.elapsed().as_secs_f64() * 1e6;
+            send_loads(&loads)?;
+        } else {
+            compute_us += compute.elapsed().as_secs_f64() * 1e6;
         }
         if cmd.snapshot != 0 {
             let snapshot = solver.snapshot(&gpu)?;

@@ -177,6 +177,13 @@ pub fn bench(
             s.exchange_us,
             100.0 * s.exchange_us / s.window_wall_us.max(1e-30)
         );
+        if scene.loads_known_at_window_start() {
+            let _ = writeln!(
+                w,
+                "  (loads sent before the fluid advances: the DEM steps beside the fluid, \
+                 so their times overlap in the wall time)"
+            );
+        }
     } else {
         let _ = writeln!(
             w,

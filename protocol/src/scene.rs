@@ -1211,6 +1211,18 @@ impl Scene {
         self.has_resolved_bodies() || self.bodies.iter().any(|b| self.is_grain(b))
     }
 
+    /// Whether the window's loads are complete at its start, before the fluid advances:
+    /// grains alone (Robinson's force at their window-start states, held over the
+    /// window), without the `energy-pair` pressure force, which is summed over the
+    /// window's fluid stages, and without resolved bodies, whose loads are reduced over
+    /// them. The fluid server then sends them first and the DEM steps while the fluid
+    /// does (ARCHITECTURE.md, "One coupling window").
+    pub fn loads_known_at_window_start(&self) -> bool {
+        self.exchanges_loads()
+            && !self.has_resolved_bodies()
+            && self.coupling.porosity_pressure != PorosityPressure::EnergyPair
+    }
+
     /// Combinations that run but are known to be inaccurate, each a sentence for the
     /// user; `couplet run` and `couplet plan` print them.
     pub fn warnings(&self) -> Vec<String> {
@@ -2126,6 +2138,28 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         assert!(e.contains("translation_group"), "{e}");
     }
 
+    /// The fluid sends the loads before it advances only where they cannot change over
+    /// the window: the RTI's grains (Robinson's force at t_n), not the constant-porosity
+    /// block's (`energy-pair`: a pressure force summed over the window's stages) nor a
+    /// resolved body's (markers' tractions reduced over the window), nor a scene with
+    /// nothing to load.
+    #[test]
+    fn loads_precede_the_advance_only_where_the_window_cannot_change_them() {
+        let shipped = |name: &str| {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../scenes")
+                .join(name);
+            Scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
+        };
+        assert!(shipped("rayleigh-taylor.toml").loads_known_at_window_start());
+        assert!(shipped("single-particle-sedimentation.toml").loads_known_at_window_start());
+        let cpb = shipped("constant-porosity-block.toml");
+        assert!(cpb.exchanges_loads() && !cpb.loads_known_at_window_start());
+        let sphere = shipped("settling-sphere.toml");
+        assert!(sphere.exchanges_loads() && !sphere.loads_known_at_window_start());
+        assert!(!shipped("lid-driven-cavity.toml").loads_known_at_window_start());
+    }
+
     /// Unresolved grains: spheres, dynamic, in a scene with a fluid; the drag law
     /// defaults to Di Felice, the coupling to two-way; porosity 1 and one-way coupling
     /// are warned of.
@@ -2150,6 +2184,7 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
         assert_eq!(s.coupling.drag, DragLawName::DiFelice);
         assert_eq!(s.grains(), vec![0]);
         assert!(s.exchanges_loads() && !s.has_resolved_bodies());
+        assert!(s.loads_known_at_window_start());
         assert!(s.coupling.two_way, "two-way by default");
         assert!(s.warnings().iter().any(|w| w.contains("variable h")));
         assert!(!s.warnings().iter().any(|w| w.contains("two_way")));
