@@ -7,6 +7,7 @@ pub use rapier_engine::RapierEngine;
 pub use registry::{create_engine, engine_names};
 pub use soft_sphere_engine::SoftSphereEngine;
 
+pub mod contact_cells;
 pub mod engine;
 pub mod geometry;
 pub mod markers;
