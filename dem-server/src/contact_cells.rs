@@ -106,26 +106,22 @@ impl ContactCells {
         self.start.resize(cells + 1, count);
     }
 
-    /// The cells a sphere in cell `c` (along one axis) meets along axis `k`: c − 1, c,
-    /// c + 1, wrapped or cut at the grid's faces, each once (a periodic axis of one or
-    /// two cells wraps two of them onto one).
+    /// The cells a sphere in cell `c` meets along axis `k`, ascending: c − 1, c, c + 1,
+    /// wrapped or cut at the grid's faces, each once (a periodic axis of one or two
+    /// cells has only those).
     fn near(&self, k: usize, c: i64) -> ([i64; 3], usize) {
-        let mut out = [0; 3];
-        let mut m = 0;
-        for d in [-1, 0, 1] {
-            let mut x = c + d;
-            if self.periodic[k] {
-                x = x.rem_euclid(self.n[k]);
-            } else if !(0..self.n[k]).contains(&x) {
-                continue;
-            }
-            if !out[..m].contains(&x) {
-                out[m] = x;
-                m += 1;
-            }
+        let n = self.n[k];
+        if !self.periodic[k] {
+            let (lo, hi) = ((c - 1).max(0), (c + 1).min(n - 1));
+            return ([lo, lo + 1, lo + 2], (hi - lo + 1) as usize);
         }
-        out[..m].sort_unstable();
-        (out, m)
+        match n {
+            1 => ([0; 3], 1),
+            2 => ([0, 1, 0], 2),
+            _ if c == 0 => ([0, 1, n - 1], 3),
+            _ if c == n - 1 => ([0, n - 2, n - 1], 3),
+            _ => ([c - 1, c, c + 1], 3),
+        }
     }
 
     /// The traversal positions of every sphere in the 27 cells around `p`, each once, as

@@ -366,6 +366,10 @@ pub struct SoftSphereEngine {
     impact_speed_from_gravity: bool,
     /// Hertz: dimensionless undamped contact duration (≈ 3.218).
     hertz_tau: f64,
+    /// The part of [`Self::contact_duration`] that the spheres' masses and radii fix,
+    /// its least over them (`Self::duration_scale_of_spheres`), so that a step's
+    /// duration takes one power, not two per sphere.
+    duration_scale: f64,
     /// Members of each translation group (`bodies[i].translation_group`): they share one
     /// acceleration and never rotate.
     groups: Vec<Vec<usize>>,
@@ -538,6 +542,7 @@ impl SoftSphereEngine {
             impact_speed: 0.0,
             impact_speed_from_gravity: false,
             hertz_tau: 0.0,
+            duration_scale: f64::INFINITY,
             radius,
             groups: Vec::new(),
             group_of: vec![NO_GROUP; n],
@@ -583,6 +588,7 @@ impl SoftSphereEngine {
             }
         }
         e.one_group = n > 0 && e.group_of.iter().all(|g| *g == 0);
+        e.duration_scale = e.duration_scale_of_spheres();
         e.cells = ContactCells::new(
             e.domain.min,
             e.domain.max,
@@ -627,24 +633,37 @@ impl SoftSphereEngine {
     /// `π √(m*/k)`; Hertz: `τ (m*/k_n)^{2/5} v^{-1/5}` at the larger of the impact speed
     /// and twice the fastest body's speed (two bodies meeting head on).
     pub fn contact_duration(&self) -> f64 {
-        let vmax = (0..self.x.len())
-            .filter(|i| self.inv_mass[*i] > 0.0)
-            .map(|i| norm(self.v[i]))
-            .fold(0.0, f64::max);
+        match self.law {
+            Law::Linear { .. } => std::f64::consts::PI * self.duration_scale,
+            Law::Hertz { .. } => {
+                let vmax = (0..self.x.len())
+                    .filter(|i| self.inv_mass[*i] > 0.0)
+                    .map(|i| norm(self.v[i]))
+                    .fold(0.0, f64::max);
+                let v = self.impact_speed.max(2.0 * vmax);
+                self.hertz_tau * self.duration_scale * v.powf(-0.2)
+            }
+        }
+    }
+
+    /// The least over every dynamic sphere, against its twin and against a wall, of
+    /// `√(m*/k)` (linear) or `(m*/k_n)^{2/5}` (Hertz); infinite without one. Each factor
+    /// of [`Self::contact_duration`] is positive and rounding is monotonic, so taking the
+    /// least before multiplying gives the same bits as the least of the products.
+    fn duration_scale_of_spheres(&self) -> f64 {
         let mut t = f64::INFINITY;
         for i in (0..self.x.len()).filter(|i| self.inv_mass[*i] > 0.0) {
             let (m, r) = (self.mass[i], self.radius[i]);
             // (m*, R*, E*) of the sphere against its twin and against a wall.
             for (m_eff, r_eff, wall) in [(0.5 * m, 0.5 * r, false), (m, r, true)] {
-                let tc = match self.law {
-                    Law::Linear { k } => std::f64::consts::PI * (m_eff / k).sqrt(),
+                let scale = match self.law {
+                    Law::Linear { k } => (m_eff / k).sqrt(),
                     Law::Hertz { e_pair, e_wall } => {
                         let kn = 4.0 / 3.0 * if wall { e_wall } else { e_pair } * r_eff.sqrt();
-                        let v = self.impact_speed.max(2.0 * vmax);
-                        self.hertz_tau * (m_eff / kn).powf(0.4) * v.powf(-0.2)
+                        (m_eff / kn).powf(0.4)
                     }
                 };
-                t = t.min(tc);
+                t = t.min(scale);
             }
         }
         t
