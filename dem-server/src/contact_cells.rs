@@ -23,9 +23,9 @@ pub struct ContactCells {
 }
 
 /// Most cells per sphere the dense grid takes: its `start` array is written every step,
-/// so past this a step would spend longer clearing cells than finding contacts. A block
-/// of grains at porosity 0.8 in a column twice its height has about 6 cells a sphere
-/// (Robinson's RTI: 15 300 grains, 96 k cells).
+/// 16 entries a sphere at this bound, about as many as a sphere's search reads in a
+/// dense packing (a bound chosen so, not measured). Robinson's RTI column has about 6 a
+/// sphere (15 300 grains, 41 × 57 × 41 cells).
 const MAX_CELLS_PER_SPHERE: usize = 16;
 
 /// Cells the dense grid takes whatever the sphere count (a few spheres in a small box).

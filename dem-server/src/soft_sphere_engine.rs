@@ -3,8 +3,8 @@
 //! DEMocritus): a linear spring–dashpot (Robinson eq. 21) or Hertz–Mindlin with a
 //! tangential spring and a Coulomb limit (DEMocritus eqs. 18–31), contact detection on
 //! a cell grid (dense over the domain, [`ContactCells`], or hashed where the domain
-//! holds too many cells for the spheres), the step from the contact duration (Robinson §3.2, t_c / 50),
-//! and optionally DEMocritus's lubrication force (eq. 34).
+//! holds too many cells for the spheres), the step from the contact duration (Robinson
+//! §3.2, t_c / 50), and optionally DEMocritus's lubrication force (eq. 34).
 //!
 //! Where this departs from the papers' text, and why:
 //! * Hertz normal force `k_n δ^{3/2}`: DEMocritus eq. (18) writes `−k_n δ_n` with the
@@ -686,10 +686,6 @@ impl SoftSphereEngine {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// Sphere–sphere and sphere–wall contact forces and torques at the current positions
-    /// and velocities; the tangential springs advance by `dt`. The spheres are walked in
-    /// [`Sorted`] order; from [`PARALLEL_MIN_SPHERES`] on, that order splits into
-    /// [`FORCE_CHUNKS`] chunks over the machine's threads.
     /// The contact search's cell edge: the largest diameter, or the lubrication's reach
     /// if longer.
     fn contact_cell(&self) -> f64 {
@@ -698,6 +694,10 @@ impl SoftSphereEngine {
         (2.0 * rmax).max(lub_reach)
     }
 
+    /// Sphere–sphere and sphere–wall contact forces and torques at the current positions
+    /// and velocities; the tangential springs advance by `dt`. The spheres are walked in
+    /// [`Sorted`] order; from [`PARALLEL_MIN_SPHERES`] on, that order splits into
+    /// [`FORCE_CHUNKS`] chunks over the machine's threads.
     fn compute_forces(&mut self, dt: f64) {
         let n = self.x.len();
         let cell = self.contact_cell();
@@ -818,11 +818,11 @@ impl SoftSphereEngine {
         out.reset(n);
         let lub_reach = self.lubrication.map_or(0.0, |l| l.cutoff);
         let periodic = self.period.iter().any(Option::is_some);
-        // Two members of one translation group: the pair's forces are equal and
-        // opposite, so they cancel in the group's sum, which is all that moves a member
-        // (`kick_into`); skipping the pair changes the group's force only by round-off
-        // and leaves the contact's spring unborn.
-        // With every sphere in one group there is no pair to look for (nor a grid built).
+        // Two members of one translation group are skipped: the pair's forces are equal
+        // and opposite, so they cancel in the group's sum, which is all that moves a
+        // member (`kick_into`); skipping the pair changes that sum only by round-off and
+        // leaves the contact's spring unborn. With every sphere in one group there is no
+        // pair to look for (nor a grid filled).
         let pairs = !self.one_group;
         for s in range {
             let (dense, hashed) = match (&self.cells, pairs) {

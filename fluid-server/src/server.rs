@@ -221,16 +221,19 @@ pub fn serve(
         if loads_before_advance {
             send_loads(&grain_loads)?;
         }
-        let compute = Instant::now();
+        let advance = Instant::now();
         let substeps = solver.advance(&gpu, cmd.window, None)?;
         solver.add_grain_pressure_forces(&gpu, &mut grain_loads)?;
-        if coupled && !loads_before_advance {
+        let loads_after_advance = if coupled && !loads_before_advance {
             let mut loads = solver.loads(&gpu)?;
             loads.extend_from_slice(&grain_loads);
-            compute_us += compute.elapsed().as_secs_f64() * 1e6;
-            send_loads(&loads)?;
+            Some(loads)
         } else {
-            compute_us += compute.elapsed().as_secs_f64() * 1e6;
+            None
+        };
+        compute_us += advance.elapsed().as_secs_f64() * 1e6;
+        if let Some(loads) = loads_after_advance {
+            send_loads(&loads)?;
         }
         if cmd.snapshot != 0 {
             let snapshot = solver.snapshot(&gpu)?;

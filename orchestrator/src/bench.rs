@@ -41,17 +41,12 @@ pub fn bench(
     // Bodies, if any, are frozen where the scene puts them: the fluid's cost does not
     // depend on where they are. Their markers come from the DEM crate's generator.
     if scene.has_resolved_bodies() {
-        let engine = couplet_dem::registry::create_engine(&scene).map_err(|e| RunError::Io {
-            what: "creating the DEM engine for the bench".into(),
-            source: std::io::Error::other(e.to_string()),
-        })?;
         let markers =
             couplet_dem::markers::MarkerSet::from_scene(&scene).map_err(|e| RunError::Io {
                 what: "generating markers for the bench".into(),
                 source: std::io::Error::other(e.to_string()),
             })?;
-        let mut states = Vec::new();
-        engine.states(&mut states);
+        let states = starting_states(&scene)?;
         let mut points = Vec::new();
         markers.world_points(&states, &mut points);
         solver.set_bodies(&gpu, &states, &points, &[])?;
@@ -194,6 +189,19 @@ pub fn bench(
     Ok(o)
 }
 
+/// The bodies' states where the scene puts them, from its DEM engine.
+fn starting_states(
+    scene: &couplet_protocol::Scene,
+) -> Result<Vec<couplet_protocol::BodyState>, BenchError> {
+    let engine = couplet_dem::registry::create_engine(scene).map_err(|e| RunError::Io {
+        what: "creating the DEM engine for the bench".into(),
+        source: std::io::Error::other(e.to_string()),
+    })?;
+    let mut states = Vec::new();
+    engine.states(&mut states);
+    Ok(states)
+}
+
 /// The fluid server's CPU share of a window with unresolved grains: the porosity at
 /// every grain (Robinson eq. 9, `GrainPorosity`, f64) at the grains' starting places, as
 /// a run computes it once a window between the GPU's steps, so that on a fast GPU it can
@@ -204,12 +212,7 @@ fn grain_porosity_time(
     solver: &FluidSolver,
 ) -> Result<String, BenchError> {
     use couplet_fluid::porosity::{GrainPorosity, PorosityField, Solid};
-    let engine = couplet_dem::registry::create_engine(scene).map_err(|e| RunError::Io {
-        what: "creating the DEM engine for the bench".into(),
-        source: std::io::Error::other(e.to_string()),
-    })?;
-    let mut states = Vec::new();
-    engine.states(&mut states);
+    let states = starting_states(scene)?;
     let solids: Vec<Solid> = (scene.grains().into_iter())
         .map(|i| Solid {
             position: states[i].position,
@@ -249,12 +252,7 @@ fn grain_window_start_time(
     gpu: &Gpu,
     solver: &mut FluidSolver,
 ) -> Result<String, BenchError> {
-    let engine = couplet_dem::registry::create_engine(scene).map_err(|e| RunError::Io {
-        what: "creating the DEM engine for the bench".into(),
-        source: std::io::Error::other(e.to_string()),
-    })?;
-    let mut states = Vec::new();
-    engine.states(&mut states);
+    let states = starting_states(scene)?;
     solver.grain_loads(gpu, &states)?;
     let (mut fastest, mut total) = (f64::INFINITY, 0.0);
     const TIMED: u32 = 10;
