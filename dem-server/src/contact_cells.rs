@@ -54,8 +54,9 @@ impl ContactCells {
             n[k] = cells as i64;
             inv_cell[k] = cells / length;
         }
-        let total = n.iter().product::<i64>() as usize;
-        if total > (MAX_CELLS_PER_SPHERE * spheres).max(MIN_CELLS) {
+        // In f64: three axes of up to 1e7 cells overflow any integer product.
+        let total: f64 = n.iter().map(|&c| c as f64).product();
+        if total > (MAX_CELLS_PER_SPHERE * spheres).max(MIN_CELLS) as f64 {
             return None;
         }
         Some(ContactCells {
@@ -225,7 +226,7 @@ mod tests {
     }
 
     /// A box of more cells than `MAX_CELLS_PER_SPHERE` a sphere (and `MIN_CELLS`) is
-    /// left to the hashed grid.
+    /// left to the hashed grid, also where the cell count overflows a 64-bit integer.
     #[test]
     fn a_sparse_box_is_left_to_the_hash() {
         let (min, max) = ([0.0; 3], [1.0; 3]);
@@ -236,5 +237,8 @@ mod tests {
         assert!(!dense(1e-2, 1000), "1e6 cells, 1000 a sphere");
         assert!(dense(1e-2, 100_000), "1e6 cells, 10 a sphere");
         assert!(dense(1e-1, 10), "1000 cells, under MIN_CELLS");
+        // 2^22 cells an axis: their product, 2^66, wrapped to 0 in a u64.
+        let side = f64::from(1u32 << 22);
+        assert!(ContactCells::new(min, [side; 3], 1.0, [None; 3], 1000).is_none());
     }
 }
