@@ -554,7 +554,11 @@ impl Recorder {
             },
             ns(time),
         );
-        self.log_json(&self.states, time, &states_record(time, states, &self.names));
+        self.log_json(
+            &self.states,
+            time,
+            &states_record(time, states, &self.names),
+        );
     }
 
     pub fn loads(&self, time: f64, loads: &[BodyLoad]) {

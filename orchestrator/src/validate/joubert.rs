@@ -93,13 +93,11 @@ pub(super) fn settling_sphere(
         "reported".into(),
         None,
     );
-    report.series.push(Series {
-        name: "sphere-velocity".into(),
-        x_label: "t (s)".into(),
-        y_label: "downward velocity (m/s)".into(),
-        points: s.iter().map(|b| (b.time, -b.velocity[1])).collect(),
-        reference: vec![(0.0, correlation), (t_end, correlation)],
-    });
+    report.series.push(Series::downward_velocity(
+        "sphere-velocity",
+        &s,
+        vec![(0.0, correlation), (t_end, correlation)],
+    ));
     Ok(())
 }
 
@@ -459,18 +457,16 @@ pub(super) fn settling_cylinder(
         "reported".into(),
         None,
     );
-    report.series.push(Series {
-        name: "cylinder-velocity".into(),
-        x_label: "t (s)".into(),
-        y_label: "downward velocity (m/s)".into(),
-        points: s.iter().map(|b| (b.time, -b.velocity[1])).collect(),
-        reference: table
+    report.series.push(Series::downward_velocity(
+        "cylinder-velocity",
+        &s,
+        table
             .map(|t| {
                 let u = t.1 * f.kinematic_viscosity / d;
                 vec![(0.0, u), (t_end, u)]
             })
             .unwrap_or_default(),
-    });
+    ));
     Ok(())
 }
 
@@ -683,18 +679,16 @@ pub(super) fn settling_shape(
     report
         .values
         .push(("judged", if at_joubert { 1.0 } else { 0.0 }));
-    report.series.push(Series {
-        name: format!("{kind}-velocity"),
-        x_label: "t (s)".into(),
-        y_label: "downward velocity (m/s)".into(),
-        points: s.iter().map(|b| (b.time, -b.velocity[1])).collect(),
-        reference: reference
+    report.series.push(Series::downward_velocity(
+        format!("{kind}-velocity"),
+        &s,
+        reference
             .map(|r| {
                 let u = r.2 * f.kinematic_viscosity / length;
                 vec![(0.0, u), (t_end, u)]
             })
             .unwrap_or_default(),
-    });
+    ));
     Ok(())
 }
 

@@ -140,6 +140,23 @@ pub struct Series {
     pub reference: Vec<(f64, f64)>,
 }
 
+impl Series {
+    /// A body's downward velocity against time, the form every settling case plots.
+    pub(super) fn downward_velocity(
+        name: impl Into<String>,
+        track: &[crate::record::BodySample],
+        reference: Vec<(f64, f64)>,
+    ) -> Series {
+        Series {
+            name: name.into(),
+            x_label: "t (s)".into(),
+            y_label: "downward velocity (m/s)".into(),
+            points: track.iter().map(|b| (b.time, -b.velocity[1])).collect(),
+            reference,
+        }
+    }
+}
+
 /// The outcome of a case.
 #[derive(Debug, Clone, Default)]
 pub struct Report {

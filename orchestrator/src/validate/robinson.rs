@@ -181,13 +181,11 @@ pub(super) fn sedimentation_regimes(
     if let Some((t, snap)) = rec.snapshots.last() {
         report.series.push(fluid_velocity_profile(scene, *t, snap));
     }
-    report.series.push(Series {
-        name: "grain-velocity".into(),
-        x_label: "t (s)".into(),
-        y_label: "downward velocity (m/s)".into(),
-        points: s.iter().map(|p| (p.time, -p.velocity[1])).collect(),
-        reference: vec![(0.0, v46), (last, v46)],
-    });
+    report.series.push(Series::downward_velocity(
+        "grain-velocity",
+        &s,
+        vec![(0.0, v46), (last, v46)],
+    ));
     Ok(())
 }
 
@@ -580,16 +578,14 @@ pub(super) fn single_particle_sedimentation(
         ("end_excess", (-last.velocity[1] - stokes(last.time)) / v_t),
         ("own_flow_excess", own.grain_excess),
     ]);
-    report.series.push(Series {
-        name: "grain-velocity".into(),
-        x_label: "t (s)".into(),
-        y_label: "downward velocity (m/s)".into(),
-        points: s.iter().map(|p| (p.time, -p.velocity[1])).collect(),
-        reference: (0..=20)
+    report.series.push(Series::downward_velocity(
+        "grain-velocity",
+        &s,
+        (0..=20)
             .map(|k| last.time * f64::from(k) / 20.0)
             .map(|t| (t, stokes(t)))
             .collect(),
-    });
+    ));
     Ok(())
 }
 
@@ -903,13 +899,11 @@ pub(super) fn constant_porosity_block(
     if let Some((t, snap)) = rec.snapshots.iter().rev().find(|(t, _)| within(*t)) {
         report.series.push(fluid_velocity_profile(scene, *t, snap));
     }
-    report.series.push(Series {
-        name: "block-velocity".into(),
-        x_label: "t (s)".into(),
-        y_label: "downward velocity (m/s)".into(),
-        points: s.iter().map(|b| (b.time, -b.velocity[1])).collect(),
-        reference: vec![(0.0, printed), (t_end, printed)],
-    });
+    report.series.push(Series::downward_velocity(
+        "block-velocity",
+        &s,
+        vec![(0.0, printed), (t_end, printed)],
+    ));
     Ok(())
 }
 
