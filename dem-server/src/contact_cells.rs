@@ -188,8 +188,11 @@ mod tests {
                 .map(|_| std::array::from_fn(|k| uniform(&mut rng, min[k], min[k] + extent[k])))
                 .collect();
             let mut grid = ContactCells::new(min, max, cell, period, x.len()).unwrap();
-            let mut keyed: Vec<(u64, usize)> =
-                x.iter().enumerate().map(|(i, p)| (grid.key(*p), i)).collect();
+            let mut keyed: Vec<(u64, usize)> = x
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (grid.key(*p), i))
+                .collect();
             keyed.sort();
             grid.fill(keyed.iter().map(|k| k.0));
             let mut pairs = 0;
@@ -203,7 +206,11 @@ mod tests {
                 let listed = found.len();
                 found.sort_unstable();
                 found.dedup();
-                assert_eq!(found.len(), listed, "{label}: sphere {s} listed a sphere twice");
+                assert_eq!(
+                    found.len(),
+                    listed,
+                    "{label}: sphere {s} listed a sphere twice"
+                );
                 for (j, q) in x.iter().enumerate() {
                     let mut d = sub(x[i], *q);
                     for k in 0..3 {

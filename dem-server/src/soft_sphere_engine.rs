@@ -35,11 +35,11 @@
 //! Integration is velocity Verlet (kick–drift–kick), exact for a constant force, with
 //! the dashpots acting on the end-of-step velocity predicted from the step's start.
 
+use crate::contact_cells::ContactCells;
 use crate::engine::{
     ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, decode_state,
     encode_state, gravity_scale, not_kinematic,
 };
-use crate::contact_cells::ContactCells;
 use crate::geometry::BodyGeometry;
 use couplet_protocol::cell_hash::CellHash;
 use couplet_protocol::vec3::{add, add_to, cross, dot, norm, quat_from_scaled_axis, scale, sub};
@@ -589,13 +589,7 @@ impl SoftSphereEngine {
         }
         e.one_group = n > 0 && e.group_of.iter().all(|g| *g == 0);
         e.duration_scale = e.duration_scale_of_spheres();
-        e.cells = ContactCells::new(
-            e.domain.min,
-            e.domain.max,
-            e.contact_cell(),
-            e.period,
-            n,
-        );
+        e.cells = ContactCells::new(e.domain.min, e.domain.max, e.contact_cell(), e.period, n);
         e.predict(0.0);
         e.compute_forces(0.0);
         Ok(e)
@@ -830,7 +824,9 @@ impl SoftSphereEngine {
                 (Some(c), true) => (Some(c.runs(srt.x[s])), None),
                 (None, true) => (None, Some(self.grid.candidates(srt.x[s]))),
             };
-            let dense = dense.into_iter().flat_map(|(runs, m)| runs.into_iter().take(m).flatten());
+            let dense = dense
+                .into_iter()
+                .flat_map(|(runs, m)| runs.into_iter().take(m).flatten());
             for t in dense.chain(hashed.into_iter().flatten()) {
                 let t = t as usize;
                 if t <= s
@@ -1677,6 +1673,9 @@ mod tests {
             }
         }
         println!("largest force difference, dense against hashed: {worst:.2e} of the largest");
-        assert!(worst < 1e-11, "dense and hashed differ by {worst:e} of the largest");
+        assert!(
+            worst < 1e-11,
+            "dense and hashed differ by {worst:e} of the largest"
+        );
     }
 }

@@ -28,7 +28,10 @@
 // terms that conserve energy; each grain gets the opposite of the ∇ε term
 // (unresolved_coupling.wgsl). Otherwise pressure_porosity is 1 and the gradient 0.
 // δ-SPH diffuses ρ/ε (`porosity(i)`, 1 without grains) and adds ε_i times it to dρ/dt.
-// One thread per fluid particle gathers from the neighbour cells (grid_common.wgsl); no atomics.
+// A team of DENSE_LANES threads per fluid particle gathers from the neighbour cells
+// (grid_common.wgsl, team_row): each lane sums its share of the rows, `dense_team_sum`
+// adds the lanes' sums in lane order and the first lane writes (neighbour_grid.rs,
+// dense_team_lanes, says when a particle gets more than one lane). No atomics.
 
 // ---- kernels ----
 @group(0) @binding(0) var<storage, read> pos: array<vec4<f32>>;
@@ -43,38 +46,37 @@
 fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                @builtin(local_invocation_index) lid: u32,
                @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = linear_id(wid, lid, nwg);
-    if i >= params.n_total || !is_fluid(id[i]) {
-        return;
-    }
-    let p_i = pos[i].xyz;
-    let u_i = vel[i].xyz;
-    let rho_i = rho[i];
-    let pr_i = press[i];
-    let pe_i = pr_i * pressure_porosity(i);
-    let c_i = cell_coord(p_i);
-    let b_i = b_matrix(i);
-    // The free-surface zone takes the standard forms (effects.free_surface).
-    let corrected_i = !near_free_surface(i);
-    let grad_rho_i = grad_rho(i);
-    let eps_i = porosity(i);
-    let rho_f_i = rho_i / eps_i;
+    let i = linear_id(wid, lid, nwg) / DENSE_LANES;
+    let lane = lid % DENSE_LANES;
+    let fluid_i = i < params.n_total && is_fluid(id[i]);
     var drho_i = 0.0;
     var acc = vec3<f32>(0.0);
     var lap_a = vec3<f32>(0.0);
     var lap_q = vec3<f32>(0.0);
     var lap_d = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    let bhat_i = b_hat(i);
-    let g_i = grad_p(i) / rho_i;
     var mc_a = 0.0;
     var mc_q = vec3<f32>(0.0);
     var mc_div = 0.0;
-    let h_i = smoothing_length(i);
-    let omega_i = omega(i);
-    let reach2_i = support2_at(h_i);
-    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
-        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let rs = row_ranges(c_i, dy, dz);
+    if fluid_i {
+        let p_i = pos[i].xyz;
+        let u_i = vel[i].xyz;
+        let rho_i = rho[i];
+        let pr_i = press[i];
+        let pe_i = pr_i * pressure_porosity(i);
+        let c_i = cell_coord(p_i);
+        let b_i = b_matrix(i);
+        // The free-surface zone takes the standard forms (effects.free_surface).
+        let corrected_i = !near_free_surface(i);
+        let grad_rho_i = grad_rho(i);
+        let eps_i = porosity(i);
+        let rho_f_i = rho_i / eps_i;
+        let bhat_i = b_hat(i);
+        let g_i = grad_p(i) / rho_i;
+        let h_i = smoothing_length(i);
+        let omega_i = omega(i);
+        let reach2_i = support2_at(h_i);
+        for (var r = i32(lane); r < ROWS; r += i32(DENSE_LANES)) {
+            let rs = row_ranges(c_i, team_row(r).x, team_row(r).y);
             for (var k = 0u; k < row_length(rs); k++) {
                 let j = row_slot(rs, k);
                 let r_ij = pair_vec(p_i, pos[j].xyz);
@@ -148,11 +150,35 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
             }
         }
     }
+    // The team's sums, in uniform control flow (the flags are constants).
+    let s0 = dense_team_sum(vec4<f32>(acc, drho_i), lid);
+    acc = s0.xyz;
+    drho_i = s0.w;
+    if LAPLACIAN_CORRECTION || MASS_CORRECTION {
+        let s1 = dense_team_sum(vec4<f32>(lap_a, mc_a), lid);
+        let s2 = dense_team_sum(vec4<f32>(lap_q, mc_div), lid);
+        lap_a = s1.xyz;
+        mc_a = s1.w;
+        lap_q = s2.xyz;
+        mc_div = s2.w;
+    }
+    if MASS_CORRECTION {
+        mc_q = dense_team_sum(vec4<f32>(mc_q, 0.0), lid).xyz;
+    }
     if LAPLACIAN_CORRECTION {
-        acc += 2.0 * NU * (lap_a - lap_d * (transpose(b_i) * lap_q));
+        lap_d = mat3x3<f32>(dense_team_sum(vec4<f32>(lap_d[0], 0.0), lid).xyz,
+                            dense_team_sum(vec4<f32>(lap_d[1], 0.0), lid).xyz,
+                            dense_team_sum(vec4<f32>(lap_d[2], 0.0), lid).xyz);
+    }
+    if !fluid_i || lane != 0u {
+        return;
+    }
+    let rho_i = rho[i];
+    if LAPLACIAN_CORRECTION {
+        acc += 2.0 * NU * (lap_a - lap_d * (transpose(b_matrix(i)) * lap_q));
     }
     if POROSITY_PAIR {
-        acc += (pr_i / rho_i) * porosity_gradient(i);
+        acc += (press[i] / rho_i) * porosity_gradient(i);
     }
     if MASS_CORRECTION {
         let l15 = 2.0 * (mc_a - dot(mc_q, grad_p(i)));

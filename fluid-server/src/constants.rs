@@ -62,6 +62,11 @@ pub struct SphConstants {
     /// (`Gpu::team_lanes`) with [`Self::for_adapter`]. A team pass must be dispatched with
     /// `team_threads(n, team_lanes)` of the constants it was compiled with.
     pub team_lanes: u32,
+    /// Lanes per fluid particle of the dense team passes (`DENSE_LANES` in WGSL, the
+    /// fused rates): 1 from the scene; the solver sets the device's for its particle
+    /// count (`Gpu::dense_lanes`). A dense pass must be dispatched with
+    /// `team_threads(n, dense_lanes)` of the constants it was compiled with.
+    pub dense_lanes: u32,
     /// No-slip walls enter the viscous sums with the velocity 2 v_w − ṽ_w (Adami, Hu &
     /// Adams 2012, §2.3): ṽ_w the Shepard interpolation of the fluid's velocity at the
     /// wall particle, v_w the wall's own (0, or the lid's). The fluid then sees the
@@ -200,6 +205,7 @@ impl SphConstants {
             }),
             grid_reach: GRID_REACH_DEFAULT,
             team_lanes: TEAM_LANES_GPU,
+            dense_lanes: 1,
             wall_velocity_extrapolation: scene.domain.walls == WallKind::NoSlip
                 && !joubert_walls
                 && ((scene.effects.viscosity == ViscosityModel::Laminar

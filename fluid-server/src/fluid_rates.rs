@@ -1,6 +1,7 @@
 //! The fused pair loop of a fluid particle: continuity ([`crate::continuity`]) and
-//! momentum ([`crate::momentum`]) in one pass over the neighbour cells, one thread per
-//! particle, no atomics. WGSL: `shaders/fluid_rates.wgsl`. Switched-off effects are
+//! momentum ([`crate::momentum`]) in one pass over the neighbour cells, a team of
+//! `SphConstants::dense_lanes` threads per particle (one on a CPU adapter and from
+//! 524 288 particles on, `neighbour_grid::dense_team_lanes`), no atomics. WGSL: `shaders/fluid_rates.wgsl`. Switched-off effects are
 //! compiled out (constants generated from the scene), so they cost nothing.
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
@@ -9,7 +10,7 @@ use crate::gpu::Gpu;
 use crate::joubert2020_gradients::gradients_among_grains_cpu;
 use crate::kernel::kernel_library;
 use crate::momentum::{MOMENTUM_WGSL, momentum_cpu};
-use crate::neighbour_grid::GRID_COMMON_WGSL;
+use crate::neighbour_grid::{GRID_COMMON_WGSL, dense_team_wgsl};
 use crate::particles::{Kind, ParticleSet};
 use crate::porosity::{porosity_pair_wgsl, porosity_wgsl};
 use crate::robinson_variable_h::smoothing_wgsl;
@@ -127,6 +128,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     bindings.extend(porosity_binding);
     let (pair, pair_bindings) = porosity_pair_wgsl(c);
     bindings.extend(pair_bindings);
+    let team = dense_team_wgsl(c.dense_lanes);
     SphKernel::new(
         gpu,
         "sph: fluid_rates",
@@ -144,6 +146,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             smoothing,
             porosity,
             pair,
+            &team,
             FLUID_RATES_WGSL,
         ],
         "fluid_rates",

@@ -7,7 +7,8 @@
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
 use crate::neighbour_grid::{
-    GRID_REACH_DEFAULT, GRID_REACH_RANGE, TEAM_LANES_ENV, team_lanes_for, team_lanes_valid,
+    DENSE_LANES_ENV, GRID_REACH_DEFAULT, GRID_REACH_RANGE, TEAM_LANES_ENV, dense_team_lanes,
+    team_lanes_for, team_lanes_valid,
 };
 
 /// Storage buffers a single kernel may bind. The corrected SPH scheme's pair kernels
@@ -54,6 +55,14 @@ pub enum GpuError {
         crate::neighbour_grid::TEAM_LANES_GPU
     )]
     BadTeamLanes { value: String },
+    /// `COUPLET_DENSE_LANES` is set to something other than a divisor of the workgroup size.
+    #[error(
+        "COUPLET_DENSE_LANES = {value:?} is not a whole number that divides the workgroup size \
+         ({}): it sets the lanes per fluid particle of the fused rates pass (unset: from the \
+         particle count, at most the team lanes)",
+        crate::shaders::WORKGROUP_SIZE
+    )]
+    BadDenseLanes { value: String },
 }
 
 /// The environment variable that overrides the neighbour grid's reach R (cells per
@@ -82,6 +91,9 @@ pub struct Gpu {
     pub team_lanes: u32,
     /// The lanes [`TEAM_LANES_ENV`] set, if it is set.
     team_lanes_override: Option<u32>,
+    /// The lanes per particle [`DENSE_LANES_ENV`] set for the dense team passes, if it
+    /// is set.
+    dense_lanes_override: Option<u32>,
 }
 
 /// The whole number the environment variable `name` sets, if it is set: `Err` with what
@@ -160,6 +172,8 @@ impl Gpu {
             .map_err(|value| GpuError::BadTeamLanes { value })?;
         let team_lanes =
             team_lanes_override.unwrap_or_else(|| team_lanes_for(adapter_info.device_type));
+        let dense_lanes_override = env_knob(DENSE_LANES_ENV, team_lanes_valid)
+            .map_err(|value| GpuError::BadDenseLanes { value })?;
         Ok(Gpu {
             device,
             queue,
@@ -168,6 +182,7 @@ impl Gpu {
             grid_reach_override,
             team_lanes,
             team_lanes_override,
+            dense_lanes_override,
         })
     }
 
@@ -184,12 +199,21 @@ impl Gpu {
             .unwrap_or_else(|| team_lanes_for(self.adapter_info.device_type))
     }
 
+    /// Lanes per fluid particle of the dense team passes of a solver of `n` particles:
+    /// [`DENSE_LANES_ENV`]'s if set, else `neighbour_grid::dense_team_lanes` at most
+    /// [`Gpu::team_lanes`].
+    pub fn dense_lanes(&self, n: usize) -> u32 {
+        self.dense_lanes_override
+            .unwrap_or_else(|| dense_team_lanes(n, self.team_lanes))
+    }
+
     /// One line for logs and `couplet plan`: name, driver, backend, timestamps, the team
-    /// passes' lanes (and the grid reach when [`GRID_REACH_ENV`] sets it).
+    /// passes' lanes (and the dense passes' and the grid reach when [`DENSE_LANES_ENV`]
+    /// and [`GRID_REACH_ENV`] set them).
     pub fn describe(&self) -> String {
         let i = &self.adapter_info;
         format!(
-            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}, team lanes {}{}{})",
+            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}, team lanes {}{}{}{})",
             i.name,
             i.device_type,
             i.driver,
@@ -199,6 +223,10 @@ impl Gpu {
             self.team_lanes,
             match self.team_lanes_override {
                 Some(_) => format!(" from {TEAM_LANES_ENV}"),
+                None => String::new(),
+            },
+            match self.dense_lanes_override {
+                Some(l) => format!(", dense lanes {l} from {DENSE_LANES_ENV}"),
                 None => String::new(),
             },
             match self.grid_reach_override {

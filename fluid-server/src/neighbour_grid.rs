@@ -141,6 +141,71 @@ pub fn team_threads(n: u32, lanes: u32) -> u32 {
     n * lanes
 }
 
+/// Threads the dense team passes (those over every fluid particle: the fused rates,
+/// `fluid_rates.wgsl`) aim to dispatch: about twice what an H100 or H200 holds at once
+/// (132 multiprocessors × 2 048 threads = 270 k), so that the GPU has other warps to run
+/// while one waits on its neighbours' loads. A chosen figure, not a measured one: the
+/// grain columns' 41 323 fluid particles, one thread each, spent 0.51 ms a step in the
+/// rates on an H200 (2026-11-29), twice what 2 883 wall particles spent in a pass of
+/// the same loop, where the work is 14 times less: the pass waited on latency, not
+/// arithmetic. 5.4 M particles, one thread each, made 8.6e10 pair-interactions/s there
+/// (README, "Measured on a GPU"): there a team would only add its sums.
+pub const DENSE_TEAM_THREADS: u64 = 1 << 19;
+
+/// Lanes per fluid particle in the dense team passes for `n` particles, at most `cap`
+/// (the device's team lanes, `Gpu::team_lanes`, a power of two as every divisor of
+/// `WORKGROUP_SIZE` is): `cap` halved while half as many lanes still give
+/// [`DENSE_TEAM_THREADS`] threads, so 1 from 524 288 particles on, and `cap` (8 on a
+/// GPU) below 131 072; on a CPU adapter `cap` is 1.
+pub fn dense_team_lanes(n: usize, cap: u32) -> u32 {
+    let mut lanes = cap.max(1);
+    while lanes > 1 && n as u64 * u64::from(lanes / 2) >= DENSE_TEAM_THREADS {
+        lanes /= 2;
+    }
+    lanes
+}
+
+/// The environment variable that sets the lanes per particle of the dense team passes
+/// outright ([`dense_team_lanes`] otherwise), for measuring them on a GPU without a
+/// rebuild. Results do not depend on the lanes beyond round-off; speed does.
+pub const DENSE_LANES_ENV: &str = "COUPLET_DENSE_LANES";
+
+/// WGSL of a dense team pass of `lanes` lanes per particle: `DENSE_LANES` and
+/// `dense_team_sum(v, lid)`, the sum of `v` over the team of the workgroup's thread
+/// `lid`, added in lane order (so that runs repeat bit for bit), valid in the team's
+/// first lane. Every thread of the workgroup must call it the same number of times, in
+/// uniform control flow (it holds two barriers). With one lane it is `v`, no barrier
+/// and no workgroup memory, and the pass is the one-thread-per-particle loop it was.
+pub fn dense_team_wgsl(lanes: u32) -> String {
+    let sum = if lanes == 1 {
+        "fn dense_team_sum(v: vec4<f32>, lid: u32) -> vec4<f32> {
+    return v;
+}
+"
+    } else {
+        "var<workgroup> dense_team_part: array<vec4<f32>, WORKGROUP_SIZE>;
+fn dense_team_sum(v: vec4<f32>, lid: u32) -> vec4<f32> {
+    // The first barrier keeps this call's writes off the last call's reads.
+    workgroupBarrier();
+    dense_team_part[lid] = v;
+    workgroupBarrier();
+    var s = v;
+    if lid % DENSE_LANES == 0u {
+        for (var l = 1u; l < DENSE_LANES; l++) {
+            s += dense_team_part[lid + l];
+        }
+    }
+    return s;
+}
+"
+    };
+    format!(
+        "// Lanes per fluid particle of the dense team passes (neighbour_grid.rs, dense_team_lanes).
+const DENSE_LANES: u32 = {lanes}u;
+{sum}"
+    )
+}
+
 /// Longest cell slice the `grid: order` pass orders (each of its k slots counts over
 /// the slice: O(k²) in all, at most this many loop iterations per thread, far below
 /// the 65535 at which lavapipe cuts a shader's loops short). A cell of

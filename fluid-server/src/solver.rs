@@ -272,6 +272,9 @@ pub struct SphData {
     /// The lanes per item the team passes in `bound` were compiled with
     /// (`SphConstants::team_lanes`), which their dispatches must match.
     team_lanes: u32,
+    /// The lanes per particle the dense team passes in `bound` were compiled with
+    /// (`SphConstants::dense_lanes`).
+    dense_lanes: u32,
 }
 
 /// Buffers of the gradient pass (not permuted: written after every sort).
@@ -678,6 +681,7 @@ impl SphData {
             smoothing,
             bound,
             team_lanes: c.team_lanes,
+            dense_lanes: c.dense_lanes,
         })
     }
 
@@ -763,6 +767,7 @@ impl SphData {
             Op::BoundaryPressure if self.boundary_frame.is_none() => {
                 crate::neighbour_grid::team_threads(n, self.team_lanes)
             }
+            Op::FluidRates => crate::neighbour_grid::team_threads(n, self.dense_lanes),
             _ => n,
         };
         let mut pass = timing::begin_pass(timer, gpu, encoder, label);
@@ -947,7 +952,8 @@ impl FluidSolver {
         mut set: ParticleSet,
         body_capacity: usize,
     ) -> Result<FluidSolver, FluidError> {
-        let consts = SphConstants::from_scene(scene)?.for_adapter(gpu);
+        let mut consts = SphConstants::from_scene(scene)?.for_adapter(gpu);
+        consts.dense_lanes = gpu.dense_lanes(set.len());
         let limits = FluidLimits::from_scene(scene)?;
         let stages = plan::stages(scene);
         let d = &scene.domain;

@@ -263,45 +263,48 @@ fn rates_pass(
 }
 
 /// [`check_rates`] with continuity and momentum held to `rtol` = [continuity, momentum]
-/// of their largest values, for a step `dt` (which only the mass correction reads).
+/// of their largest values, for a step `dt` (which only the mass correction reads), at
+/// each team width of the rates pass (one lane per particle, as on lavapipe, and a GPU's
+/// eight: `at_each_team_width`).
 fn check_rates_within(effects: &str, walls: &str, seed: u64, rtol: [f64; 2], dt: f64) {
-    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = scene("kernel = \"wendland-c2\"", &format!("{effects}\n{walls}"));
-    let c = SphConstants::from_scene(&s).unwrap();
-    let mut set = random_set(&c, 14, 0.3, 0.2, 0.5, seed);
-    // Moving walls (entries after the fluid's): their own velocity enters continuity,
-    // and the viscous sums through 2 v_w − ṽ_w when they are no-slip.
-    let n_fluid = set.kinds.n_fluid;
-    for (k, v) in set.vel.iter_mut().enumerate().skip(n_fluid) {
-        *v = [0.2, 0.0, -0.1 * (k % 3) as f64];
-    }
-    let (got, drho, dvel, want) = rates_pass(&gpu, &s, &c, set, dt);
-    let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
-    let (ec, mc) = max_err(
-        fluid
-            .iter()
-            .map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))),
-    );
-    // Gravity is added exactly on both sides: compare the pair sums.
-    let g = c.gravity_fluid;
-    let dvel = &dvel;
-    let (em, mm) = max_err(fluid.iter().flat_map(|&i| {
-        let w = want[i].map_or([0.0; 3], |w| w.1);
-        (0..3)
-            .map(move |k| (dvel[i][k] - g[k], w[k] - g[k]))
-            .collect::<Vec<_>>()
-    }));
-    println!(
-        "{effects} {walls}: continuity max |Δ| = {ec:e} of {mc:e}; momentum max |Δ| = {em:e} of {mm:e}"
-    );
-    assert!(
-        ec <= rtol[0] * mc,
-        "continuity: max |Δ| = {ec:e}, max = {mc:e}"
-    );
-    assert!(
-        em <= rtol[1] * mm,
-        "momentum: max |Δ| = {em:e}, max = {mm:e}"
-    );
+    at_each_team_width(|gpu| {
+        let s = scene("kernel = \"wendland-c2\"", &format!("{effects}\n{walls}"));
+        let c = SphConstants::from_scene(&s).unwrap();
+        let mut set = random_set(&c, 14, 0.3, 0.2, 0.5, seed);
+        // Moving walls (entries after the fluid's): their own velocity enters continuity,
+        // and the viscous sums through 2 v_w − ṽ_w when they are no-slip.
+        let n_fluid = set.kinds.n_fluid;
+        for (k, v) in set.vel.iter_mut().enumerate().skip(n_fluid) {
+            *v = [0.2, 0.0, -0.1 * (k % 3) as f64];
+        }
+        let (got, drho, dvel, want) = rates_pass(gpu, &s, &c, set, dt);
+        let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
+        let (ec, mc) = max_err(
+            fluid
+                .iter()
+                .map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))),
+        );
+        // Gravity is added exactly on both sides: compare the pair sums.
+        let g = c.gravity_fluid;
+        let dvel = &dvel;
+        let (em, mm) = max_err(fluid.iter().flat_map(|&i| {
+            let w = want[i].map_or([0.0; 3], |w| w.1);
+            (0..3)
+                .map(move |k| (dvel[i][k] - g[k], w[k] - g[k]))
+                .collect::<Vec<_>>()
+        }));
+        println!(
+            "{effects} {walls}: continuity max |Δ| = {ec:e} of {mc:e}; momentum max |Δ| = {em:e} of {mm:e}"
+        );
+        assert!(
+            ec <= rtol[0] * mc,
+            "continuity: max |Δ| = {ec:e}, max = {mc:e}"
+        );
+        assert!(
+            em <= rtol[1] * mm,
+            "momentum: max |Δ| = {em:e}, max = {mm:e}"
+        );
+    });
 }
 
 /// Continuity and momentum (pressure only) against their twins: rel 1e-4 of the max.

@@ -98,6 +98,11 @@ pub fn bench(
         "neighbours per fluid particle (inside the support): {neighbours:.1}"
     );
     let _ = writeln!(w, "neighbour passes per step: {passes}");
+    let _ = writeln!(
+        w,
+        "lanes per fluid particle in the rates pass: {} (neighbour_grid::dense_team_lanes)",
+        solver.constants().dense_lanes
+    );
     let _ = writeln!(w, "steps timed: {steps}, wall {wall:.3} s");
     // Where the GPU runs behind the CPU's recording and this nears the wall time per
     // step, the step is bound by the CPU (encoding, bind groups, submission), not the
