@@ -938,6 +938,32 @@ mod tests {
         assert_eq!(team_threads(1000, 8), 8000);
     }
 
+    /// The dense passes' lanes by particle count: a GPU's 8 below 2^19 / 4 = 131 072
+    /// particles, then halved at each doubling of the count, 1 from 524 288 on (the grain
+    /// columns' 44 206 particles: 8; the cavity's 112 360: 8; SPHERIC-2's 1.04 M: 1), and
+    /// never more than the device's team lanes (1 on lavapipe). Reference: the rule in
+    /// `dense_team_lanes`'s documentation, counted by hand.
+    #[test]
+    fn dense_lanes_fall_as_the_particles_fill_the_gpu() {
+        let cases = [
+            (44_206, 8),
+            (112_360, 8),
+            (131_071, 8),
+            (131_072, 4),
+            (262_143, 4),
+            (262_144, 2),
+            (524_287, 2),
+            (524_288, 1),
+            (1_044_444, 1),
+        ];
+        for (n, lanes) in cases {
+            assert_eq!(dense_team_lanes(n, TEAM_LANES_GPU), lanes, "{n} particles");
+            assert_eq!(dense_team_lanes(n, TEAM_LANES_CPU), 1, "{n} particles, CPU");
+        }
+        assert_eq!(dense_team_lanes(1000, 2), 2);
+        assert_eq!(dense_team_lanes(1000, 0), 1);
+    }
+
     /// Regression: the order pass was an insertion sort, one thread per cell. Where the
     /// atomics left a cell's slice far from its previous order (a lavapipe worker
     /// thread delayed during `grid: count`), the sort needed more than the 65535 loop

@@ -296,7 +296,8 @@ fn gpu_vals_files_name_cases_variants_and_points_that_exist() {
                 couplet_fluid::gpu::GRID_REACH_ENV => {
                     couplet_fluid::neighbour_grid::GRID_REACH_RANGE.contains(&value)
                 }
-                couplet_fluid::neighbour_grid::TEAM_LANES_ENV => {
+                couplet_fluid::neighbour_grid::TEAM_LANES_ENV
+                | couplet_fluid::neighbour_grid::DENSE_LANES_ENV => {
                     couplet_fluid::neighbour_grid::team_lanes_valid(value)
                 }
                 _ => panic!("{at}: {name} is not a variable the fluid server reads"),
