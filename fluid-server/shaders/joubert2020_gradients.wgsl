@@ -1,6 +1,7 @@
 // ---- joubert2020_gradients.wgsl: the per-step gradient pass (CPU twin:
 // joubert2020_gradients.rs) ----
-// One thread per fluid particle, once per step after the grid sort. Over the support
+// A team of DENSE_LANES threads per fluid particle (one on a CPU adapter), once per step
+// after the grid sort. Over the support
 // (all kinds of neighbour, V_j = m/ρ_j):
 //   M_i = −Σ_j V_j ∇W_ij ⊗ r_ij                  the truncation matrix (Joubert eq. 10;
 //                                               ⟨∇f⟩_i = M_i ∇f_i for a linear f)
@@ -167,23 +168,18 @@ fn solve_bhat(a_in: array<f32, 36>, out: ptr<function, array<f32, 6>>) -> bool {
 fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
              @builtin(local_invocation_index) lid: u32,
              @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = linear_id(wid, lid, nwg);
-    if i >= params.n_total || !is_fluid(id[i]) {
-        return;
-    }
-    let p_i = pos[i].xyz;
-    let u_i = vel[i].xyz;
-    let pr_i = press[i];
-    let c_i = cell_coord(p_i);
+    // A team of DENSE_LANES threads per fluid particle (neighbour_grid.rs,
+    // dense_team_lanes): each lane sums its share of the rows, `dense_team_sum` adds the
+    // lanes' sums in lane order, and the first lane finishes the particle.
+    let i = linear_id(wid, lid, nwg) / DENSE_LANES;
+    let lane = lid % DENSE_LANES;
+    let fluid_i = i < params.n_total && is_fluid(id[i]);
     var m = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     var gux = vec3<f32>(0.0);
     var guy = vec3<f32>(0.0);
     var guz = vec3<f32>(0.0);
     var gp = vec3<f32>(0.0);
     var grho = vec3<f32>(0.0);
-    let rho_i = rho[i];
-    // δ-SPH's renormalised gradient is of the intrinsic density ρ/ε (1 without grains).
-    let rho_f_i = rho_i / porosity(i);
     var r_sum = 0.0;
     var count = 0.0;
     var s = vec3<f32>(0.0);
@@ -200,12 +196,19 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     var r3a = vec4<f32>(0.0);
     var r3b = vec4<f32>(0.0);
     var r3c = vec4<f32>(0.0);
-    // Variable h: B_i from particle i's own kernel, the one its rates take.
-    let h_i = smoothing_length(i);
-    let reach2 = support2_at(h_i);
-    for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
-        for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
-            let rs = row_ranges(c_i, dy, dz);
+    if fluid_i {
+        let p_i = pos[i].xyz;
+        let u_i = vel[i].xyz;
+        let pr_i = press[i];
+        let c_i = cell_coord(p_i);
+        let rho_i = rho[i];
+        // δ-SPH's renormalised gradient is of the intrinsic density ρ/ε (1 without grains).
+        let rho_f_i = rho_i / porosity(i);
+        // Variable h: B_i from particle i's own kernel, the one its rates take.
+        let h_i = smoothing_length(i);
+        let reach2 = support2_at(h_i);
+        for (var row = i32(lane); row < ROWS; row += i32(DENSE_LANES)) {
+            let rs = row_ranges(c_i, team_row(row).x, team_row(row).y);
             for (var k = 0u; k < row_length(rs); k++) {
                 let j = row_slot(rs, k);
                 let r_ij = pair_vec(p_i, pos[j].xyz);
@@ -248,6 +251,37 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
             }
         }
     }
+    // The team's sums, in uniform control flow (B_HAT_SOLVE is a constant).
+    let t0 = dense_team_sum(vec4<f32>(m[0], r_sum), lid);
+    let t1 = dense_team_sum(vec4<f32>(m[1], count), lid);
+    let t2 = dense_team_sum(vec4<f32>(m[2], s.x), lid);
+    let t3 = dense_team_sum(vec4<f32>(gux, s.y), lid);
+    let t4 = dense_team_sum(vec4<f32>(guy, s.z), lid);
+    m = mat3x3<f32>(t0.xyz, t1.xyz, t2.xyz);
+    r_sum = t0.w;
+    count = t1.w;
+    s = vec3<f32>(t2.w, t3.w, t4.w);
+    gux = t3.xyz;
+    guy = t4.xyz;
+    guz = dense_team_sum(vec4<f32>(guz, 0.0), lid).xyz;
+    gp = dense_team_sum(vec4<f32>(gp, 0.0), lid).xyz;
+    grho = dense_team_sum(vec4<f32>(grho, 0.0), lid).xyz;
+    if B_HAT_SOLVE {
+        q4a = dense_team_sum(q4a, lid);
+        q4b = dense_team_sum(q4b, lid);
+        q4c = dense_team_sum(q4c, lid);
+        q4d = dense_team_sum(q4d, lid);
+        p3a = dense_team_sum(p3a, lid);
+        p3b = dense_team_sum(p3b, lid);
+        p3c = dense_team_sum(p3c, lid);
+        r3a = dense_team_sum(r3a, lid);
+        r3b = dense_team_sum(r3b, lid);
+        r3c = dense_team_sum(r3c, lid);
+    }
+    if !fluid_i || lane != 0u {
+        return;
+    }
+    let u_i = vel[i].xyz;
     let det = determinant(m);
     var b = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
     var singular = det < B_DET_MIN;

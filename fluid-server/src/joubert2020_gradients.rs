@@ -31,7 +31,7 @@
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::kernel::{SmoothingKernel, kernel_library};
-use crate::neighbour_grid::GRID_COMMON_WGSL;
+use crate::neighbour_grid::{GRID_COMMON_WGSL, dense_team_wgsl};
 use crate::particles::{Kind, ParticleSet, dot, sub};
 use crate::porosity::porosity_wgsl;
 use crate::robinson_variable_h::{kernel_at, smoothing_wgsl};
@@ -148,6 +148,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             store,
             smoothing,
             porosity,
+            &dense_team_wgsl(c.dense_lanes),
             GRADIENTS_WGSL,
         ],
         "gradients",

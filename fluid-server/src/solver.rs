@@ -767,7 +767,9 @@ impl SphData {
             Op::BoundaryPressure if self.boundary_frame.is_none() => {
                 crate::neighbour_grid::team_threads(n, self.team_lanes)
             }
-            Op::FluidRates => crate::neighbour_grid::team_threads(n, self.dense_lanes),
+            Op::FluidRates | Op::Gradients => {
+                crate::neighbour_grid::team_threads(n, self.dense_lanes)
+            }
             _ => n,
         };
         let mut pass = timing::begin_pass(timer, gpu, encoder, label);

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{fluid_lattice, max_err, random_set, scene};
+use common::{at_each_team_width, fluid_lattice, max_err, random_set, scene};
 use couplet_fluid::gpu::shared_test_gpu;
 use couplet_fluid::joubert2020_gradients::{B_DET_MIN, Gradients, gradients_cpu};
 use couplet_fluid::particle_shifting::{Shifted, shift_cpu};
@@ -17,85 +17,90 @@ const EFFECTS: &str = "[effects]\ngradient_correction = true\nparticle_shifting 
 /// inverse of condition ≲ 3); the near-singular count and ‖u‖max exactly / to f32.
 #[test]
 fn gradients_match_cpu_twin() {
-    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    for kernel in ["wendland-c2", "quintic"] {
-        let s = scene(&format!("kernel = \"{kernel}\""), EFFECTS);
-        let c = SphConstants::from_scene(&s).unwrap();
-        let set = random_set(&c, 14, 0.3, 0.2, 0.5, 11);
-        let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-        solver
-            .run_ops(&gpu, &[Op::Sort, Op::Gradients], 1e-4, 1.0)
-            .unwrap();
-        let got = solver.data().read(&gpu).unwrap();
-        let g = &solver
-            .data()
-            .read_gradients(&gpu)
-            .unwrap()
-            .expect("the gradient pass runs");
-        let want = gradients_cpu(&c, &got);
-        let fluid: Vec<(usize, Gradients)> = want
-            .iter()
-            .enumerate()
-            .filter_map(|(i, w)| w.map(|w| (i, w)))
-            .collect();
-        assert!(fluid.len() > 1500);
-        let check = |name: &str, pairs: Vec<(f64, f64)>| {
-            let (e, m) = max_err(pairs.into_iter());
-            println!("{kernel}: {name}: max |Δ| = {e:e} of {m:e}");
-            assert!(
-                m > 0.0 && e <= 2e-4 * m,
-                "{kernel}: {name}: max |Δ| = {e:e}, max = {m:e}"
-            );
-        };
-        check(
-            "B",
-            fluid
+    at_each_team_width(|gpu| {
+        for kernel in ["wendland-c2", "quintic"] {
+            let s = scene(&format!("kernel = \"{kernel}\""), EFFECTS);
+            let c = SphConstants::from_scene(&s).unwrap();
+            let set = random_set(&c, 14, 0.3, 0.2, 0.5, 11);
+            let mut solver = FluidSolver::from_particles(gpu, &s, set).unwrap();
+            solver
+                .run_ops(gpu, &[Op::Sort, Op::Gradients], 1e-4, 1.0)
+                .unwrap();
+            let got = solver.data().read(gpu).unwrap();
+            let g = &solver
+                .data()
+                .read_gradients(gpu)
+                .unwrap()
+                .expect("the gradient pass runs");
+            let want = gradients_cpu(&c, &got);
+            let fluid: Vec<(usize, Gradients)> = want
                 .iter()
-                .flat_map(|(i, w)| (0..9).map(move |k| (g.b[*i][k / 3][k % 3], w.b[k / 3][k % 3])))
-                .collect(),
-        );
-        for a in 0..3 {
+                .enumerate()
+                .filter_map(|(i, w)| w.map(|w| (i, w)))
+                .collect();
+            assert!(fluid.len() > 1500);
+            let check = |name: &str, pairs: Vec<(f64, f64)>| {
+                let (e, m) = max_err(pairs.into_iter());
+                println!("{kernel}: {name}: max |Δ| = {e:e} of {m:e}");
+                assert!(
+                    m > 0.0 && e <= 2e-4 * m,
+                    "{kernel}: {name}: max |Δ| = {e:e}, max = {m:e}"
+                );
+            };
             check(
-                &format!("grad u[{a}]"),
+                "B",
                 fluid
                     .iter()
-                    .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][a][k], w.grad_u[a][k])))
+                    .flat_map(|(i, w)| {
+                        (0..9).map(move |k| (g.b[*i][k / 3][k % 3], w.b[k / 3][k % 3]))
+                    })
                     .collect(),
             );
+            for a in 0..3 {
+                check(
+                    &format!("grad u[{a}]"),
+                    fluid
+                        .iter()
+                        .flat_map(|(i, w)| {
+                            (0..3).map(move |k| (g.fields[*i][a][k], w.grad_u[a][k]))
+                        })
+                        .collect(),
+                );
+            }
+            check(
+                "grad p",
+                fluid
+                    .iter()
+                    .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][3][k], w.grad_p[k])))
+                    .collect(),
+            );
+            check(
+                "shift s",
+                fluid
+                    .iter()
+                    .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][4][k], w.shift[k])))
+                    .collect(),
+            );
+            check(
+                "grad rho",
+                fluid
+                    .iter()
+                    .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][5][k], w.grad_rho[k])))
+                    .collect(),
+            );
+            let singular = fluid.iter().filter(|(_, w)| w.singular).count() as u32;
+            assert_eq!(g.diag[1], singular, "{kernel}: near-singular count");
+            let u_max = fluid
+                .iter()
+                .map(|(i, _)| got.vel[*i].iter().map(|x| x * x).sum::<f64>().sqrt())
+                .fold(0.0, f64::max);
+            let gpu_u_max = f64::from(f32::from_bits(g.diag[0]));
+            assert!(
+                (gpu_u_max - u_max).abs() <= 1e-6 * u_max,
+                "{kernel}: ‖u‖max {gpu_u_max} vs {u_max}"
+            );
         }
-        check(
-            "grad p",
-            fluid
-                .iter()
-                .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][3][k], w.grad_p[k])))
-                .collect(),
-        );
-        check(
-            "shift s",
-            fluid
-                .iter()
-                .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][4][k], w.shift[k])))
-                .collect(),
-        );
-        check(
-            "grad rho",
-            fluid
-                .iter()
-                .flat_map(|(i, w)| (0..3).map(move |k| (g.fields[*i][5][k], w.grad_rho[k])))
-                .collect(),
-        );
-        let singular = fluid.iter().filter(|(_, w)| w.singular).count() as u32;
-        assert_eq!(g.diag[1], singular, "{kernel}: near-singular count");
-        let u_max = fluid
-            .iter()
-            .map(|(i, _)| got.vel[*i].iter().map(|x| x * x).sum::<f64>().sqrt())
-            .fold(0.0, f64::max);
-        let gpu_u_max = f64::from(f32::from_bits(g.diag[0]));
-        assert!(
-            (gpu_u_max - u_max).abs() <= 1e-6 * u_max,
-            "{kernel}: ‖u‖max {gpu_u_max} vs {u_max}"
-        );
-    }
+    });
 }
 
 /// A fluid block with free surfaces on five faces and a corner, on a floor of wall
@@ -298,102 +303,104 @@ fn near_singular_count_is_reported_per_window() {
 /// Reference: ∇²u above.
 #[test]
 fn corrected_laplacian_of_a_quadratic_field_is_exact_at_free_surfaces_and_corners() {
-    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let (a, b, cc, d, e) = (2.0, -1.0, 1.5, -3.0, 0.5);
-    let lap = [2.0 * a, 2.0 * cc, 2.0 * d];
-    let n = 12;
-    let build = |laplacian: bool| {
-        let s = scene(
-            "kernel = \"wendland-c2\"",
-            &format!("[effects]\nviscosity = \"laminar\"\nlaplacian_correction = {laplacian}"),
-        );
-        let c = SphConstants::from_scene(&s).unwrap();
-        let dx = c.spacing;
-        let centre = 0.03 + 0.5 * n as f64 * dx;
-        let mut set = ParticleSet::default();
-        for k in 0..n * n * n {
-            let l = [k % n, (k / n) % n, k / (n * n)];
-            // Deterministic jitter of up to 0.15 δ.
-            let x: [f64; 3] = std::array::from_fn(|q| {
-                let h = ((k * 7 + q * 13) % 11) as f64 / 10.0 - 0.5;
-                0.03 + (l[q] as f64 + 0.5 + 0.3 * h) * dx
-            });
-            let r = x.map(|v| v - centre);
-            set.pos.push(x);
-            set.vel.push([
-                a * r[1] * r[1] + b * r[0] * r[1],
-                cc * r[2] * r[2],
-                d * r[0] * r[0] + e * r[1] * r[2],
-            ]);
-            set.rho.push(c.rho0);
-            set.mass.push(c.mass);
-            set.press.push(0.0);
-            set.id.push(k as u32);
-        }
-        set.kinds = ParticleKinds {
-            n_fluid: set.len(),
-            n_wall: 0,
-            n_markers: 0,
+    at_each_team_width(|gpu| {
+        let (a, b, cc, d, e) = (2.0, -1.0, 1.5, -3.0, 0.5);
+        let lap = [2.0 * a, 2.0 * cc, 2.0 * d];
+        let n = 12;
+        let build = |laplacian: bool| {
+            let s = scene(
+                "kernel = \"wendland-c2\"",
+                &format!("[effects]\nviscosity = \"laminar\"\nlaplacian_correction = {laplacian}"),
+            );
+            let c = SphConstants::from_scene(&s).unwrap();
+            let dx = c.spacing;
+            let centre = 0.03 + 0.5 * n as f64 * dx;
+            let mut set = ParticleSet::default();
+            for k in 0..n * n * n {
+                let l = [k % n, (k / n) % n, k / (n * n)];
+                // Deterministic jitter of up to 0.15 δ.
+                let x: [f64; 3] = std::array::from_fn(|q| {
+                    let h = ((k * 7 + q * 13) % 11) as f64 / 10.0 - 0.5;
+                    0.03 + (l[q] as f64 + 0.5 + 0.3 * h) * dx
+                });
+                let r = x.map(|v| v - centre);
+                set.pos.push(x);
+                set.vel.push([
+                    a * r[1] * r[1] + b * r[0] * r[1],
+                    cc * r[2] * r[2],
+                    d * r[0] * r[0] + e * r[1] * r[2],
+                ]);
+                set.rho.push(c.rho0);
+                set.mass.push(c.mass);
+                set.press.push(0.0);
+                set.id.push(k as u32);
+            }
+            set.kinds = ParticleKinds {
+                n_fluid: set.len(),
+                n_wall: 0,
+                n_markers: 0,
+            };
+            (s, c, set)
         };
-        (s, c, set)
-    };
-    let gpu_rates = |s: &couplet_protocol::Scene, set: ParticleSet| {
-        let mut solver = FluidSolver::from_particles(&gpu, s, set).unwrap();
-        solver
-            .run_ops(&gpu, &[Op::Sort, Op::Gradients, Op::FluidRates], 1e-4, 1.0)
-            .unwrap();
-        let ids = solver.data().read(&gpu).unwrap().id;
-        let (_, dvel) = solver.data().read_rates(&gpu).unwrap();
-        // Back to the order of the set.
-        let mut by_id = vec![[0.0; 3]; ids.len()];
-        for (slot, id) in ids.iter().enumerate() {
-            by_id[*id as usize] = dvel[slot];
+        let gpu_rates = |s: &couplet_protocol::Scene, set: ParticleSet| {
+            let mut solver = FluidSolver::from_particles(gpu, s, set).unwrap();
+            solver
+                .run_ops(gpu, &[Op::Sort, Op::Gradients, Op::FluidRates], 1e-4, 1.0)
+                .unwrap();
+            let ids = solver.data().read(gpu).unwrap().id;
+            let (_, dvel) = solver.data().read_rates(gpu).unwrap();
+            // Back to the order of the set.
+            let mut by_id = vec![[0.0; 3]; ids.len()];
+            for (slot, id) in ids.iter().enumerate() {
+                by_id[*id as usize] = dvel[slot];
+            }
+            by_id
+        };
+        let (s, c, set) = build(true);
+        let g = c.gravity_fluid;
+        let want: [f64; 3] = lap.map(|l| c.nu * l);
+        let scale = want.iter().map(|x| x.abs()).fold(0.0, f64::max);
+        let err = |v: [f64; 3]| {
+            (0..3)
+                .map(|k| (v[k] - g[k] - want[k]).abs() / scale)
+                .fold(0.0, f64::max)
+        };
+        let twin = couplet_fluid::fluid_rates::fluid_rates_cpu(&c, &set, 1e-4);
+        let dvel = gpu_rates(&s, set.clone());
+        let mut gpu_errors = Vec::new();
+        let mut worst_twin = 0.0f64;
+        for i in 0..set.len() {
+            let (bm, singular) = couplet_fluid::joubert2020_gradients::b_matrix_cpu(&c, &set, i);
+            let (_, lap_singular) = couplet_fluid::joubert2020_gradients::laplacian_b_hat_cpu(
+                &c, &set, i, &bm, singular,
+            );
+            if lap_singular {
+                continue;
+            }
+            worst_twin = worst_twin.max(err(twin[i].expect("fluid").1));
+            gpu_errors.push(err(dvel[i]));
         }
-        by_id
-    };
-    let (s, c, set) = build(true);
-    let g = c.gravity_fluid;
-    let want: [f64; 3] = lap.map(|l| c.nu * l);
-    let scale = want.iter().map(|x| x.abs()).fold(0.0, f64::max);
-    let err = |v: [f64; 3]| {
-        (0..3)
-            .map(|k| (v[k] - g[k] - want[k]).abs() / scale)
-            .fold(0.0, f64::max)
-    };
-    let twin = couplet_fluid::fluid_rates::fluid_rates_cpu(&c, &set, 1e-4);
-    let dvel = gpu_rates(&s, set.clone());
-    let mut gpu_errors = Vec::new();
-    let mut worst_twin = 0.0f64;
-    for i in 0..set.len() {
-        let (bm, singular) = couplet_fluid::joubert2020_gradients::b_matrix_cpu(&c, &set, i);
-        let (_, lap_singular) =
-            couplet_fluid::joubert2020_gradients::laplacian_b_hat_cpu(&c, &set, i, &bm, singular);
-        if lap_singular {
-            continue;
-        }
-        worst_twin = worst_twin.max(err(twin[i].expect("fluid").1));
-        gpu_errors.push(err(dvel[i]));
-    }
-    gpu_errors.sort_by(f64::total_cmp);
-    let checked = gpu_errors.len();
-    let p99 = gpu_errors[checked * 99 / 100];
-    let worst_gpu = gpu_errors[checked - 1];
-    let (s_m, _, set_m) = build(false);
-    let worst_morris = gpu_rates(&s_m, set_m)
-        .into_iter()
-        .map(err)
-        .fold(0.0f64, f64::max);
-    println!(
-        "corrected Laplacian: {checked} of {} particles regular; max rel error twin {worst_twin:e}, GPU 99th percentile {p99:e}, GPU max {worst_gpu:e}; Morris max {worst_morris:.3}",
-        set.len()
-    );
-    assert!(checked > set.len() * 9 / 10, "only {checked} regular");
-    assert!(worst_twin < 1e-9, "twin error {worst_twin:e}");
-    assert!(
-        p99 < 3e-3 && worst_gpu < 5e-2,
-        "GPU error p99 {p99:e}, max {worst_gpu:e}"
-    );
-    assert!(worst_morris > 0.1, "Morris error only {worst_morris}");
+        gpu_errors.sort_by(f64::total_cmp);
+        let checked = gpu_errors.len();
+        let p99 = gpu_errors[checked * 99 / 100];
+        let worst_gpu = gpu_errors[checked - 1];
+        let (s_m, _, set_m) = build(false);
+        let worst_morris = gpu_rates(&s_m, set_m)
+            .into_iter()
+            .map(err)
+            .fold(0.0f64, f64::max);
+        println!(
+            "corrected Laplacian: {checked} of {} particles regular; max rel error twin {worst_twin:e}, GPU 99th percentile {p99:e}, GPU max {worst_gpu:e}; Morris max {worst_morris:.3}",
+            set.len()
+        );
+        assert!(checked > set.len() * 9 / 10, "only {checked} regular");
+        assert!(worst_twin < 1e-9, "twin error {worst_twin:e}");
+        assert!(
+            p99 < 3e-3 && worst_gpu < 5e-2,
+            "GPU error p99 {p99:e}, max {worst_gpu:e}"
+        );
+        assert!(worst_morris > 0.1, "Morris error only {worst_morris}");
+    });
 }
 
 /// The mass correction of Joubert eq. (14) (Γ = 2) on a fluid block at rest with free
