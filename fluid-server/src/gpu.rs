@@ -63,6 +63,14 @@ pub enum GpuError {
         crate::shaders::WORKGROUP_SIZE
     )]
     BadDenseLanes { value: String },
+    /// `COUPLET_STEPS_PER_SUBMIT` is set to something other than 1 to `MAX_STEPS_PER_SUBMIT`.
+    #[error(
+        "COUPLET_STEPS_PER_SUBMIT = {value:?} is not a whole number from 1 to {}: it sets the \
+         fluid steps recorded into one GPU submission (unset: {})",
+        MAX_STEPS_PER_SUBMIT,
+        STEPS_PER_SUBMIT_DEFAULT
+    )]
+    BadStepsPerSubmit { value: String },
 }
 
 /// The environment variable that overrides the neighbour grid's reach R (cells per
@@ -70,6 +78,26 @@ pub enum GpuError {
 /// without a rebuild. Results do not depend on R beyond round-off (the order of the
 /// sums); speed does.
 pub const GRID_REACH_ENV: &str = "COUPLET_GRID_REACH";
+
+/// Fluid steps recorded into one command buffer and submitted together (the last
+/// submission of a window may hold fewer), unless [`STEPS_PER_SUBMIT_ENV`] sets
+/// another count. Each `queue.submit` has a fixed cost on the CPU (wgpu's validation
+/// and resource tracking, the driver's fence) and the GPU can start a submission only
+/// once the CPU has recorded all of it: one step a submission pays the first every
+/// step, a whole window in one would make the GPU wait for the window's recording. A
+/// chosen figure, not a measured one: on an H200 (2026-11-29) δ = L/25's cavity, 5 000
+/// fluid particles, ran about 900 steps/s whatever its scheme, where its GPU stages
+/// were a fraction of the 1.1 ms a step took, and recording a step takes 0.1–0.3 ms
+/// (`couplet bench` prints the recording and the submission apart). On lavapipe the
+/// submit runs the work, and a run is the same to the bit at any count.
+pub const STEPS_PER_SUBMIT_DEFAULT: u32 = 8;
+
+/// The most steps one submission may hold (the grains' τ slots, one per step).
+pub const MAX_STEPS_PER_SUBMIT: u32 = 64;
+
+/// The environment variable that sets the steps per submission (1 to
+/// [`MAX_STEPS_PER_SUBMIT`]), for measuring it on a GPU without a rebuild.
+pub const STEPS_PER_SUBMIT_ENV: &str = "COUPLET_STEPS_PER_SUBMIT";
 
 /// The device and queue every fluid kernel runs on.
 pub struct Gpu {
@@ -94,6 +122,11 @@ pub struct Gpu {
     /// The lanes per particle [`DENSE_LANES_ENV`] set for the dense team passes, if it
     /// is set.
     dense_lanes_override: Option<u32>,
+    /// Fluid steps a submission holds: [`STEPS_PER_SUBMIT_ENV`]'s if set, else
+    /// [`STEPS_PER_SUBMIT_DEFAULT`]. Public so that a test can compare counts on the one
+    /// test device (`shared_test_gpu` restores it).
+    pub steps_per_submit: u32,
+    steps_per_submit_override: Option<u32>,
 }
 
 /// The whole number the environment variable `name` sets, if it is set: `Err` with what
@@ -174,6 +207,10 @@ impl Gpu {
             team_lanes_override.unwrap_or_else(|| team_lanes_for(adapter_info.device_type));
         let dense_lanes_override = env_knob(DENSE_LANES_ENV, team_lanes_valid)
             .map_err(|value| GpuError::BadDenseLanes { value })?;
+        let steps_per_submit_override = env_knob(STEPS_PER_SUBMIT_ENV, |k| {
+            (1..=MAX_STEPS_PER_SUBMIT).contains(&k)
+        })
+        .map_err(|value| GpuError::BadStepsPerSubmit { value })?;
         Ok(Gpu {
             device,
             queue,
@@ -183,6 +220,8 @@ impl Gpu {
             team_lanes,
             team_lanes_override,
             dense_lanes_override,
+            steps_per_submit: steps_per_submit_override.unwrap_or(STEPS_PER_SUBMIT_DEFAULT),
+            steps_per_submit_override,
         })
     }
 
@@ -213,7 +252,7 @@ impl Gpu {
     pub fn describe(&self) -> String {
         let i = &self.adapter_info;
         format!(
-            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}, team lanes {}{}{}{})",
+            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}, team lanes {}{}{}{}{})",
             i.name,
             i.device_type,
             i.driver,
@@ -231,6 +270,10 @@ impl Gpu {
             },
             match self.grid_reach_override {
                 Some(r) => format!(", grid reach {r} from {GRID_REACH_ENV}"),
+                None => String::new(),
+            },
+            match self.steps_per_submit_override {
+                Some(k) => format!(", {k} steps a submission from {STEPS_PER_SUBMIT_ENV}"),
                 None => String::new(),
             }
         )
@@ -321,6 +364,9 @@ pub fn shared_test_gpu() -> Result<MutexGuard<'static, Gpu>, GpuError> {
         Ok(m) => {
             let mut gpu = m.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
             gpu.team_lanes = gpu.adapter_team_lanes();
+            gpu.steps_per_submit = gpu
+                .steps_per_submit_override
+                .unwrap_or(STEPS_PER_SUBMIT_DEFAULT);
             Ok(gpu)
         }
         Err(e) => Err(e.clone()),

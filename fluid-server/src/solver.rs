@@ -901,12 +901,14 @@ pub struct FluidSolver {
     step_params: StepParams,
     time: f64,
     steps: u64,
-    /// CPU time spent recording and submitting the steps of every `advance`, s: where
-    /// the GPU runs behind the CPU, a step whose GPU time is below its share of this is
-    /// bound by the CPU (`couplet bench` prints it). Lavapipe's submit returns only once
-    /// the work before it is done (2026-11-30: 0.3 ms to record a CPB step here, 240 ms
-    /// in the submit), so there it is the wall time.
+    /// CPU time spent recording the steps of every `advance` (encoding, bind groups, up
+    /// to `CommandEncoder::finish`) and submitting them, s: where the GPU runs behind the
+    /// CPU, a step whose GPU time is below its share of the two is bound by the CPU
+    /// (`couplet bench` prints both). Lavapipe's submit returns only once the work before
+    /// it is done (2026-11-30: 0.3 ms to record a CPB step here, 240 ms in the submit), so
+    /// there the submit is the wall time and the recording alone is the CPU's share.
     record_s: f64,
+    submit_s: f64,
     loads_ready: bool,
     /// Particle-steps of the last window whose truncation matrix was near-singular
     /// (kept the uncorrected gradient); 0 without the gradient pass.
@@ -1030,6 +1032,7 @@ impl FluidSolver {
             time: 0.0,
             steps: 0,
             record_s: 0.0,
+            submit_s: 0.0,
             loads_ready: false,
             near_singular: 0,
             reflected: 0,
@@ -1178,9 +1181,10 @@ impl FluidSolver {
         self.steps
     }
 
-    /// CPU time spent recording and submitting steps so far, s (see the field).
-    pub fn record_seconds(&self) -> f64 {
-        self.record_s
+    /// CPU time spent recording steps and submitting them so far, s: (recording,
+    /// submitting) (see the field).
+    pub fn record_seconds(&self) -> (f64, f64) {
+        (self.record_s, self.submit_s)
     }
 
     /// Gravity becomes `g`, m/s², from the next step on. It reaches the fluid only when
@@ -1421,19 +1425,22 @@ impl FluidSolver {
     }
 
     /// Records one predictor–corrector step (Joubert eqs. 20–23) as labelled passes.
-    /// `tau`: the step's start since the window's (the grains' porosity moves them by v τ).
+    /// `tau`: the step's start since the window's (the grains' porosity moves them by v τ);
+    /// `slot`: the step's place in the encoder's submission (steps before it in the same
+    /// encoder, below `gpu::MAX_STEPS_PER_SUBMIT`), where its τ goes.
     pub fn queue_step(
         &self,
         gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
         mut timer: Option<&mut StageTimer>,
         tau: f64,
+        slot: u32,
     ) -> Result<(), FluidError> {
         let d = &self.data;
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerUpdate);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Sort);
         if let Some(g) = &self.grains {
-            g.queue_solid_fraction(gpu, encoder, d, tau)?;
+            g.queue_solid_fraction(gpu, encoder, d, tau, slot)?;
         }
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::SmoothingLengths);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Gradients);
@@ -1516,26 +1523,47 @@ impl FluidSolver {
         self.step_params.dt = dt as f32;
         self.step_params.load_weight = (0.5 / f64::from(substeps)) as f32;
         self.write_params(gpu);
+        // `gpu.steps_per_submit` steps a submission; one when every stage is timed (the
+        // timer reads its queries back after each submission).
+        let per_submit = if timer.is_some() {
+            1
+        } else {
+            gpu.steps_per_submit
+        };
+        let mut batch: Option<(wgpu::CommandEncoder, u32)> = None;
         for s in 0..substeps {
             let recording = std::time::Instant::now();
-            let mut encoder = gpu
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("sph: step"),
-                });
+            let (encoder, slot) = batch.get_or_insert_with(|| {
+                let encoder = gpu
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("sph: steps"),
+                    });
+                (encoder, 0)
+            });
             if s == 0 {
-                self.queue_window_start(gpu, &mut encoder);
+                self.queue_window_start(gpu, encoder);
             }
-            self.queue_step(gpu, &mut encoder, timer.as_deref_mut(), f64::from(s) * dt)?;
-            if s + 1 == substeps {
+            self.queue_step(gpu, encoder, timer.as_deref_mut(), f64::from(s) * dt, *slot)?;
+            *slot += 1;
+            let last = s + 1 == substeps;
+            if last {
                 self.data
-                    .queue_op(gpu, &mut encoder, timer.as_deref_mut(), Op::ReduceBodyLoads);
+                    .queue_op(gpu, encoder, timer.as_deref_mut(), Op::ReduceBodyLoads);
             }
+            if !(last || *slot == per_submit) {
+                self.record_s += recording.elapsed().as_secs_f64();
+                continue;
+            }
+            let (mut encoder, _) = batch.take().expect("the batch recorded above");
             if let Some(t) = timer.as_deref_mut() {
                 t.finish(gpu, &mut encoder);
             }
-            gpu.queue.submit([encoder.finish()]);
-            self.record_s += recording.elapsed().as_secs_f64();
+            let commands = encoder.finish();
+            let submitting = std::time::Instant::now();
+            self.record_s += (submitting - recording).as_secs_f64();
+            gpu.queue.submit([commands]);
+            self.submit_s += submitting.elapsed().as_secs_f64();
             if let Some(t) = timer.as_deref_mut() {
                 t.collect(gpu)?;
             }

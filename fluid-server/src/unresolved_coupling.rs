@@ -396,6 +396,11 @@ pub struct GrainBuffers {
     pub porosity: wgpu::Buffer,
     pub sample: wgpu::Buffer,
     pub tau: wgpu::Buffer,
+    /// τ of each step of one submission, one vec4 a slot
+    /// (`gpu::MAX_STEPS_PER_SUBMIT`): `queue.write_buffer` lands before a submission's
+    /// commands, so a submission of several steps writes each step's τ to its own slot
+    /// and copies it into `tau` in the command stream, before the step's passes.
+    pub tau_slots: wgpu::Buffer,
     /// The `energy-pair` pressure force's window sum, one vec4 per grain (exact size:
     /// its length is the grain count the kernel sees).
     pub pressure: wgpu::Buffer,
@@ -444,6 +449,12 @@ impl GrainBuffers {
                     contents: &[0u8; 16],
                     usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 }),
+            tau_slots: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("grain tau slots"),
+                size: 16 * u64::from(crate::gpu::MAX_STEPS_PER_SUBMIT),
+                usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
             pressure: gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("grain pressure force"),
                 size: 16 * grains.len().max(1) as u64,
@@ -702,7 +713,7 @@ impl GrainCoupling {
             });
             bound.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
         }
-        self.queue_solid_fraction(gpu, &mut encoder, data, 0.0)?;
+        self.queue_solid_fraction(gpu, &mut encoder, data, 0.0, 0)?;
         // The window's pressures at the new porosity (Robinson eq. 15).
         data.queue_op(gpu, &mut encoder, None, Op::TaitEos);
         // energy-pair: the window's pressure force starts from 0.
@@ -723,14 +734,16 @@ impl GrainCoupling {
     /// Records the fluid's porosity (Robinson eq. 9) with the grains moved by v τ from
     /// the window's start, after a sort: at sampling (τ = 0) and after every step's sort,
     /// so that the porosity follows the grains instead of jumping once a window (each
-    /// jump is a pressure pulse through the EOS on ρ/ε). `tau` reaches the GPU with the
-    /// encoder's submission, so one encoder holds one step.
+    /// jump is a pressure pulse through the EOS on ρ/ε). `tau` goes to the GPU in `slot`
+    /// of the τ slots (`GrainBuffers::tau_slots`), the step's place in the encoder's
+    /// submission: each step of one submission needs its own.
     pub fn queue_solid_fraction(
         &self,
         gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
         data: &SphData,
         tau: f64,
+        slot: u32,
     ) -> Result<(), FluidError> {
         let solid_buffer = (data.solid.as_ref()).ok_or_else(|| missing("the solid fraction"))?;
         let solid = self
@@ -752,11 +765,13 @@ impl GrainCoupling {
                 Some(data.grid.bind_group()),
             )
             .ok_or_else(|| missing("grain_solid_fraction"))?;
+        let at = 16 * u64::from(slot);
         gpu.queue.write_buffer(
-            &self.buffers.tau,
-            0,
+            &self.buffers.tau_slots,
+            at,
             bytemuck::cast_slice(&[tau as f32, 0.0, 0.0, 0.0]),
         );
+        encoder.copy_buffer_to_buffer(&self.buffers.tau_slots, at, &self.buffers.tau, 0, 16);
         encoder.clear_buffer(solid_buffer, 0, None);
         if let Some(g) = &data.solid_grad {
             encoder.clear_buffer(g, 0, None);

@@ -792,6 +792,66 @@ fn two_way_coupling_conserves_momentum() {
     }
 }
 
+/// Steps recorded several to a submission (`gpu::STEPS_PER_SUBMIT_DEFAULT`) give the
+/// same run, bit for bit, as one step a submission. The grains' porosity moves them by
+/// v τ with τ the step's own time in the window, and `queue.write_buffer` lands before
+/// a submission's first command, so each step of a submission takes its τ from its own
+/// slot: with every step's τ written to one place, the steps after the first of a
+/// submission would all see the last step's τ. A grain crossing the fluid at 0.5 m/s
+/// (energy-pair pressure force, two-way), windows of 6 steps in submissions of 4 and 2
+/// against 6 of 1: every particle's position, velocity and density and the grain's
+/// window loads equal. Reference: the one-step-a-submission run.
+#[test]
+fn steps_several_to_a_submission_repeat_one_a_submission() {
+    let mut gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = grain_scene(1, true, "energy-pair");
+    let run = |gpu: &Gpu| {
+        let mut solver = FluidSolver::new(gpu, &s).unwrap();
+        let origin = solver.origin();
+        let volume = 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3);
+        let grain = Grain {
+            position: [0.003, -0.002, 0.001],
+            velocity: [0.5, 0.2, 0.0],
+            volume,
+            diameter: 0.006,
+            porosity: 1.0,
+        };
+        let window = 6.0 * solver.limits().dt;
+        let mut forces = Vec::new();
+        for _ in 0..3 {
+            let mut loads = solver
+                .grain_loads(gpu, &states(&[grain], origin, 2500.0))
+                .unwrap();
+            assert_eq!(solver.advance(gpu, window, None).unwrap(), 6);
+            solver.add_grain_pressure_forces(gpu, &mut loads).unwrap();
+            forces.push(loads[0].force);
+        }
+        (solver.data().read(gpu).unwrap(), forces)
+    };
+    gpu.steps_per_submit = 1;
+    let (one, one_forces) = run(&gpu);
+    gpu.steps_per_submit = 4;
+    let (four, four_forces) = run(&gpu);
+    assert_eq!(one_forces, four_forces, "the grain's window loads");
+    assert_eq!(one.id, four.id);
+    let moved = (0..one.len()).filter(|&i| one.vel[i] != [0.0; 3]).count();
+    println!("{moved} of {} particles moved", one.len());
+    assert!(moved > 100, "only {moved} particles moved");
+    for i in 0..one.len() {
+        assert_eq!(
+            one.pos[i], four.pos[i],
+            "position of particle {}",
+            one.id[i]
+        );
+        assert_eq!(
+            one.vel[i], four.vel[i],
+            "velocity of particle {}",
+            one.id[i]
+        );
+        assert_eq!(one.rho[i], four.rho[i], "density of particle {}", one.id[i]);
+    }
+}
+
 /// Regression (2026-11-24): `sample_grains` sorts the particles and then reads du/dt,
 /// which the sort did not permute, so after particles had changed cells θ_b came from
 /// other particles (hidden in a fluid at rest, where every θ_b is the same). Now the

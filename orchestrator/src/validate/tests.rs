@@ -253,8 +253,9 @@ fn script_lines(folder: &str) -> Vec<(String, String)> {
 /// and sweep points it has (`--point K`), and every line of its bench files
 /// (`scripts/gpu-benches/*.txt`, `couplet bench`'s arguments: a scene path from the
 /// repository root, flags, after any `COUPLET_NAME=VALUE` words, each a variable the
-/// fluid server reads with a value it takes) a scene that resolves with its `--set`s: a typo there
-/// would cost a GPU call its minutes of set-up and come back empty.
+/// fluid server reads with a value it takes) a scene that resolves with its `--set`s and
+/// `--spacing`: a typo there would cost a GPU call its minutes of set-up and come back
+/// empty.
 #[test]
 fn gpu_vals_files_name_cases_variants_and_points_that_exist() {
     let vals = script_lines("gpu-vals");
@@ -300,15 +301,21 @@ fn gpu_vals_files_name_cases_variants_and_points_that_exist() {
                 | couplet_fluid::neighbour_grid::DENSE_LANES_ENV => {
                     couplet_fluid::neighbour_grid::team_lanes_valid(value)
                 }
+                couplet_fluid::gpu::STEPS_PER_SUBMIT_ENV => {
+                    (1..=couplet_fluid::gpu::MAX_STEPS_PER_SUBMIT).contains(&value)
+                }
                 _ => panic!("{at}: {name} is not a variable the fluid server reads"),
             };
             assert!(ok, "{at}: {name} = {value} is out of its range");
             words.remove(0);
         }
-        let sets: Vec<(String, String)> = (words.windows(2).filter(|w| w[0] == "--set"))
-            .map(|w| {
-                let (k, v) = w[1].split_once('=').unwrap();
-                (k.to_string(), v.to_string())
+        let sets: Vec<(String, String)> = (words.windows(2))
+            .filter_map(|w| match w[0] {
+                "--set" => w[1]
+                    .split_once('=')
+                    .map(|(k, v)| (k.to_string(), v.to_string())),
+                "--spacing" => Some(("fluid.spacing".to_string(), w[1].to_string())),
+                _ => None,
             })
             .collect();
         resolve_scene(&root.join(words[0]), &sets).unwrap_or_else(|e| panic!("{at}: {e}"));
