@@ -262,6 +262,31 @@ fn rates_pass(
     (got, drho, dvel, want)
 }
 
+/// (max |Δ|, max) of the GPU's dρ/dt and of its du/dt against the twin's `want`, over
+/// the fluid entries. Gravity is added exactly on both sides, so du/dt is compared
+/// without it: the pair sums.
+fn rate_errors(
+    c: &SphConstants,
+    drho: &[f64],
+    dvel: &[[f64; 3]],
+    want: &[Option<(f64, [f64; 3])>],
+) -> [(f64, f64); 2] {
+    let fluid: Vec<usize> = (0..want.len()).filter(|&i| want[i].is_some()).collect();
+    let continuity = max_err(
+        fluid
+            .iter()
+            .map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))),
+    );
+    let g = c.gravity_fluid;
+    let momentum = max_err(fluid.iter().flat_map(|&i| {
+        let w = want[i].map_or([0.0; 3], |w| w.1);
+        (0..3)
+            .map(move |k| (dvel[i][k] - g[k], w[k] - g[k]))
+            .collect::<Vec<_>>()
+    }));
+    [continuity, momentum]
+}
+
 /// [`check_rates`] with continuity and momentum held to `rtol` = [continuity, momentum]
 /// of their largest values, for a step `dt` (which only the mass correction reads), at
 /// each team width of the rates pass (one lane per particle, as on lavapipe, and a GPU's
@@ -277,22 +302,8 @@ fn check_rates_within(effects: &str, walls: &str, seed: u64, rtol: [f64; 2], dt:
         for (k, v) in set.vel.iter_mut().enumerate().skip(n_fluid) {
             *v = [0.2, 0.0, -0.1 * (k % 3) as f64];
         }
-        let (got, drho, dvel, want) = rates_pass(gpu, &s, &c, set, dt);
-        let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
-        let (ec, mc) = max_err(
-            fluid
-                .iter()
-                .map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))),
-        );
-        // Gravity is added exactly on both sides: compare the pair sums.
-        let g = c.gravity_fluid;
-        let dvel = &dvel;
-        let (em, mm) = max_err(fluid.iter().flat_map(|&i| {
-            let w = want[i].map_or([0.0; 3], |w| w.1);
-            (0..3)
-                .map(move |k| (dvel[i][k] - g[k], w[k] - g[k]))
-                .collect::<Vec<_>>()
-        }));
+        let (_, drho, dvel, want) = rates_pass(gpu, &s, &c, set, dt);
+        let [(ec, mc), (em, mm)] = rate_errors(&c, &drho, &dvel, &want);
         println!(
             "{effects} {walls}: continuity max |Δ| = {ec:e} of {mc:e}; momentum max |Δ| = {em:e} of {mm:e}"
         );
@@ -377,20 +388,7 @@ fn rates_match_cpu_twin_viscous_free_slip() {
     let got = solver.data().read(&gpu).unwrap();
     let (drho, dvel) = solver.data().read_rates(&gpu).unwrap();
     let want = fluid_rates_cpu(&c, &got, 1e-4);
-    let fluid: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
-    let (ec, mc) = max_err(
-        fluid
-            .iter()
-            .map(|&i| (drho[i], want[i].map_or(0.0, |w| w.0))),
-    );
-    let g = c.gravity_fluid;
-    let dvel = &dvel;
-    let (em, mm) = max_err(fluid.iter().flat_map(|&i| {
-        let w = want[i].map_or([0.0; 3], |w| w.1);
-        (0..3)
-            .map(move |k| (dvel[i][k] - g[k], w[k] - g[k]))
-            .collect::<Vec<_>>()
-    }));
+    let [(ec, mc), (em, mm)] = rate_errors(&c, &drho, &dvel, &want);
     println!("free-slip quintic: continuity {ec:e} of {mc:e}; momentum {em:e} of {mm:e}");
     assert!(ec <= PAIR_RTOL * mc && em <= PAIR_RTOL * mm);
 }
