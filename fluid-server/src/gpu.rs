@@ -79,12 +79,13 @@ pub enum GpuError {
 /// sums); speed does.
 pub const GRID_REACH_ENV: &str = "COUPLET_GRID_REACH";
 
-/// Fluid steps recorded into one command buffer and submitted together (the last
-/// submission of a window may hold fewer), unless [`STEPS_PER_SUBMIT_ENV`] sets
-/// another count. Each `queue.submit` has a fixed cost on the CPU (wgpu's validation
-/// and resource tracking, the driver's fence) and the GPU can start a submission only
-/// once the CPU has recorded all of it: one step a submission pays the first every
-/// step, a whole window in one would make the GPU wait for the window's recording. A
+/// Fluid steps recorded into one command buffer and submitted together, at most, unless
+/// [`STEPS_PER_SUBMIT_ENV`] sets another count: a window's submissions hold 1, 2, 4, …
+/// steps up to it (the last may hold fewer). Each `queue.submit` has a fixed cost on
+/// the CPU (wgpu's validation and resource tracking, the driver's fence) and the GPU can
+/// start a submission only once the CPU has recorded all of it: one step a submission
+/// pays the first every step, a whole window in one would make the GPU wait for the
+/// window's recording, and the doubling lets the GPU start on the first step at once. A
 /// chosen figure, not a measured one: on an H200 (2026-11-29) δ = L/25's cavity, 5 000
 /// fluid particles, ran about 900 steps/s whatever its scheme, where its GPU stages
 /// were a fraction of the 1.1 ms a step took, and recording a step takes 0.1–0.3 ms

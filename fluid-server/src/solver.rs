@@ -1523,13 +1523,17 @@ impl FluidSolver {
         self.step_params.dt = dt as f32;
         self.step_params.load_weight = (0.5 / f64::from(substeps)) as f32;
         self.write_params(gpu);
-        // `gpu.steps_per_submit` steps a submission; one when every stage is timed (the
-        // timer reads its queries back after each submission).
-        let per_submit = if timer.is_some() {
+        // Submissions of 1, 2, 4, … steps up to `gpu.steps_per_submit`: the GPU starts
+        // on the window's first step while the CPU records the next two, and so on, so
+        // that recording stays behind the GPU's work (gpu::STEPS_PER_SUBMIT_DEFAULT).
+        // One a submission when every stage is timed (the timer reads its queries back
+        // after each).
+        let most = if timer.is_some() {
             1
         } else {
             gpu.steps_per_submit
         };
+        let mut per_submit = 1;
         let mut batch: Option<(wgpu::CommandEncoder, u32)> = None;
         for s in 0..substeps {
             let recording = std::time::Instant::now();
@@ -1556,6 +1560,7 @@ impl FluidSolver {
                 continue;
             }
             let (mut encoder, _) = batch.take().expect("the batch recorded above");
+            per_submit = (2 * per_submit).min(most);
             if let Some(t) = timer.as_deref_mut() {
                 t.finish(gpu, &mut encoder);
             }

@@ -798,7 +798,7 @@ fn two_way_coupling_conserves_momentum() {
 /// a submission's first command, so each step of a submission takes its τ from its own
 /// slot: with every step's τ written to one place, the steps after the first of a
 /// submission would all see the last step's τ. A grain crossing the fluid at 0.5 m/s
-/// (energy-pair pressure force, two-way), windows of 6 steps in submissions of 4 and 2
+/// (energy-pair pressure force, two-way), windows of 6 steps in submissions of 1, 2 and 3
 /// against 6 of 1: every particle's position, velocity and density and the grain's
 /// window loads equal. Reference: the one-step-a-submission run.
 #[test]
