@@ -1514,12 +1514,7 @@ mod tests {
             assert_eq!(one.contact_torque, three.contact_torque, "step {step}");
             assert_eq!(one.springs.keyed(), three.springs.keyed(), "step {step}");
             assert_eq!(serial.contact_count(), one.contact_count(), "step {step}");
-            let largest = (serial.contact_force.iter())
-                .map(|f| norm(*f))
-                .fold(0.0, f64::max);
-            for (a, b) in serial.contact_force.iter().zip(&one.contact_force) {
-                worst = worst.max(norm(sub(*a, *b)) / largest);
-            }
+            worst = worst.max(force_difference(&serial, &one));
         }
         println!("largest force difference, one chunk against 16: {worst:.2e} of the largest");
         assert!(
@@ -1591,6 +1586,17 @@ mod tests {
             across > 20,
             "only {across} pairs touch through a periodic face"
         );
+    }
+
+    /// The largest difference between two engines' contact forces on the same sphere,
+    /// over the largest contact force of `a`.
+    fn force_difference(a: &SoftSphereEngine, b: &SoftSphereEngine) -> f64 {
+        let largest = (a.contact_force.iter())
+            .map(|f| norm(*f))
+            .fold(0.0, f64::max);
+        (a.contact_force.iter().zip(&b.contact_force))
+            .map(|(x, y)| norm(sub(*x, *y)) / largest)
+            .fold(0.0, f64::max)
     }
 
     /// Members of a translation group are not paired (their forces on each other are
@@ -1665,12 +1671,7 @@ mod tests {
             dense.step(dt).unwrap();
             hashed.step(dt).unwrap();
             assert_eq!(dense.contact_count(), hashed.contact_count(), "step {step}");
-            let largest = (dense.contact_force.iter())
-                .map(|f| norm(*f))
-                .fold(0.0, f64::max);
-            for (a, b) in dense.contact_force.iter().zip(&hashed.contact_force) {
-                worst = worst.max(norm(sub(*a, *b)) / largest);
-            }
+            worst = worst.max(force_difference(&dense, &hashed));
         }
         println!("largest force difference, dense against hashed: {worst:.2e} of the largest");
         assert!(

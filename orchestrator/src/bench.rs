@@ -65,11 +65,11 @@ pub fn bench(
 
     // Wall clock without per-stage instrumentation …
     let t = Instant::now();
-    let recorded = solver.record_seconds();
+    let (record0, submit0) = solver.record_seconds();
     solver.advance(&gpu, dt * steps as f64, None)?;
     let wall = t.elapsed().as_secs_f64();
-    let record = solver.record_seconds().0 - recorded.0;
-    let submit = solver.record_seconds().1 - recorded.1;
+    let (record, submit) = solver.record_seconds();
+    let (record, submit) = (record - record0, submit - submit0);
     // … then the same number of steps again with every stage timed.
     let mut timer = StageTimer::new(&gpu, 64);
     solver.advance(&gpu, dt * steps as f64, Some(&mut timer))?;
@@ -143,8 +143,13 @@ pub fn bench(
     }
 
     if !scene.grains().is_empty() {
-        let _ = writeln!(w, "\n{}", grain_porosity_time(&scene, &solver)?);
-        let _ = writeln!(w, "{}", grain_window_start_time(&scene, &gpu, &mut solver)?);
+        let states = starting_states(&scene)?;
+        let _ = writeln!(w, "\n{}", grain_porosity_time(&scene, &states, &solver));
+        let _ = writeln!(
+            w,
+            "{}",
+            grain_window_start_time(&states, &gpu, &mut solver)?
+        );
     }
 
     if scene.needs_dem() {
@@ -217,10 +222,10 @@ fn starting_states(
 /// builds the neighbour lists, the others sum them; the fastest of five each.
 fn grain_porosity_time(
     scene: &couplet_protocol::Scene,
+    states: &[couplet_protocol::BodyState],
     solver: &FluidSolver,
-) -> Result<String, BenchError> {
+) -> String {
     use couplet_fluid::porosity::{GrainPorosity, PorosityField, Solid};
-    let states = starting_states(scene)?;
     let solids: Vec<Solid> = (scene.grains().into_iter())
         .map(|i| Solid {
             position: states[i].position,
@@ -238,14 +243,14 @@ fn grain_porosity_time(
         std::hint::black_box(lists.porosity(&solids));
         later = later.min(t.elapsed().as_secs_f64());
     }
-    Ok(format!(
+    format!(
         "grain porosity (Robinson eq. 9 at {} grains, CPU f64, once a window): {:.3} ms a window \
          from the neighbour lists, {:.3} ms when they are built; {} thread(s)",
         solids.len(),
         later * 1e3,
         first * 1e3,
         PorosityField::threads(solids.len())
-    ))
+    )
 }
 
 /// The whole of a grain window's start on the fluid side, as a coupled run pays it before
@@ -256,17 +261,16 @@ fn grain_porosity_time(
 /// grains' starting places (their lists built by the untimed one). Less the porosity
 /// above, what is left is the GPU's share and its two waits.
 fn grain_window_start_time(
-    scene: &couplet_protocol::Scene,
+    states: &[couplet_protocol::BodyState],
     gpu: &Gpu,
     solver: &mut FluidSolver,
 ) -> Result<String, BenchError> {
-    let states = starting_states(scene)?;
-    solver.grain_loads(gpu, &states)?;
+    solver.grain_loads(gpu, states)?;
     let (mut fastest, mut total) = (f64::INFINITY, 0.0);
     const TIMED: u32 = 10;
     for _ in 0..TIMED {
         let t = Instant::now();
-        std::hint::black_box(solver.grain_loads(gpu, &states)?);
+        std::hint::black_box(solver.grain_loads(gpu, states)?);
         let s = t.elapsed().as_secs_f64();
         fastest = fastest.min(s);
         total += s;
