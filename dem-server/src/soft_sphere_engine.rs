@@ -44,6 +44,7 @@ use crate::geometry::BodyGeometry;
 use couplet_protocol::cell_hash::CellHash;
 use couplet_protocol::vec3::{add, add_to, cross, dot, norm, quat_from_scaled_axis, scale, sub};
 use couplet_protocol::{BodyLoad, BodyState, ContactLaw, Domain, Motion, Scene, Shape};
+use rayon::prelude::*;
 use std::ops::Range;
 
 /// Normal law with its material constants.
@@ -290,8 +291,9 @@ impl ChunkForces {
     }
 }
 
-/// Spheres below which the force evaluation runs as one chunk on one thread: spawning
-/// the threads costs tens of µs a step, a few per cent of a step of this many spheres.
+/// Spheres below which the force evaluation runs as one chunk on one thread: handing the
+/// chunks to the worker pool and waking it costs about 10 µs a step, a few per cent of a
+/// step of this many spheres.
 const PARALLEL_MIN_SPHERES: usize = 4096;
 
 /// Chunks of a parallel force evaluation. Fixed, not the machine's thread count, so that
@@ -343,8 +345,6 @@ pub struct SoftSphereEngine {
     /// Scratch of the force evaluation, one per chunk (kept to reuse the buffers).
     chunks: Vec<ChunkForces>,
     sorted: Sorted,
-    /// Threads of a chunked force evaluation: the machine's.
-    threads: usize,
     /// Spheres from which the force evaluation is chunked: [`PARALLEL_MIN_SPHERES`]
     /// (the tests move it to compare with one chunk).
     parallel_min: usize,
@@ -529,7 +529,6 @@ impl SoftSphereEngine {
             spare_springs: Springs::default(),
             chunks: Vec::new(),
             sorted: Sorted::default(),
-            threads: std::thread::available_parallelism().map_or(1, |t| t.get()),
             parallel_min: PARALLEL_MIN_SPHERES,
             walls: walls(&scene.domain),
             period,
@@ -600,21 +599,15 @@ impl SoftSphereEngine {
         self.time
     }
 
-    /// Threads the force evaluation runs on: from [`PARALLEL_MIN_SPHERES`] spheres, one
-    /// per group of [`Self::chunks_per_thread`] chunks (the machine's threads when they
-    /// divide [`FORCE_CHUNKS`], fewer otherwise: 12 threads take 2 chunks each, 8
-    /// groups), else one.
+    /// Threads the force evaluation can run on: from [`PARALLEL_MIN_SPHERES`] spheres,
+    /// the worker pool's (rayon's, the machine's threads unless `RAYON_NUM_THREADS` says
+    /// otherwise), at most one per chunk; else one.
     pub fn force_threads(&self) -> usize {
         if self.x.len() >= self.parallel_min {
-            FORCE_CHUNKS.div_ceil(self.chunks_per_thread())
+            rayon::current_num_threads().min(FORCE_CHUNKS)
         } else {
             1
         }
-    }
-
-    /// Chunks each thread of a chunked force evaluation takes, in order.
-    fn chunks_per_thread(&self) -> usize {
-        FORCE_CHUNKS.div_ceil(self.threads.clamp(1, FORCE_CHUNKS))
     }
 
     /// Contacts (sphere–sphere and sphere–wall) active at the last force evaluation.
@@ -691,7 +684,7 @@ impl SoftSphereEngine {
     /// Sphere–sphere and sphere–wall contact forces and torques at the current positions
     /// and velocities; the tangential springs advance by `dt`. The spheres are walked in
     /// [`Sorted`] order; from [`PARALLEL_MIN_SPHERES`] on, that order splits into
-    /// [`FORCE_CHUNKS`] chunks over the machine's threads.
+    /// [`FORCE_CHUNKS`] chunks over the worker pool's threads.
     fn compute_forces(&mut self, dt: f64) {
         let n = self.x.len();
         let cell = self.contact_cell();
@@ -713,19 +706,14 @@ impl SoftSphereEngine {
         if n_chunks == 1 {
             self.chunk_forces(0..n, dt, &mut chunks[0]);
         } else {
-            let per_thread = self.chunks_per_thread();
+            // The pool's threads wait between steps: a thread spawned per step cost
+            // 120–160 µs on this repository's two-core VM (2026-11-30), the pool about
+            // 10 µs for all 16 chunks. Which thread sums a chunk changes no bit.
             let engine = &*self;
-            std::thread::scope(|scope| {
-                for (group, group_ranges) in
-                    chunks.chunks_mut(per_thread).zip(ranges.chunks(per_thread))
-                {
-                    scope.spawn(move || {
-                        for (out, range) in group.iter_mut().zip(group_ranges) {
-                            engine.chunk_forces(range.clone(), dt, out);
-                        }
-                    });
-                }
-            });
+            chunks
+                .par_iter_mut()
+                .zip(ranges.par_iter())
+                .for_each(|(out, range)| engine.chunk_forces(range.clone(), dt, out));
         }
         self.contact_force.fill([0.0; 3]);
         self.contact_torque.fill([0.0; 3]);
@@ -1489,23 +1477,24 @@ mod tests {
         let mut serial = pressed_block(n);
         serial.parallel_min = usize::MAX;
         let mut one = pressed_block(n);
-        one.threads = 1;
         let mut three = pressed_block(n);
-        three.threads = 3;
-        // What bench-dem reports: the threads actually spawned, one per group of chunks.
-        let spawned = |threads| {
-            let mut e = pressed_block(PARALLEL_MIN_SPHERES);
-            e.threads = threads;
-            e.force_threads()
+        let pool = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
         };
-        assert_eq!([1, 2, 3, 12, 64].map(spawned), [1, 2, 3, 8, 16]);
+        let (pool1, pool3) = (pool(1), pool(3));
+        // What bench-dem reports: the pool's threads, at most one per chunk.
+        let threads = |threads| pool(threads).install(|| one.force_threads());
+        assert_eq!([1, 2, 3, 12, 64].map(threads), [1, 2, 3, 12, 16]);
         assert_eq!(serial.force_threads(), 1);
         let dt = serial.stable_dt();
         let mut worst: f64 = 0.0;
         for step in 0..20 {
-            for e in [&mut serial, &mut one, &mut three] {
-                e.step(dt).unwrap();
-            }
+            serial.step(dt).unwrap();
+            pool1.install(|| one.step(dt)).unwrap();
+            pool3.install(|| three.step(dt)).unwrap();
             assert_eq!(
                 one.x, three.x,
                 "step {step}: positions depend on the threads"

@@ -16,7 +16,7 @@
 //!
 //! Grains are binned in hashed cells one support wide ([`CellHash`]); on a periodic axis the
 //! cells divide the period and distances are minimum images. Many points are summed on
-//! all the machine's threads. At the grains, window after window, [`GrainPorosity`]
+//! the worker pool's threads. At the grains, window after window, [`GrainPorosity`]
 //! keeps each grain's neighbours in a list across windows instead of binning anew.
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
@@ -27,6 +27,7 @@ use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_b
 use crate::unresolved_coupling::grain_binding;
 use couplet_protocol::Scene;
 use couplet_protocol::cell_hash::CellHash;
+use rayon::prelude::*;
 
 pub const GRAIN_POROSITY_WGSL: &str = include_str!("../shaders/grain_porosity.wgsl");
 pub const POROSITY_READ_WGSL: &str = include_str!("../shaders/grain_porosity_read.wgsl");
@@ -256,12 +257,13 @@ impl PorosityField {
     }
 
     /// Threads [`PorosityField::porosity`] and [`PorosityField::gradient`] run on for
-    /// `points` points: one below [`PARALLEL_MIN_POINTS`], else the machine's.
+    /// `points` points: one below [`PARALLEL_MIN_POINTS`], else the worker pool's (rayon's:
+    /// the machine's threads unless `RAYON_NUM_THREADS` says otherwise).
     pub fn threads(points: usize) -> usize {
         if points < PARALLEL_MIN_POINTS {
             1
         } else {
-            std::thread::available_parallelism().map_or(1, |t| t.get())
+            rayon::current_num_threads()
         }
     }
 
@@ -306,30 +308,14 @@ impl PorosityField {
     }
 }
 
-/// `f(i)` for i in 0..n, split into one run of consecutive indices per thread
+/// `f(i)` for i in 0..n, on the worker pool's threads from [`PARALLEL_MIN_POINTS`] on
 /// ([`PorosityField::threads`]). Each value is its own index's, so the bits do not depend
 /// on the thread count.
 fn par_map<T: Default + Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    let mut out: Vec<T> = (0..n).map(|_| T::default()).collect();
-    let threads = PorosityField::threads(n);
-    if threads == 1 {
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = f(i);
-        }
-        return out;
+    if PorosityField::threads(n) == 1 {
+        return (0..n).map(f).collect();
     }
-    let per = n.div_ceil(threads);
-    let f = &f;
-    std::thread::scope(|scope| {
-        for (c, o) in out.chunks_mut(per).enumerate() {
-            scope.spawn(move || {
-                for (k, o) in o.iter_mut().enumerate() {
-                    *o = f(c * per + k);
-                }
-            });
-        }
-    });
-    out
+    (0..n).into_par_iter().map(&f).collect()
 }
 
 /// Robinson eq. (9) at the grains themselves, once a window (their drag, eqs. 28–33),
@@ -484,7 +470,7 @@ impl GrainPorosity {
 /// one thread before it was binned in a `CellHash` and split, 17.5 ms after on two
 /// (2026-11-29, `couplet bench scenes/rayleigh-taylor.toml`), and its neighbour lists
 /// made it four times cheaper again ([`GrainPorosity`]). Below this many points,
-/// spawning threads costs more than it saves.
+/// handing them to the worker pool costs more than it saves.
 const PARALLEL_MIN_POINTS: usize = 2048;
 
 /// Solids binned for look-ups within one support: a [`CellHash`] of cells at least one
