@@ -67,6 +67,18 @@ pub fn serve(
     scene_digest: u32,
     dirs: &StateDirs,
 ) -> Result<(), ServerError> {
+    // On a thread of the worker pool, which then takes its share of the CPU sums
+    // (`couplet_protocol::worker_pool`).
+    couplet_protocol::in_worker_pool(|| serve_here(run_id, scene, orchestrator, scene_digest, dirs))
+}
+
+fn serve_here(
+    run_id: &str,
+    scene: &Scene,
+    orchestrator: &Orchestrator,
+    scene_digest: u32,
+    dirs: &StateDirs,
+) -> Result<(), ServerError> {
     let mut engine = create_engine(scene)?;
     if let Some(dir) = &dirs.restore {
         let (_, saved): (_, DemCheckpoint) = read_state(&state_file(dir, Role::Dem), Role::Dem)?;

@@ -292,8 +292,8 @@ impl ChunkForces {
 }
 
 /// Spheres below which the force evaluation runs as one chunk on one thread: handing the
-/// chunks to the worker pool and waking it costs about 10 µs a step, a few per cent of a
-/// step of this many spheres.
+/// chunks to the worker pool costs about 12 µs a step, a few per cent of a step of this
+/// many spheres.
 const PARALLEL_MIN_SPHERES: usize = 4096;
 
 /// Chunks of a parallel force evaluation. Fixed, not the machine's thread count, so that
@@ -706,9 +706,9 @@ impl SoftSphereEngine {
         if n_chunks == 1 {
             self.chunk_forces(0..n, dt, &mut chunks[0]);
         } else {
-            // The pool's threads wait between steps: a thread spawned per step cost
-            // 120–160 µs on this repository's two-core VM (2026-11-30), the pool about
-            // 10 µs for all 16 chunks. Which thread sums a chunk changes no bit.
+            // On the worker pool (`couplet_protocol::worker_pool`), whose threads wait
+            // between steps instead of being spawned for each. Which thread sums a
+            // chunk changes no bit.
             let engine = &*self;
             chunks
                 .par_iter_mut()

@@ -54,6 +54,18 @@ pub fn serve(
     scene_digest: u32,
     dirs: &StateDirs,
 ) -> Result<(), ServerError> {
+    // On a thread of the worker pool, which then takes its share of the CPU sums
+    // (`couplet_protocol::worker_pool`).
+    couplet_protocol::in_worker_pool(|| serve_here(run_id, scene, orchestrator, scene_digest, dirs))
+}
+
+fn serve_here(
+    run_id: &str,
+    scene: &Scene,
+    orchestrator: &Orchestrator,
+    scene_digest: u32,
+    dirs: &StateDirs,
+) -> Result<(), ServerError> {
     if scene.fluid.is_none() {
         return Err(ServerError::NoFluid);
     }

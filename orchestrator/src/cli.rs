@@ -391,12 +391,20 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
             scene,
             steps,
             overrides,
-        } => print!("{}", bench::bench(&scene, steps, &overrides.list()?)?),
+        } => {
+            let overrides = overrides.list()?;
+            // On the worker pool, as the servers run (`couplet_protocol::worker_pool`).
+            let text = couplet_protocol::in_worker_pool(|| bench::bench(&scene, steps, &overrides))?;
+            print!("{text}")
+        }
         Cmd::BenchDem {
             spheres,
             contact,
             steps,
-        } => print!("{}", bench::bench_dem(spheres, &contact, steps)?),
+        } => print!(
+            "{}",
+            couplet_protocol::in_worker_pool(|| bench::bench_dem(spheres, &contact, steps))?
+        ),
         Cmd::Validate {
             sweep,
             recording,

@@ -1,7 +1,8 @@
 //! The contract between couplet's processes: scene schema, zero-copy payloads,
 //! iceoryx2 service names, protocol version and handshake, validation of received data,
 //! checkpoint state files, the gRPC control API, the cell hash both servers search
-//! neighbours with, and the `[f64; 3]` arithmetic every crate uses.
+//! neighbours with, the `[f64; 3]` arithmetic every crate uses, and the worker pool their
+//! CPU sums run on.
 
 pub use handshake::{HandshakeError, check_hello, check_hello_for};
 pub use payload::{
@@ -16,6 +17,7 @@ pub use scene::{
 };
 pub use service::{ServiceLeaf, service_name};
 pub use validate::{ValidationError, validate_loads, validate_points, validate_states};
+pub use worker_pool::in_worker_pool;
 
 pub mod cell_hash;
 pub mod handshake;
@@ -26,6 +28,7 @@ pub mod state;
 pub mod transport;
 pub mod validate;
 pub mod vec3;
+pub mod worker_pool;
 
 /// The gRPC control API (`proto/couplet/v1/couplet.proto`): prost messages, the tonic
 /// client and server, and the encoded descriptor set for server reflection.

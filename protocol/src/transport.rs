@@ -468,7 +468,7 @@ pub enum Orchestrator {
     Detached {
         run_id: String,
         since: Instant,
-        seen: core::cell::Cell<bool>,
+        seen: core::sync::atomic::AtomicBool,
     },
 }
 
@@ -483,7 +483,7 @@ impl Orchestrator {
         Self::Detached {
             run_id: run_id.to_owned(),
             since: Instant::now(),
-            seen: core::cell::Cell::new(false),
+            seen: core::sync::atomic::AtomicBool::new(false),
         }
     }
 
@@ -501,9 +501,9 @@ impl Orchestrator {
                 seen,
             } => {
                 if node_alive(run_id, crate::Role::Orchestrator.name())? {
-                    seen.set(true);
+                    seen.store(true, core::sync::atomic::Ordering::Relaxed);
                     Ok(())
-                } else if seen.get() {
+                } else if seen.load(core::sync::atomic::Ordering::Relaxed) {
                     Err(TransportError::PeerGone(format!(
                         "the orchestrator of run {run_id} has exited (its iceoryx2 node is gone)"
                     )))
