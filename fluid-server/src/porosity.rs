@@ -311,7 +311,7 @@ impl PorosityField {
 /// `f(i)` for i in 0..n, on the worker pool's threads from [`PARALLEL_MIN_POINTS`] on
 /// ([`PorosityField::threads`]). Each value is its own index's, so the bits do not depend
 /// on the thread count.
-fn par_map<T: Default + Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+fn par_map<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
     if PorosityField::threads(n) == 1 {
         return (0..n).map(f).collect();
     }

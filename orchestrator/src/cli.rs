@@ -394,7 +394,8 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
         } => {
             let overrides = overrides.list()?;
             // On the worker pool, as the servers run (`couplet_protocol::worker_pool`).
-            let text = couplet_protocol::in_worker_pool(|| bench::bench(&scene, steps, &overrides))?;
+            let text =
+                couplet_protocol::in_worker_pool(|| bench::bench(&scene, steps, &overrides))?;
             print!("{text}")
         }
         Cmd::BenchDem {

@@ -44,7 +44,11 @@ mod tests {
     /// the sum of 0..100 000 is 4 999 950 000.
     #[test]
     fn runs_on_a_pool_thread_and_returns_its_value() {
-        assert_eq!(rayon::current_thread_index(), None, "the test thread is no worker");
+        assert_eq!(
+            rayon::current_thread_index(),
+            None,
+            "the test thread is no worker"
+        );
         let (index, threads, sum) = in_worker_pool(|| {
             (
                 rayon::current_thread_index(),
