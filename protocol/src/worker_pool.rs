@@ -16,6 +16,11 @@ use std::sync::OnceLock;
 
 static POOL: OnceLock<Result<rayon::ThreadPool, String>> = OnceLock::new();
 
+/// A pool thread's stack: a server's whole loop runs on one, where it ran on the main
+/// thread before, whose stack Linux sizes at 8 MiB by default (`ulimit -s`); a spawned
+/// thread gets 2 MiB unless told otherwise.
+const WORKER_STACK_BYTES: usize = 8 << 20;
+
 /// Runs `f` on a thread of the process's worker pool and returns its result; the
 /// parallel sums `f` makes then run on that pool with the calling thread taking part.
 /// Where the pool cannot be built (the system refuses threads), `f` runs here and the
@@ -24,6 +29,7 @@ pub fn in_worker_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     let pool = POOL.get_or_init(|| {
         rayon::ThreadPoolBuilder::new()
             .thread_name(|i| format!("couplet-worker-{i}"))
+            .stack_size(WORKER_STACK_BYTES)
             .build()
             .map_err(|e| e.to_string())
     });
