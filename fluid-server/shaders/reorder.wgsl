@@ -1,15 +1,17 @@
-// Counting sort, part 4: permutes one registered per-particle buffer.
-//   gather:    scratch[j] = buffer[src_of[j]]   (coalesced writes, cached reads)
-// then neighbour_grid.rs copies the scratch back with copy_buffer_to_buffer, so the
-// caller's buffer (and every bind group holding it) sees sorted data.
+// Counting sort, part 4: permutes the registered per-particle buffers, several a pass.
+//   gather:    reorder_out[k n + j] = in_k[src_of[j]]   (coalesced writes, cached reads)
+// for each member k of the pass; then neighbour_grid.rs copies slice k back over
+// buffer k with copy_buffer_to_buffer, so the caller's buffer (and every bind group
+// holding it) sees sorted data.
 //
-// Composed after the prelude, `alias Elem = vec4<u32>;` or `alias Elem = u32;`
-// (16- or 4-byte elements, moved as raw bits so NaN payloads survive) and
-// grid_common.wgsl (group 1: grid params only).
+// Composed (neighbour_grid.rs, `gather_pass`) after the prelude, `alias Elem =
+// vec4<u32>;` or `alias Elem = u32;` (16- or 4-byte elements, moved as raw bits so NaN
+// payloads survive) with the members' bindings `reorder_in0`, `reorder_in1`, … at
+// 2, 3, …, and grid_common.wgsl (group 1: grid params only); followed by
+// `gather_members(j, s)`, one line per member.
 
 @group(0) @binding(0) var<storage, read> reorder_src_of: array<u32>;
-@group(0) @binding(1) var<storage, read> reorder_in: array<Elem>;
-@group(0) @binding(2) var<storage, read_write> reorder_out: array<Elem>;
+@group(0) @binding(1) var<storage, read_write> reorder_out: array<Elem>;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn gather(
@@ -21,5 +23,5 @@ fn gather(
     if j >= grid.n_particles {
         return;
     }
-    reorder_out[j] = reorder_in[reorder_src_of[j]];
+    gather_members(j, reorder_src_of[j]);
 }

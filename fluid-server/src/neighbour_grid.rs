@@ -14,15 +14,18 @@
 //!    so particles keep their previous relative order: the sort is stable and a run
 //!    repeats bit for bit (without it, runs differed in round-off and a coarse
 //!    settling sphere's plateau varied 0.55–5.14 % between identical runs);
-//! 5. `grid: reorder` — every registered buffer gathered into one shared scratch
-//!    buffer and copied back (`copy_buffer_to_buffer`), so callers' buffers and bind
-//!    groups stay valid; one pass per buffer, timed together as one span.
+//! 5. `grid: reorder` — the registered buffers gathered into scratch slices, up to
+//!    [`GATHER_BUFFERS_PER_PASS`] of one element size a pass (so 2 passes for the
+//!    grain columns' 9 buffers instead of 9), then each copied back
+//!    (`copy_buffer_to_buffer`), so callers' buffers and bind groups stay valid; timed
+//!    together as one span.
 //!
 //! Pair kernels read the result through `shaders/grid_common.wgsl`
 //! ([`GRID_COMMON_WGSL`]), bound at group 1 ([`NeighbourGrid::bind_group`]).
 //!
-//! GPU memory: 16 B per particle (cell, rank, unordered and stable gather map) + one 16 B scratch per
-//! particle shared by all registered buffers + 4 B per cell.
+//! GPU memory: 16 B per particle (cell, rank, unordered and stable gather map) + a
+//! scratch slice as large as each registered buffer (16 or 4 B per particle each) + 4 B
+//! per cell.
 
 use std::num::NonZeroU64;
 
@@ -364,9 +367,32 @@ pub enum GridError {
 
 struct Registered {
     buffer: wgpu::Buffer,
-    bytes: u64,
-    gather: wgpu::BindGroup,
+    /// 16-byte (vec4) elements, else 4-byte.
     wide: bool,
+}
+
+/// Registered buffers a `grid: reorder` pass gathers at most: the bindings every adapter
+/// couplet accepts offers ([`crate::gpu::MIN_STORAGE_BUFFERS_PER_STAGE`]) less the
+/// gather map and the scratch, the same on every adapter so that the passes do not
+/// depend on it.
+///
+/// Why passes of many buffers: with one pass and one copy per buffer through one shared
+/// scratch, every pass waited for the copy before it, and the stage cost 0.147 ms of an
+/// H200's 1.1 ms step on the Rayleigh–Taylor column's 47 k particles and 9 buffers
+/// (13.3 %; 13.7 % on the constant-porosity block), where moving its 2.5 MB takes
+/// about a microsecond. Gathering several buffers a pass, each into its own slice,
+/// leaves 2 passes, and the copies back wait on nothing but them.
+pub const GATHER_BUFFERS_PER_PASS: usize = crate::gpu::MIN_STORAGE_BUFFERS_PER_STAGE as usize - 2;
+
+/// One `grid: reorder` pass: `members` (indices into the registered buffers, all of one
+/// element size) gathered into consecutive slices of `scratch`, slice k at k ×
+/// `slice_bytes`.
+struct GatherPass {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    scratch: wgpu::Buffer,
+    members: Vec<usize>,
+    slice_bytes: u64,
 }
 
 /// The grid's buffers, pipelines and registered particle arrays.
@@ -385,7 +411,6 @@ pub struct NeighbourGrid {
     #[cfg_attr(not(test), allow(dead_code))]
     unordered: wgpu::Buffer,
     src_of: wgpu::Buffer,
-    scratch: wgpu::Buffer,
     /// Stand-in for the id buffer until one is registered.
     no_ids: wgpu::Buffer,
     ids: Option<wgpu::Buffer>,
@@ -395,16 +420,19 @@ pub struct NeighbourGrid {
     grid_bind_group: wgpu::BindGroup,
     params_bind_group: wgpu::BindGroup,
     count_layout: wgpu::BindGroupLayout,
-    reorder_layout: wgpu::BindGroupLayout,
+    params_layout: wgpu::BindGroupLayout,
     scatter_bind_group: wgpu::BindGroup,
 
     count: wgpu::ComputePipeline,
     scatter: wgpu::ComputePipeline,
     order: wgpu::ComputePipeline,
-    gather16: wgpu::ComputePipeline,
-    gather4: wgpu::ComputePipeline,
+    /// The grid's reach R, for the gather passes' WGSL.
+    reach: u32,
 
     registered: Vec<Registered>,
+    /// The reorder's passes over `registered`, built by the first sort after a
+    /// registration ([`NeighbourGrid::reorder_passes`]).
+    gather_passes: std::sync::OnceLock<Vec<GatherPass>>,
 }
 
 fn storage_buffer(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
@@ -558,7 +586,6 @@ impl NeighbourGrid {
         let rank = storage_buffer(gpu, "grid: rank in cell", u64::from(n) * 4);
         let unordered = storage_buffer(gpu, "grid: slots in atomics' order", u64::from(n) * 4);
         let src_of = storage_buffer(gpu, "grid: gather map", u64::from(n) * 4);
-        let scratch = storage_buffer(gpu, "grid: reorder scratch", scratch_bytes);
         let no_ids = storage_buffer(gpu, "grid: no id buffer", 4);
         let prefix_sum = PrefixSum::new(gpu, &cell_start, n_cells + 1)?;
 
@@ -587,7 +614,6 @@ impl NeighbourGrid {
             "grid: scatter",
             &[st(10, true), st(11, true), st(12, false), st(13, false)],
         );
-        let reorder_layout = layout("grid: reorder", &[st(0, true), st(1, true), st(2, false)]);
 
         let cells_bytes = (u64::from(n_cells) + 1) * 4;
         let grid_bind_group = bind(
@@ -650,28 +676,6 @@ impl NeighbourGrid {
             "order_slots",
             &[Some(&scatter_layout), Some(&grid_layout)],
         );
-        let gather_pipeline = |elem: &str| {
-            let alias = format!("alias Elem = {elem};\n");
-            let module = shaders::module(
-                gpu,
-                "grid: reorder",
-                &[
-                    &alias,
-                    &grid_reach_wgsl(reach),
-                    GRID_COMMON_WGSL,
-                    REORDER_WGSL,
-                ],
-            );
-            shaders::compute_pipeline_with_layouts(
-                gpu,
-                "grid: gather",
-                &module,
-                "gather",
-                &[Some(&reorder_layout), Some(&params_layout)],
-            )
-        };
-        let gather16 = gather_pipeline("vec4<u32>");
-        let gather4 = gather_pipeline("u32");
 
         Ok(NeighbourGrid {
             params,
@@ -682,7 +686,6 @@ impl NeighbourGrid {
             rank,
             unordered,
             src_of,
-            scratch,
             no_ids,
             ids: None,
             prefix_sum,
@@ -690,14 +693,14 @@ impl NeighbourGrid {
             grid_bind_group,
             params_bind_group,
             count_layout,
-            reorder_layout,
+            params_layout,
             scatter_bind_group,
             count,
             scatter,
             order,
-            gather16,
-            gather4,
+            reach,
             registered: Vec::new(),
+            gather_passes: std::sync::OnceLock::new(),
         })
     }
 
@@ -731,14 +734,9 @@ impl NeighbourGrid {
 
     /// Registers a per-particle buffer (`STORAGE | COPY_DST` usage, at least n × `elem_bytes`
     /// bytes, `elem_bytes` 16 for vec4 or 4 for f32/u32) to be permuted by every sort.
-    /// After `queue_sort` the caller's buffer holds the sorted data; all registered
-    /// buffers share one scratch buffer. `pos` must be registered too.
-    pub fn register(
-        &mut self,
-        gpu: &Gpu,
-        buffer: &wgpu::Buffer,
-        elem_bytes: u32,
-    ) -> Result<(), GridError> {
+    /// After `queue_sort` the caller's buffer holds the sorted data. `pos` must be
+    /// registered too.
+    pub fn register(&mut self, buffer: &wgpu::Buffer, elem_bytes: u32) -> Result<(), GridError> {
         let bad = |reason: String| GridError::BadBuffer {
             buffer: format!("{buffer:?}"),
             reason,
@@ -763,30 +761,18 @@ impl NeighbourGrid {
                 self.params.n_particles
             )));
         }
-        let map_bytes = u64::from(self.params.n_particles) * 4;
-        let gather = bind(
-            gpu,
-            "grid: gather",
-            &self.reorder_layout,
-            &[
-                (0, sized(&self.src_of, map_bytes)),
-                (1, sized(buffer, bytes)),
-                (2, sized(&self.scratch, bytes)),
-            ],
-        );
         self.registered.push(Registered {
             buffer: buffer.clone(),
-            bytes,
-            gather,
             wide: elem_bytes == 16,
         });
+        self.gather_passes = std::sync::OnceLock::new();
         Ok(())
     }
 
     /// Registers the particles' original-id buffer (`u32`): it is permuted like any
     /// registered buffer, and [`GridError::ParticleOutside`] names particles by it.
-    pub fn register_ids(&mut self, gpu: &Gpu, ids: &wgpu::Buffer) -> Result<(), GridError> {
-        self.register(gpu, ids, 4)?;
+    pub fn register_ids(&mut self, ids: &wgpu::Buffer) -> Result<(), GridError> {
+        self.register(ids, 4)?;
         self.ids = Some(ids.clone());
         Ok(())
     }
@@ -832,25 +818,148 @@ impl NeighbourGrid {
         }
         self.queue_scatter_and_order(gpu, encoder, timer.as_deref_mut());
         if !self.registered.is_empty() {
-            // Gather into the scratch, then a plain buffer copy back: a copy is a
+            // Gather into the scratch slices, then plain buffer copies back: a copy is a
             // memcpy for the driver (lavapipe, 262k particles, 4 buffers: the stage
-            // went from 68 ms with a copy kernel to 23 ms).
+            // went from 68 ms with a copy kernel to 23 ms). Every gather before any
+            // copy: the gathers share only the map they read, and each copy waits only
+            // for its own pass.
+            let passes = self
+                .gather_passes
+                .get_or_init(|| self.build_gather_passes(gpu));
             timing::begin_span(timer.as_deref_mut(), gpu, encoder, "grid: reorder");
-            for r in &self.registered {
-                {
-                    let mut pass = timing::begin_pass(None, gpu, encoder, "grid: reorder");
-                    pass.set_bind_group(1, &self.params_bind_group, &[]);
-                    pass.set_pipeline(if r.wide {
-                        &self.gather16
-                    } else {
-                        &self.gather4
-                    });
-                    pass.set_bind_group(0, &r.gather, &[]);
-                    shaders::dispatch_linear(&mut pass, n);
+            for g in passes {
+                let mut pass = timing::begin_pass(None, gpu, encoder, "grid: reorder");
+                pass.set_pipeline(&g.pipeline);
+                pass.set_bind_group(0, &g.bind_group, &[]);
+                pass.set_bind_group(1, &self.params_bind_group, &[]);
+                shaders::dispatch_linear(&mut pass, n);
+            }
+            for g in passes {
+                for (k, &r) in g.members.iter().enumerate() {
+                    encoder.copy_buffer_to_buffer(
+                        &g.scratch,
+                        k as u64 * g.slice_bytes,
+                        &self.registered[r].buffer,
+                        0,
+                        g.slice_bytes,
+                    );
                 }
-                encoder.copy_buffer_to_buffer(&self.scratch, 0, &r.buffer, 0, r.bytes);
             }
             timing::end_span(timer, gpu, encoder);
+        }
+    }
+
+    /// The element sizes (16 or 4 bytes) and buffer counts of the reorder's passes, in
+    /// order, once a sort has built them (`None` before the first sort after a
+    /// registration).
+    pub fn reorder_passes(&self) -> Option<Vec<(u32, usize)>> {
+        self.gather_passes.get().map(|passes| {
+            (passes.iter())
+                .map(|g| {
+                    (
+                        if self.registered[g.members[0]].wide {
+                            16
+                        } else {
+                            4
+                        },
+                        g.members.len(),
+                    )
+                })
+                .collect()
+        })
+    }
+
+    /// The reorder's passes: the 16-byte buffers, then the 4-byte ones, each in
+    /// registration order and in passes of up to [`GATHER_BUFFERS_PER_PASS`], fewer where
+    /// their slices would pass the adapter's largest storage binding (at least one:
+    /// [`NeighbourGrid::new`] checked that a 16-byte slice fits).
+    fn build_gather_passes(&self, gpu: &Gpu) -> Vec<GatherPass> {
+        let n = u64::from(self.params.n_particles);
+        let max_binding = gpu.device.limits().max_storage_buffer_binding_size;
+        let mut passes = Vec::new();
+        for wide in [true, false] {
+            let slice_bytes = n * if wide { 16 } else { 4 };
+            let per_pass = GATHER_BUFFERS_PER_PASS.min((max_binding / slice_bytes).max(1) as usize);
+            let members: Vec<usize> = (0..self.registered.len())
+                .filter(|&r| self.registered[r].wide == wide)
+                .collect();
+            for chunk in members.chunks(per_pass) {
+                passes.push(self.gather_pass(gpu, wide, chunk.to_vec(), slice_bytes));
+            }
+        }
+        passes
+    }
+
+    /// One reorder pass over `members` (all of one element size): its WGSL (reorder.wgsl
+    /// with a binding and a line per member), pipeline, scratch and bind group.
+    fn gather_pass(
+        &self,
+        gpu: &Gpu,
+        wide: bool,
+        members: Vec<usize>,
+        slice_bytes: u64,
+    ) -> GatherPass {
+        let elem = if wide { "vec4<u32>" } else { "u32" };
+        let mut inputs = format!("alias Elem = {elem};\n");
+        let mut body =
+            String::from("fn gather_members(j: u32, s: u32) {\n    let n = grid.n_particles;\n");
+        for k in 0..members.len() {
+            inputs += &format!(
+                "@group(0) @binding({}) var<storage, read> reorder_in{k}: array<Elem>;\n",
+                k + 2
+            );
+            body += &format!("    reorder_out[{k}u * n + j] = reorder_in{k}[s];\n");
+        }
+        body += "}\n";
+        let module = shaders::module(
+            gpu,
+            "grid: reorder",
+            &[
+                &inputs,
+                &grid_reach_wgsl(self.reach),
+                GRID_COMMON_WGSL,
+                REORDER_WGSL,
+                &body,
+            ],
+        );
+        use shaders::storage_entry as st;
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = [st(0, true), st(1, false)]
+            .into_iter()
+            .chain((0..members.len()).map(|k| st(k as u32 + 2, true)))
+            .collect();
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("grid: reorder"),
+                entries: &entries,
+            });
+        let pipeline = shaders::compute_pipeline_with_layouts(
+            gpu,
+            "grid: reorder",
+            &module,
+            "gather",
+            &[Some(&layout), Some(&self.params_layout)],
+        );
+        let scratch_bytes = slice_bytes * members.len() as u64;
+        let scratch = storage_buffer(gpu, "grid: reorder scratch", scratch_bytes);
+        let map_bytes = u64::from(self.params.n_particles) * 4;
+        let bindings: Vec<(u32, wgpu::BindingResource<'_>)> = [
+            (0, sized(&self.src_of, map_bytes)),
+            (1, sized(&scratch, scratch_bytes)),
+        ]
+        .into_iter()
+        .chain(
+            (members.iter().enumerate())
+                .map(|(k, &r)| (k as u32 + 2, sized(&self.registered[r].buffer, slice_bytes))),
+        )
+        .collect();
+        let bind_group = bind(gpu, "grid: reorder", &layout, &bindings);
+        GatherPass {
+            pipeline,
+            bind_group,
+            scratch,
+            members,
+            slice_bytes,
         }
     }
 

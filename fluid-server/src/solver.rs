@@ -418,25 +418,25 @@ impl SphData {
         );
 
         let mut grid = NeighbourGrid::new(gpu, bounds, c.grid_radius(), c.grid_reach, n as u32)?;
-        grid.register(gpu, &pos, 16)?;
-        grid.register(gpu, &vel, 16)?;
-        grid.register(gpu, &rho, 4)?;
-        grid.register(gpu, &press, 4)?;
-        grid.register_ids(gpu, &id)?;
+        grid.register(&pos, 16)?;
+        grid.register(&vel, 16)?;
+        grid.register(&rho, 4)?;
+        grid.register(&press, 4)?;
+        grid.register_ids(&id)?;
         let solid = c
             .grains
             .then(|| storage_init(gpu, "sph: grain solid fraction", &zeros4));
         if let Some(s) = &solid {
             // Grains are sampled after a sort, from the rates of the step before it; the
             // porosity is set once per window.
-            grid.register(gpu, &dvel, 16)?;
-            grid.register(gpu, s, 4)?;
+            grid.register(&dvel, 16)?;
+            grid.register(s, 4)?;
         }
         let solid_grad = c
             .porosity_pair
             .then(|| storage_init(gpu, "sph: grain porosity gradient", &zeros16));
         if let Some(s) = &solid_grad {
-            grid.register(gpu, s, 16)?;
+            grid.register(s, 16)?;
         }
         let reaction = c
             .grain_reaction
@@ -445,8 +445,8 @@ impl SphData {
                 hi: storage_init(gpu, "sph: grain reaction (high words)", &zeros16),
             });
         if let Some(r) = &reaction {
-            grid.register(gpu, &r.lo, 16)?;
-            grid.register(gpu, &r.hi, 16)?;
+            grid.register(&r.lo, 16)?;
+            grid.register(&r.hi, 16)?;
         }
 
         let gradients = pipelines.gradients.is_some().then(|| GradientBuffers {

@@ -4,8 +4,8 @@
 
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::neighbour_grid::{
-    GRID_COMMON_WGSL, GRID_REACH_DEFAULT, GRID_REACH_RANGE, GridBox, GridError, GridParams,
-    NeighbourGrid, grid_reach_wgsl,
+    GATHER_BUFFERS_PER_PASS, GRID_COMMON_WGSL, GRID_REACH_DEFAULT, GRID_REACH_RANGE, GridBox,
+    GridError, GridParams, NeighbourGrid, grid_reach_wgsl,
 };
 use couplet_fluid::shaders;
 use couplet_fluid::timing::{StageTimer, TimingMode};
@@ -65,10 +65,10 @@ fn upload_and_register(gpu: &Gpu, grid: &mut NeighbourGrid, p: &Particles) -> On
         rho: buffer_init(gpu, "rho", &p.rho),
         id: buffer_init(gpu, "id", &p.id),
     };
-    grid.register(gpu, &b.pos, 16).unwrap();
-    grid.register(gpu, &b.vel, 16).unwrap();
-    grid.register(gpu, &b.rho, 4).unwrap();
-    grid.register_ids(gpu, &b.id).unwrap();
+    grid.register(&b.pos, 16).unwrap();
+    grid.register(&b.vel, 16).unwrap();
+    grid.register(&b.rho, 4).unwrap();
+    grid.register_ids(&b.id).unwrap();
     b
 }
 
@@ -569,6 +569,92 @@ fn grid_sort_permutes_every_registered_buffer() {
             );
         }
     }
+}
+
+/// More registered buffers of each size than one reorder pass gathers, registered with
+/// the sizes interleaved: every one is permuted as the ids are, bit for bit, in passes
+/// of at most `GATHER_BUFFERS_PER_PASS` buffers of one size (16-byte ones first, each
+/// size in registration order), and a registration after a sort makes the next sort
+/// plan its passes again. Reference: the values written before the sort, a function of
+/// each particle's id and the buffer's index.
+#[test]
+fn grid_reorder_gathers_many_buffers_a_pass_alike() {
+    let gpu = shared_test_gpu().unwrap();
+    let n = 5_000;
+    let xyz = scene(n, 11, GRID_REACH_DEFAULT);
+    let parts = Particles::from_positions(&xyz);
+    let mut grid = NeighbourGrid::new(
+        &gpu,
+        GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]),
+        0.125,
+        GRID_REACH_DEFAULT,
+        n as u32,
+    )
+    .unwrap();
+    // pos and vel (16 bytes), rho and id (4 bytes).
+    let b = upload_and_register(&gpu, &mut grid, &parts);
+    let extra = 2 * GATHER_BUFFERS_PER_PASS + 1;
+    let wide_value = |k: u32, i: u32| [k * 100_003 + i, i ^ (k << 20), !i, k.wrapping_mul(i)];
+    let narrow_value = |k: u32, i: u32| i.wrapping_mul(2_654_435_761) ^ (k << 24);
+    let mut wide = Vec::new();
+    let mut narrow = Vec::new();
+    for k in 0..extra as u32 {
+        let w: Vec<[u32; 4]> = (0..n as u32).map(|i| wide_value(k, i)).collect();
+        wide.push(buffer_init(&gpu, "wide", &w));
+        grid.register(wide.last().unwrap(), 16).unwrap();
+        let v: Vec<u32> = (0..n as u32).map(|i| narrow_value(k, i)).collect();
+        narrow.push(buffer_init(&gpu, "narrow", &v));
+        grid.register(narrow.last().unwrap(), 4).unwrap();
+    }
+    assert_eq!(grid.reorder_passes(), None, "no sort yet");
+    sort(&gpu, &grid, &b);
+    grid.check(&gpu).unwrap();
+
+    let per_size = 2 + extra;
+    let chunks = |bytes: u32| {
+        (0..per_size)
+            .step_by(GATHER_BUFFERS_PER_PASS)
+            .map(move |first| (bytes, (per_size - first).min(GATHER_BUFFERS_PER_PASS)))
+    };
+    let expected: Vec<(u32, usize)> = chunks(16).chain(chunks(4)).collect();
+    assert_eq!(grid.reorder_passes(), Some(expected));
+
+    let ids: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+    let pos: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
+    let rho: Vec<f32> = gpu.read_buffer(&b.rho, 0, n as u64).unwrap();
+    let mut seen = vec![false; n];
+    for (j, &id) in ids.iter().enumerate() {
+        assert!(!seen[id as usize], "id {id} twice");
+        seen[id as usize] = true;
+        assert_eq!(
+            bytemuck::cast::<_, [u32; 4]>(pos[j]),
+            bytemuck::cast::<_, [u32; 4]>(parts.pos[id as usize])
+        );
+        assert_eq!(rho[j].to_bits(), parts.rho[id as usize].to_bits());
+    }
+    for k in 0..extra {
+        let w: Vec<[u32; 4]> = gpu.read_buffer(&wide[k], 0, n as u64).unwrap();
+        let v: Vec<u32> = gpu.read_buffer(&narrow[k], 0, n as u64).unwrap();
+        for (j, &id) in ids.iter().enumerate() {
+            assert_eq!(w[j], wide_value(k as u32, id), "wide buffer {k}, slot {j}");
+            assert_eq!(
+                v[j],
+                narrow_value(k as u32, id),
+                "narrow buffer {k}, slot {j}"
+            );
+        }
+    }
+
+    let late = buffer_init(&gpu, "late", &vec![0u32; n]);
+    grid.register(&late, 4).unwrap();
+    assert_eq!(
+        grid.reorder_passes(),
+        None,
+        "a registration drops the old passes"
+    );
+    sort(&gpu, &grid, &b);
+    let last = grid.reorder_passes().unwrap();
+    assert_eq!(last.iter().map(|p| p.1).sum::<usize>(), 2 * per_size + 1);
 }
 
 /// A particle beyond the padded box is reported by id and position, never clamped
