@@ -24,6 +24,7 @@ pub mod handshake;
 pub mod payload;
 pub mod scene;
 pub mod service;
+pub mod standalone;
 pub mod state;
 pub mod transport;
 pub mod validate;
