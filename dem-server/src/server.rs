@@ -11,7 +11,7 @@ use crate::registry::create_engine;
 use couplet_protocol::state::{
     StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
 };
-use couplet_protocol::transport::{Control, Endpoint, Orchestrator, TransportError};
+use couplet_protocol::transport::{Control, Endpoint, Inbox, Orchestrator, TransportError};
 use couplet_protocol::{
     BodyLoad, BodyState, Command, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, Role, Scene,
     ServiceLeaf, SideReport, WindowHeader, monotonic_ns, validate_loads,
@@ -98,7 +98,6 @@ fn serve_here(
     let n_bodies = engine.body_count();
 
     let ep = Endpoint::named(run_id, Role::Dem.name())?;
-    let commands = Control::command_receiver(&ep)?;
     let report = Control::report_sender(&ep)?;
     let bodies_tx = ep.slice_sender::<BodyState>(ServiceLeaf::Bodies, n_bodies)?;
     let points_tx = ep.slice_sender::<CouplingPoint>(ServiceLeaf::Points, markers.len())?;
@@ -108,8 +107,6 @@ fn serve_here(
     let wake_orchestrator = ep.waker(ServiceLeaf::OrchestratorWake)?;
 
     // Hello last: once the orchestrator has it, every port of this process exists.
-    // Kept for the whole run: a dropped publisher takes its undelivered samples with it.
-    let hello = Control::hello_sender(&ep)?;
     let greeting = Hello {
         protocol_version: PROTOCOL_VERSION,
         role: Role::Dem as u32,
@@ -119,8 +116,7 @@ fn serve_here(
         count: n_bodies as u64,
         ..Default::default()
     };
-    hello.send(greeting)?;
-    wake_orchestrator.wake()?;
+    let mut inbox = Inbox::greet(&ep, greeting, &wake, &wake_orchestrator, orchestrator)?;
 
     let mut states = Vec::with_capacity(n_bodies);
     let mut points = Vec::with_capacity(markers.len());
@@ -128,24 +124,8 @@ fn serve_here(
     let mut published: Option<u64> = None;
     let alive = || orchestrator.check();
 
-    let mut heard = false;
     loop {
-        let cmd = if orchestrator.is_detached() && !heard {
-            // Started apart, this server may say hello before the orchestrator listens,
-            // and a hello sent to no subscriber is lost: it is said again every wait
-            // slice until the first command shows that it was heard.
-            wake.wait_for(
-                || commands.try_next(),
-                || {
-                    orchestrator.check()?;
-                    hello.send(greeting)?;
-                    wake_orchestrator.wake()
-                },
-            )?
-        } else {
-            wake.wait_for(|| commands.try_next(), alive)?
-        };
-        heard = true;
+        let cmd = inbox.next_command()?;
         if cmd.protocol_version != PROTOCOL_VERSION {
             return Err(ServerError::Version {
                 step: cmd.step,

@@ -13,7 +13,7 @@ use crate::solver::FluidSolver;
 use couplet_protocol::state::{
     StateDirs, StateError, checkpoint_dir, read_state, state_file, write_state,
 };
-use couplet_protocol::transport::{Control, Endpoint, Orchestrator, TransportError};
+use couplet_protocol::transport::{Control, Endpoint, Inbox, Orchestrator, TransportError};
 use couplet_protocol::{
     BodyLoad, BodyState, CommandKind, CouplingPoint, Hello, PROTOCOL_VERSION, ParticleRecord, Role,
     Scene, ServiceLeaf, SideReport, WindowHeader, monotonic_ns, validate_points, validate_states,
@@ -91,7 +91,6 @@ fn serve_here(
     let limits = solver.limits();
 
     let ep = Endpoint::named(run_id, Role::Fluid.name())?;
-    let commands = Control::command_receiver(&ep)?;
     let report = Control::report_sender(&ep)?;
     let points_rx = ep.slice_receiver::<CouplingPoint>(ServiceLeaf::Points)?;
     let bodies_rx = ep.slice_receiver::<BodyState>(ServiceLeaf::Bodies)?;
@@ -102,8 +101,6 @@ fn serve_here(
     let wake_dem = ep.waker(ServiceLeaf::DemWake)?;
     let wake_orchestrator = ep.waker(ServiceLeaf::OrchestratorWake)?;
 
-    // Kept for the whole run: a dropped publisher takes its undelivered samples with it.
-    let hello = Control::hello_sender(&ep)?;
     let greeting = Hello {
         protocol_version: PROTOCOL_VERSION,
         role: Role::Fluid as u32,
@@ -114,30 +111,13 @@ fn serve_here(
         dt_viscous: limits.dt_viscous,
         count: counts.fluid as u64,
     };
-    hello.send(greeting)?;
-    wake_orchestrator.wake()?;
+    let mut inbox = Inbox::greet(&ep, greeting, &wake, &wake_orchestrator, orchestrator)?;
 
     let alive = || orchestrator.check();
     let mut points: Vec<CouplingPoint> = Vec::new();
     let mut states: Vec<BodyState> = Vec::new();
-    let mut heard = false;
     loop {
-        let cmd = if orchestrator.is_detached() && !heard {
-            // Started apart, this server may say hello before the orchestrator listens,
-            // and a hello sent to no subscriber is lost: it is said again every wait
-            // slice until the first command shows that it was heard.
-            wake.wait_for(
-                || commands.try_next(),
-                || {
-                    orchestrator.check()?;
-                    hello.send(greeting)?;
-                    wake_orchestrator.wake()
-                },
-            )?
-        } else {
-            wake.wait_for(|| commands.try_next(), alive)?
-        };
-        heard = true;
+        let cmd = inbox.next_command()?;
         if cmd.protocol_version != PROTOCOL_VERSION {
             return Err(ServerError::Version {
                 step: cmd.step,

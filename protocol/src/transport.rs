@@ -403,6 +403,68 @@ impl WakeListener {
     }
 }
 
+/// A server's side of the control channel after its ports exist: the hello it has said
+/// and the commands that come after it.
+pub struct Inbox<'a> {
+    commands: ValueReceiver<Command>,
+    /// Kept for the whole run: a dropped publisher takes its undelivered samples with it.
+    hello: ValueSender<Hello>,
+    greeting: Hello,
+    wake: &'a WakeListener,
+    wake_orchestrator: &'a Waker,
+    orchestrator: &'a Orchestrator,
+    heard: bool,
+}
+
+impl<'a> Inbox<'a> {
+    /// Says `greeting` to the orchestrator and wakes it. Call it last: once the
+    /// orchestrator has the hello, every port of this process must exist.
+    pub fn greet(
+        ep: &Endpoint,
+        greeting: Hello,
+        wake: &'a WakeListener,
+        wake_orchestrator: &'a Waker,
+        orchestrator: &'a Orchestrator,
+    ) -> Result<Self, TransportError> {
+        let commands = Control::command_receiver(ep)?;
+        let hello = Control::hello_sender(ep)?;
+        hello.send(greeting)?;
+        wake_orchestrator.wake()?;
+        Ok(Inbox {
+            commands,
+            hello,
+            greeting,
+            wake,
+            wake_orchestrator,
+            orchestrator,
+            heard: false,
+        })
+    }
+
+    /// The next command, waited for on `wake`; an error once the orchestrator is gone.
+    /// Started apart ([`Orchestrator::is_detached`]), a server may say hello before the
+    /// orchestrator listens, and a hello sent to no subscriber is lost: until the first
+    /// command shows that it was heard, it is said again every wait slice.
+    pub fn next_command(&mut self) -> Result<Command, TransportError> {
+        let orchestrator = self.orchestrator;
+        let command = if orchestrator.is_detached() && !self.heard {
+            let (hello, greeting, wake) = (&self.hello, self.greeting, self.wake_orchestrator);
+            self.wake.wait_for(
+                || self.commands.try_next(),
+                || {
+                    orchestrator.check()?;
+                    hello.send(greeting)?;
+                    wake.wake()
+                },
+            )?
+        } else {
+            (self.wake).wait_for(|| self.commands.try_next(), || orchestrator.check())?
+        };
+        self.heard = true;
+        Ok(command)
+    }
+}
+
 /// Typed helpers over the control services, shared by all three roles.
 pub struct Control;
 
