@@ -72,6 +72,23 @@ fn upload_and_register(gpu: &Gpu, grid: &mut NeighbourGrid, p: &Particles) -> On
     b
 }
 
+/// `scene(n, seed, GRID_REACH_DEFAULT)` on the GPU, its pos, vel, rho and ids
+/// registered with a grid of support 0.125 over the closed box [0, 1] × [0, 0.75] ×
+/// [0, 0.5].
+fn scene_in_box(gpu: &Gpu, n: usize, seed: u64) -> (Particles, NeighbourGrid, OnGpu) {
+    let parts = Particles::from_positions(&scene(n, seed, GRID_REACH_DEFAULT));
+    let mut grid = NeighbourGrid::new(
+        gpu,
+        GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]),
+        0.125,
+        GRID_REACH_DEFAULT,
+        n as u32,
+    )
+    .unwrap();
+    let b = upload_and_register(gpu, &mut grid, &parts);
+    (parts, grid, b)
+}
+
 fn sort(gpu: &Gpu, grid: &NeighbourGrid, b: &OnGpu) {
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     grid.queue_sort(gpu, &mut encoder, &b.pos, None);
@@ -486,17 +503,7 @@ fn neighbours_match_brute_force(gpu: &Gpu, periodic: [bool; 3], seed: u64, reach
 fn grid_sort_permutes_every_registered_buffer() {
     let gpu = shared_test_gpu().unwrap();
     let n = 20_000;
-    let xyz = scene(n, 7, GRID_REACH_DEFAULT);
-    let parts = Particles::from_positions(&xyz);
-    let mut grid = NeighbourGrid::new(
-        &gpu,
-        GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]),
-        0.125,
-        GRID_REACH_DEFAULT,
-        n as u32,
-    )
-    .unwrap();
-    let b = upload_and_register(&gpu, &mut grid, &parts);
+    let (parts, grid, b) = scene_in_box(&gpu, n, 7);
     assert_eq!(grid.registered(), 4);
 
     for round in 0..2 {
@@ -581,18 +588,8 @@ fn grid_sort_permutes_every_registered_buffer() {
 fn grid_reorder_gathers_many_buffers_a_pass_alike() {
     let gpu = shared_test_gpu().unwrap();
     let n = 5_000;
-    let xyz = scene(n, 11, GRID_REACH_DEFAULT);
-    let parts = Particles::from_positions(&xyz);
-    let mut grid = NeighbourGrid::new(
-        &gpu,
-        GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]),
-        0.125,
-        GRID_REACH_DEFAULT,
-        n as u32,
-    )
-    .unwrap();
     // pos and vel (16 bytes), rho and id (4 bytes).
-    let b = upload_and_register(&gpu, &mut grid, &parts);
+    let (parts, mut grid, b) = scene_in_box(&gpu, n, 11);
     let extra = 2 * GATHER_BUFFERS_PER_PASS + 1;
     let wide_value = |k: u32, i: u32| [k * 100_003 + i, i ^ (k << 20), !i, k.wrapping_mul(i)];
     let narrow_value = |k: u32, i: u32| i.wrapping_mul(2_654_435_761) ^ (k << 24);
