@@ -298,15 +298,40 @@ impl Gpu {
         len: u64,
     ) -> Result<Vec<T>, GpuError> {
         let elem = std::mem::size_of::<T>() as u64;
-        let bytes = len * elem;
-        if bytes == 0 {
-            return Ok(Vec::new());
+        let [bytes] = self.read_buffers([(buffer, first * elem, len * elem)])?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+
+    /// Copies each `(buffer, offset, bytes)` range (the buffers need `COPY_SRC`; offsets
+    /// multiples of 4) to the CPU with one submission and one wait, as
+    /// [`Gpu::read_buffer`] does for one. Each wait is a round trip to the GPU (the device
+    /// drained, a staging buffer mapped), so a check that needs several buffers reads
+    /// them together.
+    pub fn read_buffers<const N: usize>(
+        &self,
+        parts: [(&wgpu::Buffer, u64, u64); N],
+    ) -> Result<[Vec<u8>; N], GpuError> {
+        // Copies must be multiples of 4 bytes (wgpu::COPY_BUFFER_ALIGNMENT), and each part
+        // starts its own 4-byte word of the staging buffer.
+        let align = |b: u64| b.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT) * wgpu::COPY_BUFFER_ALIGNMENT;
+        let mut at = [0u64; N];
+        let mut total = 0;
+        for (k, &(_, _, bytes)) in parts.iter().enumerate() {
+            at[k] = total;
+            total += align(bytes);
         }
-        // Copies must be multiples of 4 bytes (wgpu::COPY_BUFFER_ALIGNMENT).
-        let padded = bytes.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT) * wgpu::COPY_BUFFER_ALIGNMENT;
+        let names = || {
+            (parts.iter())
+                .map(|p| format!("{:?}", p.0))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if total == 0 {
+            return Ok(std::array::from_fn(|_| Vec::new()));
+        }
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback staging"),
-            size: padded,
+            size: total,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -315,37 +340,31 @@ impl Gpu {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("readback"),
             });
-        encoder.copy_buffer_to_buffer(buffer, first * elem, &staging, 0, padded);
+        for (k, &(buffer, offset, bytes)) in parts.iter().enumerate() {
+            if bytes > 0 {
+                encoder.copy_buffer_to_buffer(buffer, offset, &staging, at[k], align(bytes));
+            }
+        }
         self.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         staging.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
         });
         self.wait()?;
-        let name = format!("{:?}", buffer);
+        let failed = |reason: String| GpuError::Readback {
+            buffer: names(),
+            reason,
+        };
         match rx.recv() {
             Ok(Ok(())) => {}
-            Ok(Err(e)) => {
-                return Err(GpuError::Readback {
-                    buffer: name,
-                    reason: e.to_string(),
-                });
-            }
-            Err(e) => {
-                return Err(GpuError::Readback {
-                    buffer: name,
-                    reason: e.to_string(),
-                });
-            }
+            Ok(Err(e)) => return Err(failed(e.to_string())),
+            Err(e) => return Err(failed(e.to_string())),
         }
         let out = {
             let view = staging
                 .get_mapped_range(..)
-                .map_err(|e| GpuError::Readback {
-                    buffer: name,
-                    reason: e.to_string(),
-                })?;
-            bytemuck::pod_collect_to_vec::<u8, T>(&view[..bytes as usize])
+                .map_err(|e| failed(e.to_string()))?;
+            std::array::from_fn(|k| view[at[k] as usize..(at[k] + parts[k].2) as usize].to_vec())
         };
         staging.unmap();
         Ok(out)

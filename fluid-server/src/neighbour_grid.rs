@@ -989,10 +989,24 @@ impl NeighbourGrid {
     /// outside the grid. Nothing is clamped silently: such a particle was sorted into
     /// the nearest cell only to keep the permutation whole.
     pub fn check(&self, gpu: &Gpu) -> Result<(), GridError> {
-        let rec: Vec<GridErrorRecord> = gpu.read_buffer(&self.error_flag, 0, 1)?;
-        let Some(rec) = rec.first() else {
-            return Ok(());
-        };
+        let [record] = gpu.read_buffers([self.error_record()])?;
+        self.check_record(&record)
+    }
+
+    /// The range of the error record, `(buffer, offset, bytes)` as [`Gpu::read_buffers`]
+    /// takes it, for a caller that reads it with other buffers and passes its bytes to
+    /// [`NeighbourGrid::check_record`].
+    pub fn error_record(&self) -> (&wgpu::Buffer, u64, u64) {
+        (
+            &self.error_flag,
+            0,
+            std::mem::size_of::<GridErrorRecord>() as u64,
+        )
+    }
+
+    /// [`NeighbourGrid::check`] on the bytes of [`NeighbourGrid::error_record`].
+    pub fn check_record(&self, record: &[u8]) -> Result<(), GridError> {
+        let rec: GridErrorRecord = bytemuck::pod_read_unaligned(record);
         if rec.outside_count == 0 {
             return Ok(());
         }

@@ -1619,7 +1619,17 @@ impl FluidSolver {
             encoder.copy_buffer_to_buffer(&g.diag, 4, &d.status, 4, 8);
         }
         gpu.queue.submit([encoder.finish()]);
-        let status: Vec<u32> = gpu.read_buffer(&d.status, 0, 5)?;
+        // One round trip for the three (each read waits for the GPU to drain).
+        let [status, grid_record, partials] = gpu.read_buffers([
+            (&d.status, 0, 5 * 4),
+            d.grid.error_record(),
+            (
+                &d.stats_partials,
+                0,
+                window_stats::partial_count(d.n_total) as u64 * 16,
+            ),
+        ])?;
+        let status: Vec<u32> = bytemuck::pod_collect_to_vec(&status);
         // Gradient-pass fallbacks per step, plus the one-sided matrices of Joubert
         // boundary particles and of the markers' corrected ∇u (each counted at both of
         // the step's rate evaluations).
@@ -1683,18 +1693,14 @@ impl FluidSolver {
                 u_max: c.sound_speed,
             });
         }
-        if let Err(e) = d.grid.check(gpu) {
+        if let Err(e) = d.grid.check_record(&grid_record) {
             d.grid.reset_error(gpu);
             return Err(FluidError::Grid {
                 step: self.steps,
                 message: e.to_string(),
             });
         }
-        let partials: Vec<[f32; 4]> = gpu.read_buffer(
-            &d.stats_partials,
-            0,
-            window_stats::partial_count(d.n_total) as u64,
-        )?;
+        let partials: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&partials);
         Ok((
             near_singular,
             [status[3], status[4]],

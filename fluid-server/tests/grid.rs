@@ -834,6 +834,28 @@ fn main() {
 }
 
 /// Workgroup split: 1-D up to 65535 workgroups, then x × y covering every thread.
+/// `read_buffers` returns each range as `read_buffer` does, ranges of any length (an
+/// odd one, an empty one) from several buffers in one submission. Reference: the bytes
+/// uploaded.
+#[test]
+fn gpu_reads_several_ranges_in_one_round_trip() {
+    let gpu = shared_test_gpu().unwrap();
+    let a: Vec<u32> = (0..64).map(|i| i * 7 + 1).collect();
+    let b: Vec<[f32; 4]> = (0..16).map(|i| [i as f32, -0.5, 1e-3, f32::NAN]).collect();
+    let (ga, gb) = (buffer_init(&gpu, "a", &a), buffer_init(&gpu, "b", &b));
+    let [x, y, z, w] = gpu
+        .read_buffers([(&ga, 8, 6), (&gb, 32, 48), (&ga, 0, 0), (&ga, 0, 256)])
+        .unwrap();
+    let a_bytes: &[u8] = bytemuck::cast_slice(&a);
+    let b_bytes: &[u8] = bytemuck::cast_slice(&b);
+    assert_eq!(x, &a_bytes[8..14]);
+    assert_eq!(y, &b_bytes[32..80]);
+    assert!(z.is_empty());
+    assert_eq!(w, a_bytes);
+    let one: Vec<[u32; 4]> = gpu.read_buffer(&gb, 2, 3).unwrap();
+    assert_eq!(bytemuck::cast_slice::<[u32; 4], u8>(&one), &b_bytes[32..80]);
+}
+
 #[test]
 fn gpu_workgroups_split() {
     assert_eq!(shaders::workgroups(0), [0, 1, 1]);

@@ -229,6 +229,33 @@ fn blow_up_names_the_particle() {
     }
 }
 
+/// A fluid particle placed beyond the grid's padding is reported at the end of the
+/// window as a grid error naming it, while the window's other checks (read in the same
+/// round trip, `Gpu::read_buffers`) find nothing: its position, velocity and density are
+/// finite and sane. Reference: the id the test gives it.
+#[test]
+fn particle_outside_the_grid_is_named_at_the_window_end() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let scene = common::scene("", "");
+    let c = SphConstants::from_scene(&scene).unwrap();
+    let mut set = common::random_set(&c, 10, 0.3, 0.1, 0.0, 9);
+    let id = 23;
+    assert!((id as usize) < set.kinds.n_fluid);
+    let fluid = set.id.iter().position(|&i| i == id).unwrap();
+    set.pos[fluid] = [40.0, 0.05, 0.05];
+    let mut solver = FluidSolver::from_particles(&gpu, &scene, set).unwrap();
+    let dt = solver.limits().dt;
+    let err = solver.advance(&gpu, 2.0 * dt, None).unwrap_err();
+    let msg = err.to_string();
+    match err {
+        FluidError::Grid { step, .. } => {
+            assert_eq!(step, 2, "{msg}");
+            assert!(msg.contains(&format!("particle id {id} ")), "{msg}");
+        }
+        other => panic!("expected a grid error, got {other}"),
+    }
+}
+
 /// Snapshots hold the fluid only, in id order, in world coordinates; mass is m N.
 #[test]
 fn snapshot_is_fluid_in_id_order() {
