@@ -853,18 +853,10 @@ impl NeighbourGrid {
     /// order, once a sort has built them (`None` before the first sort after a
     /// registration).
     pub fn reorder_passes(&self) -> Option<Vec<(u32, usize)>> {
-        self.gather_passes.get().map(|passes| {
+        let n = u64::from(self.params.n_particles);
+        (self.gather_passes.get()).map(|passes| {
             (passes.iter())
-                .map(|g| {
-                    (
-                        if self.registered[g.members[0]].wide {
-                            16
-                        } else {
-                            4
-                        },
-                        g.members.len(),
-                    )
-                })
+                .map(|g| ((g.slice_bytes / n) as u32, g.members.len()))
                 .collect()
         })
     }
