@@ -631,13 +631,24 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
 }
 
 fn summary_text(s: &RunSummary) -> String {
-    let mut t = format!(
-        "done: {} windows, t = {:.4} s simulated in {:.1} s wall ({:.3e} sim-s/s)\n",
-        s.windows,
-        s.sim_time,
-        s.wall_s,
-        s.sim_time / s.wall_s.max(1e-9)
-    );
+    let rate = (s.sim_time - s.first_time) / s.wall_s.max(1e-9);
+    let mut t = if s.first_window == 0 {
+        format!(
+            "done: {} windows, t = {:.4} s simulated in {:.1} s wall ({rate:.3e} sim-s/s)\n",
+            s.windows, s.sim_time, s.wall_s,
+        )
+    } else {
+        // A resumed sitting: its own windows, time and speed.
+        format!(
+            "done: windows {}–{} of {}, t = {:.4} → {:.4} s simulated in {:.1} s wall ({rate:.3e} sim-s/s)\n",
+            s.first_window,
+            s.windows.saturating_sub(1),
+            s.windows,
+            s.first_time,
+            s.sim_time,
+            s.wall_s,
+        )
+    };
     t += &s.per_window();
     t.push('\n');
     if s.near_singular > 0 {

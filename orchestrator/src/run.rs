@@ -132,9 +132,14 @@ pub struct RunSummary {
     /// Wall time of the sittings before this one, from the checkpoint it continued
     /// from (0 for a run from the start), s.
     pub earlier_wall_s: f64,
+    /// This sitting's first window and its start time, s (0 and 0 for a run from the
+    /// start): `windows`, `sim_time` and the means count from window 0 and t = 0,
+    /// `wall_s` and the per-window means this sitting only.
+    pub first_window: u64,
+    pub first_time: f64,
     pub plan: Option<WindowPlan>,
     pub recording: Option<PathBuf>,
-    /// Mean per window (from window 1: window 0 carries set-up), µs: fluid compute, DEM
+    /// Mean per window of this sitting (from its second: its first carries set-up), µs: fluid compute, DEM
     /// compute, exchange (both directions: points+states to the fluid, loads to the DEM,
     /// hop time plus validation/copy/upload), and the window's whole wall time as the
     /// orchestrator sees it.
@@ -470,7 +475,11 @@ pub struct CoupledRun {
     /// When this sitting was launched (`summary.earlier_wall_s` holds the wall time of
     /// the earlier ones).
     launched: Instant,
-    /// Sums from window 1 (window 0 carries set-up), µs.
+    /// This sitting's first window (0, or the checkpoint's it resumed from).
+    first_step: u64,
+    /// Sums over this sitting's windows after its first (which carries the servers'
+    /// set-up), µs, and how many windows they hold.
+    timed_windows: u64,
     fluid_compute: f64,
     dem_compute: f64,
     exchange: f64,
@@ -566,6 +575,8 @@ impl CoupledRun {
             fluid_compute: 0.0,
             dem_compute: 0.0,
             exchange: 0.0,
+            first_step: 0,
+            timed_windows: 0,
             window_wall: 0.0,
             after_reports: 0.0,
             recorder,
@@ -748,6 +759,7 @@ impl CoupledRun {
         self.windows = max_windows.map_or(self.plan.windows, |m| m.min(self.plan.windows));
         self.summary.plan = Some(self.plan.clone());
         self.step = saved.step;
+        self.first_step = saved.step;
         self.output_interval = saved.output_interval;
         self.next_output = saved.next_output;
         self.next_body_record = saved.next_body_record;
@@ -755,6 +767,8 @@ impl CoupledRun {
         self.last_loads = saved.last_loads;
         self.prescribed = saved.prescribed;
         self.summary.earlier_wall_s = saved.wall_s;
+        self.summary.first_window = saved.step;
+        self.summary.first_time = saved.step as f64 * self.plan.window;
         Ok(())
     }
 
@@ -990,10 +1004,12 @@ impl CoupledRun {
         )?;
         let reports_in = Instant::now();
         let summary = &mut self.summary;
-        // Window 0 also carries one-off set-up (the fluid's first markers rebuild its
-        // buffers), so the per-window means start at window 1 when there is one.
-        let timed = step > 0 || windows == 1;
+        // A sitting's first window also carries one-off set-up (the fluid's first markers
+        // rebuild its buffers; a resumed sitting's grains build their lists), so the
+        // per-window means start at its second when there is one.
+        let timed = step > self.first_step || windows == self.first_step + 1;
         if timed {
+            self.timed_windows += 1;
             self.window_wall += w_start.elapsed().as_secs_f64() * 1e6;
             for r in [&fluid_report, &dem_report].into_iter().flatten() {
                 match Role::from_u32(r.role) {
@@ -1115,7 +1131,9 @@ impl CoupledRun {
             self.summary.recording = Some(r.mcap_path().to_owned());
         }
         let mut s = std::mem::take(&mut self.summary);
-        let n = s.windows.saturating_sub(1).max(1) as f64;
+        // Over this sitting's timed windows: a resumed sitting's sums start at its
+        // checkpoint, not at window 0 (`regression_resumed_sitting_averages_its_own_windows`).
+        let n = self.timed_windows.max(1) as f64;
         s.fluid_compute_us = self.fluid_compute / n;
         s.dem_compute_us = self.dem_compute / n;
         s.exchange_us = self.exchange / n;

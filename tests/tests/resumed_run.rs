@@ -139,3 +139,44 @@ fn a_run_stopped_and_resumed_from_its_checkpoint_records_what_one_sitting_record
         "{e}"
     );
 }
+
+/// The summary of a resumed sitting speaks of that sitting: its windows, time and speed,
+/// and per-window means over its own windows. Until 2026-12-01 the means divided the
+/// sitting's sums by every window since t = 0 (a lavapipe RTI resumed at window 2036
+/// printed 226 ms a window for windows of about 900 ms), and "done:" gave the whole
+/// run's simulated time over the sitting's wall. Reference: the first sitting's mean
+/// window on the same scene and machine, within a factor 3 (timing noise, the other
+/// test of this file running beside it); the old division was 7.9 times off here.
+#[test]
+fn regression_resumed_sitting_averages_its_own_windows() {
+    let out = tempfile::tempdir().unwrap();
+    let first = run(
+        out.path(),
+        &["--windows", "600", "--checkpoint-every", "0.001"],
+    );
+    let first_text = String::from_utf8_lossy(&first.stdout).into_owned();
+    assert!(first.status.success(), "{first_text}");
+    assert_eq!(newest_checkpoint(out.path()).unwrap().unwrap().0, 600);
+    let second = run(out.path(), &["--resume"]);
+    let second_text = String::from_utf8_lossy(&second.stdout).into_owned();
+    assert!(second.status.success(), "{second_text}");
+    assert!(
+        second_text.contains("done: windows 600–687 of 688, t = 0.0872 → 0.1000 s simulated"),
+        "{second_text}"
+    );
+    let mean_wall = |text: &str| -> f64 {
+        let line = (text.lines())
+            .find(|l| l.starts_with("per window: "))
+            .unwrap_or_else(|| panic!("no per-window line in {text}"));
+        line["per window: ".len()..]
+            .split(' ')
+            .next()
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"))
+    };
+    let (a, b) = (mean_wall(&first_text), mean_wall(&second_text));
+    assert!(
+        (1.0 / 3.0..=3.0).contains(&(b / a)),
+        "a window took {a} µs in the first sitting and {b} µs in the resumed one"
+    );
+}
