@@ -133,16 +133,16 @@ pub struct RunSummary {
     /// from (0 for a run from the start), s.
     pub earlier_wall_s: f64,
     /// This sitting's first window and its start time, s (0 and 0 for a run from the
-    /// start): `windows`, `sim_time` and the means count from window 0 and t = 0,
-    /// `wall_s` and the per-window means this sitting only.
+    /// start): `windows` and `sim_time` count from window 0 and t = 0, while `wall_s`
+    /// and the per-window means cover this sitting only.
     pub first_window: u64,
     pub first_time: f64,
     pub plan: Option<WindowPlan>,
     pub recording: Option<PathBuf>,
-    /// Mean per window of this sitting (from its second: its first carries set-up), µs: fluid compute, DEM
-    /// compute, exchange (both directions: points+states to the fluid, loads to the DEM,
-    /// hop time plus validation/copy/upload), and the window's whole wall time as the
-    /// orchestrator sees it.
+    /// Mean per window of this sitting (from its second: its first carries set-up), µs:
+    /// fluid compute, DEM compute, exchange (both directions: points+states to the
+    /// fluid, loads to the DEM, hop time plus validation/copy/upload), and the window's
+    /// whole wall time as the orchestrator sees it.
     pub fluid_compute_us: f64,
     pub dem_compute_us: f64,
     pub exchange_us: f64,
