@@ -198,7 +198,7 @@ fn serve_here(
         let compute = Instant::now();
         // Unresolved grains: the force at t_n, held over the window like the markers' loads
         // (with energy-pair, plus the pressure force averaged over the window's stages).
-        let mut grain_loads = solver.grain_loads(&gpu, &states)?;
+        let mut grain_loads = solver.grain_loads(&gpu, &states, None)?;
         let mut compute_us = compute.elapsed().as_secs_f64() * 1e6;
         let mut send_loads = |loads: &[BodyLoad]| -> Result<(), ServerError> {
             let t = Instant::now();

@@ -1440,7 +1440,7 @@ impl FluidSolver {
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerUpdate);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Sort);
         if let Some(g) = &self.grains {
-            g.queue_solid_fraction(gpu, encoder, d, tau, slot)?;
+            g.queue_solid_fraction(gpu, encoder, timer.as_deref_mut(), d, tau, slot)?;
         }
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::SmoothingLengths);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Gradients);
@@ -1448,7 +1448,7 @@ impl FluidSolver {
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::BoundaryPressure);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::FluidRates);
             if let Some(g) = &self.grains {
-                g.queue_pressure_force(gpu, encoder, d)?;
+                g.queue_pressure_force(gpu, encoder, timer.as_deref_mut(), d)?;
             }
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::GrainReaction);
             d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerLoads);
@@ -1708,28 +1708,29 @@ impl FluidSolver {
         ))
     }
 
-    /// Fluid force and moment per body, averaged over the last window (Joubert eqs.
-    /// 31–32); one entry per body that has markers, in marker order. Empty without markers.
     /// The fluid's force on each unresolved grain at the bodies' `states` (world frame),
     /// one load per grain in body order; empty without grains. Sampled at the window's
     /// start, from the rates the last step left (Robinson eqs. 23–33; see
     /// [`crate::unresolved_coupling`]).
     /// With `coupling.two_way` the fluid's reaction for the coming window is spread
-    /// at once (Robinson eqs. 26–27).
+    /// at once (Robinson eqs. 26–27). A `timer` (`couplet bench`) times each GPU stage
+    /// and is finished before each of the two submissions; the caller collects it.
     pub fn grain_loads(
         &mut self,
         gpu: &Gpu,
         states: &[BodyState],
+        mut timer: Option<&mut StageTimer>,
     ) -> Result<Vec<BodyLoad>, FluidError> {
         let Some(g) = &self.grains else {
             return Ok(Vec::new());
         };
-        let (loads, samples) = g.sample(gpu, &self.data, self.origin, states)?;
+        let (loads, samples) =
+            g.sample(gpu, &self.data, self.origin, states, timer.as_deref_mut())?;
         if self.data.reaction.is_some() {
             self.step_params.reaction_unit =
                 crate::unresolved_coupling::reaction_unit(&self.consts, &samples) as f32;
             self.write_params(gpu);
-            g.spread(gpu, &self.data)?;
+            g.spread(gpu, &self.data, timer)?;
         }
         Ok(loads)
     }
@@ -1758,6 +1759,8 @@ impl FluidSolver {
         }
     }
 
+    /// Fluid force and moment per body, averaged over the last window (Joubert eqs.
+    /// 31–32); one entry per body that has markers, in marker order. Empty without markers.
     pub fn loads(&mut self, gpu: &Gpu) -> Result<Vec<BodyLoad>, FluidError> {
         let Some(b) = &self.data.bodies else {
             return Ok(Vec::new());

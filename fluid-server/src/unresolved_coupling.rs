@@ -35,6 +35,7 @@ use crate::neighbour_grid::{GRID_COMMON_WGSL, team_threads};
 use crate::particles::{Kind, ParticleSet};
 use crate::porosity::{GrainPorosity, PorosityField, Solid, solid_fraction_kernel};
 use crate::solver::{Op, SphData, missing};
+use crate::timing::{self, StageTimer};
 use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 use couplet_protocol::{BodyLoad, BodyState, Scene, Shape};
 use wgpu::util::DeviceExt;
@@ -643,13 +644,16 @@ impl GrainCoupling {
     /// its centre), and the samples they came from. The particles are sorted first, so
     /// that the grid is exact. The porosity of Robinson eq. (9) is set at the grains (on
     /// the CPU, for their drag) and at the fluid particles (on the GPU, for the EOS of
-    /// the window, Robinson eq. 15, whose pressures are recomputed at once).
+    /// the window, Robinson eq. 15, whose pressures are recomputed at once). With a
+    /// `timer` (`couplet bench`) each of its GPU stages is timed, the timer finished
+    /// before the submission; its `collect` is the caller's.
     pub fn sample(
         &self,
         gpu: &Gpu,
         data: &SphData,
         origin: [f64; 3],
         states: &[BodyState],
+        mut timer: Option<&mut StageTimer>,
     ) -> Result<(Vec<BodyLoad>, Vec<GrainSample>), FluidError> {
         let solids: Vec<Solid> = (self.bodies.iter())
             .map(|&b| Solid {
@@ -705,19 +709,24 @@ impl GrainCoupling {
             )
             .ok_or_else(|| missing("sample_grains"))?;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        data.queue_op(gpu, &mut encoder, None, Op::Sort);
+        data.queue_op(gpu, &mut encoder, timer.as_deref_mut(), Op::Sort);
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("sph: sample_grains"),
-                timestamp_writes: None,
-            });
+            let mut pass = timing::begin_pass(
+                timer.as_deref_mut(),
+                gpu,
+                &mut encoder,
+                "sph: sample_grains",
+            );
             bound.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
         }
-        self.queue_solid_fraction(gpu, &mut encoder, data, 0.0, 0)?;
+        self.queue_solid_fraction(gpu, &mut encoder, timer.as_deref_mut(), data, 0.0, 0)?;
         // The window's pressures at the new porosity (Robinson eq. 15).
-        data.queue_op(gpu, &mut encoder, None, Op::TaitEos);
+        data.queue_op(gpu, &mut encoder, timer.as_deref_mut(), Op::TaitEos);
         // energy-pair: the window's pressure force starts from 0.
         encoder.clear_buffer(&self.buffers.pressure, 0, None);
+        if let Some(t) = timer {
+            t.finish(gpu, &mut encoder);
+        }
         gpu.queue.submit([encoder.finish()]);
         let samples = self.buffers.read(gpu)?;
         let loads = (self.bodies.iter().zip(&samples))
@@ -741,6 +750,7 @@ impl GrainCoupling {
         &self,
         gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&mut StageTimer>,
         data: &SphData,
         tau: f64,
         slot: u32,
@@ -776,10 +786,7 @@ impl GrainCoupling {
         if let Some(g) = &data.solid_grad {
             encoder.clear_buffer(g, 0, None);
         }
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("sph: grain_solid_fraction"),
-            timestamp_writes: None,
-        });
+        let mut pass = timing::begin_pass(timer, gpu, encoder, "sph: grain_solid_fraction");
         solid.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
         Ok(())
     }
@@ -791,6 +798,7 @@ impl GrainCoupling {
         &self,
         gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&mut StageTimer>,
         data: &SphData,
     ) -> Result<(), FluidError> {
         let Some(kernel) = &self.pressure else {
@@ -814,10 +822,7 @@ impl GrainCoupling {
                 Some(data.grid.bind_group()),
             )
             .ok_or_else(|| missing("grain_pressure_force"))?;
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("sph: grain_pressure_force"),
-            timestamp_writes: None,
-        });
+        let mut pass = timing::begin_pass(timer, gpu, encoder, "sph: grain_pressure_force");
         bound.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
         Ok(())
     }
@@ -847,7 +852,7 @@ impl GrainCoupling {
     ) -> Result<Vec<[f64; 3]>, FluidError> {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&self.buffers.pressure, 0, None);
-        self.queue_pressure_force(gpu, &mut encoder, data)?;
+        self.queue_pressure_force(gpu, &mut encoder, None, data)?;
         gpu.queue.submit([encoder.finish()]);
         Ok(self.buffers.read_pressure(gpu)?)
     }
@@ -855,7 +860,14 @@ impl GrainCoupling {
     /// Replaces the fluid's reaction with that of the last [`GrainCoupling::sample`]
     /// (Robinson eqs. 26–27), in counts of `params.reaction_unit`, which the caller has
     /// set to [`reaction_unit`] of those samples. Nothing without `coupling.two_way`.
-    pub fn spread(&self, gpu: &Gpu, data: &SphData) -> Result<(), FluidError> {
+    /// A `timer` times the pass and is finished before the submission, as in
+    /// [`GrainCoupling::sample`].
+    pub fn spread(
+        &self,
+        gpu: &Gpu,
+        data: &SphData,
+        mut timer: Option<&mut StageTimer>,
+    ) -> Result<(), FluidError> {
         let (Some(spread), Some(reaction)) = (&self.spread, &data.reaction) else {
             return Ok(());
         };
@@ -882,11 +894,16 @@ impl GrainCoupling {
         encoder.clear_buffer(&reaction.lo, 0, None);
         encoder.clear_buffer(&reaction.hi, 0, None);
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("sph: spread_grain_reaction"),
-                timestamp_writes: None,
-            });
+            let mut pass = timing::begin_pass(
+                timer.as_deref_mut(),
+                gpu,
+                &mut encoder,
+                "sph: spread_grain_reaction",
+            );
             bound.dispatch(&mut pass, team_threads(self.buffers.count, self.team_lanes));
+        }
+        if let Some(t) = timer {
+            t.finish(gpu, &mut encoder);
         }
         gpu.queue.submit([encoder.finish()]);
         Ok(())

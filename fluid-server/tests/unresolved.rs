@@ -10,6 +10,7 @@ use couplet_fluid::drag::DragLaw;
 use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::neighbour_grid::team_threads;
+use couplet_fluid::timing::StageTimer;
 use couplet_fluid::porosity::{
     PorosityField, Solid, boundary_state_cpu, porosity_gradient_from_counts,
 };
@@ -372,7 +373,7 @@ fn stirred_box_with_grains(
         .collect();
     let origin = solver.origin();
     solver
-        .grain_loads(gpu, &states(&grains, origin, 2500.0))
+        .grain_loads(gpu, &states(&grains, origin, 2500.0), None)
         .unwrap();
     (solver, grains)
 }
@@ -684,7 +685,7 @@ fn grain_reaction_matches_cpu_twin() {
         // The drag's porosity, Robinson eq. (9) at the grains, as the fluid server sets it.
         let grains = with_porosity(&c, &s, grains, origin);
         let loads = solver
-            .grain_loads(gpu, &states(&grains, origin, 2500.0))
+            .grain_loads(gpu, &states(&grains, origin, 2500.0), None)
             .unwrap();
         let set = solver.data().read(gpu).unwrap();
         let (_, before) = solver.data().read_rates(gpu).unwrap();
@@ -755,7 +756,7 @@ fn two_way_coupling_conserves_momentum() {
         };
         for _ in 0..20 {
             let mut loads = solver
-                .grain_loads(&gpu, &states(&[grain], origin, 2500.0))
+                .grain_loads(&gpu, &states(&[grain], origin, 2500.0), None)
                 .unwrap();
             solver.advance(&gpu, window, None).unwrap();
             // energy-pair: the pressure force of the window just taken.
@@ -820,7 +821,7 @@ fn steps_several_to_a_submission_repeat_one_a_submission() {
         let mut forces = Vec::new();
         for _ in 0..3 {
             let mut loads = solver
-                .grain_loads(gpu, &states(&[grain], origin, 2500.0))
+                .grain_loads(gpu, &states(&[grain], origin, 2500.0), None)
                 .unwrap();
             assert_eq!(solver.advance(gpu, window, None).unwrap(), 6);
             solver.add_grain_pressure_forces(gpu, &mut loads).unwrap();
@@ -850,6 +851,60 @@ fn steps_several_to_a_submission_repeat_one_a_submission() {
         );
         assert_eq!(one.rho[i], four.rho[i], "density of particle {}", one.id[i]);
     }
+}
+
+/// Regression (2026-12-01): the grains' passes of a step (`grain_solid_fraction` once,
+/// `grain_pressure_force` after each of the two rates) began plain compute passes, so
+/// `couplet bench`'s stage table, which times the passes begun through `timing`, left
+/// them out (their time was in no row, and every row's share read high), and a window
+/// start could not be timed at all. Now a timed window start lists its GPU stages once
+/// each (the sort's five, `sample_grains`, the porosity, the EOS, the reaction spread),
+/// and each timed step its grain passes, with nothing dropped.
+#[test]
+fn regression_grain_passes_are_in_the_stage_table() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = grain_scene(1, true, "energy-pair");
+    let mut solver = FluidSolver::new(&gpu, &s).unwrap();
+    let origin = solver.origin();
+    let grain = Grain {
+        position: [0.003, -0.002, 0.001],
+        velocity: [0.5, 0.2, 0.0],
+        volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
+        diameter: 0.006,
+        porosity: 1.0,
+    };
+    let count = |timer: &StageTimer, label: &str| {
+        (timer.totals_with_counts().into_iter())
+            .find(|(l, _, _)| l == label)
+            .map_or(0, |(_, secs, n)| {
+                assert!(secs.is_finite() && secs >= 0.0, "{label}: {secs} s");
+                n
+            })
+    };
+    let mut timer = StageTimer::new(&gpu, 64);
+    solver
+        .grain_loads(&gpu, &states(&[grain], origin, 2500.0), Some(&mut timer))
+        .unwrap();
+    timer.collect(&gpu).unwrap();
+    for label in [
+        "grid: count",
+        "grid: reorder",
+        "sph: sample_grains",
+        "sph: grain_solid_fraction",
+        "sph: tait_eos",
+        "sph: spread_grain_reaction",
+    ] {
+        assert_eq!(count(&timer, label), 1, "{label} in a window start");
+    }
+    timer.reset();
+    let steps = solver
+        .advance(&gpu, 2.0 * solver.limits().dt, Some(&mut timer))
+        .unwrap();
+    assert_eq!(steps, 2);
+    assert_eq!(count(&timer, "sph: grain_solid_fraction"), 2, "a step's porosity");
+    assert_eq!(count(&timer, "sph: grain_pressure_force"), 4, "two a step");
+    assert_eq!(count(&timer, "sph: fluid_rates"), 4, "two a step");
+    assert_eq!(timer.dropped(), 0, "passes left untimed");
 }
 
 /// Regression (2026-11-24): `sample_grains` sorts the particles and then reads du/dt,
@@ -882,7 +937,7 @@ fn grain_sampling_reads_rates_in_sorted_order() {
     };
     let (before, order_before) = by_id(&solver);
     solver
-        .grain_loads(&gpu, &states(&grains, origin, 2500.0))
+        .grain_loads(&gpu, &states(&grains, origin, 2500.0), None)
         .unwrap();
     let (after, order_after) = by_id(&solver);
     let moved = (order_before.iter().zip(&order_after))
@@ -921,7 +976,7 @@ fn fluid_porosity_matches_cpu_twin() {
             })
             .collect();
         solver
-            .grain_loads(gpu, &states(&grains, origin, 2500.0))
+            .grain_loads(gpu, &states(&grains, origin, 2500.0), None)
             .unwrap();
         let set = solver.data().read(gpu).unwrap();
         let field = PorosityField::of_scene(&c, &s);
@@ -1054,7 +1109,7 @@ fn hold_layer(
     let window = 5.0 * solver.limits().dt;
     let mut loads = Vec::new();
     while solver.time() < end {
-        loads = solver.grain_loads(gpu, &states).unwrap();
+        loads = solver.grain_loads(gpu, &states, None).unwrap();
         solver.advance(gpu, window, None).unwrap();
     }
     loads
@@ -1198,7 +1253,7 @@ fn moving_grain_layer_displaces_the_fluid() {
                 volume,
             })
             .collect();
-        solver.grain_loads(&gpu, &states).unwrap();
+        solver.grain_loads(&gpu, &states, None).unwrap();
         solver.advance(&gpu, window, None).unwrap();
         drop += v * window;
         if solver.time() > period {

@@ -259,25 +259,31 @@ fn grain_porosity_time(
 /// and the EOS at it, the samples read back, and with two-way coupling the reaction
 /// spread): wall time, the fastest and the mean of ten after one untimed, at the
 /// grains' starting places (their lists built by the untimed one). Less the porosity
-/// above, what is left is the GPU's share and its two waits.
+/// above, what is left is the GPU's share and its two waits. Then ten more with every
+/// GPU stage timed, as the steps' table times them, each stage's mean a window start.
 fn grain_window_start_time(
     states: &[couplet_protocol::BodyState],
     gpu: &Gpu,
     solver: &mut FluidSolver,
 ) -> Result<String, BenchError> {
-    solver.grain_loads(gpu, states)?;
+    solver.grain_loads(gpu, states, None)?;
     let (mut fastest, mut total) = (f64::INFINITY, 0.0);
     const TIMED: u32 = 10;
     for _ in 0..TIMED {
         let t = Instant::now();
-        std::hint::black_box(solver.grain_loads(gpu, states)?);
+        std::hint::black_box(solver.grain_loads(gpu, states, None)?);
         let s = t.elapsed().as_secs_f64();
         fastest = fastest.min(s);
         total += s;
     }
-    Ok(format!(
+    let mut timer = StageTimer::new(gpu, 64);
+    for _ in 0..TIMED {
+        solver.grain_loads(gpu, states, Some(&mut timer))?;
+        timer.collect(gpu)?;
+    }
+    let mut o = format!(
         "grain window start (porosity, sort, sample_grains, fluid porosity and EOS, read back{}): \
-         {:.3} ms fastest, {:.3} ms mean of {TIMED}",
+         {:.3} ms fastest, {:.3} ms mean of {TIMED}; its GPU stages, a window start:",
         if solver.constants().grain_reaction {
             ", reaction spread"
         } else {
@@ -285,7 +291,15 @@ fn grain_window_start_time(
         },
         fastest * 1e3,
         total / f64::from(TIMED) * 1e3
-    ))
+    );
+    for (name, secs) in timer.totals() {
+        let _ = write!(
+            o,
+            "\n  {name:<24} {:>10.3} ms",
+            secs / f64::from(TIMED) * 1e3
+        );
+    }
+    Ok(o)
 }
 
 /// `couplet bench-dem`: the soft-sphere engine alone on `spheres` spheres (r = 1 mm,
