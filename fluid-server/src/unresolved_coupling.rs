@@ -35,8 +35,8 @@ use crate::neighbour_grid::{GRID_COMMON_WGSL, team_threads};
 use crate::particles::{Kind, ParticleSet};
 use crate::porosity::{GrainPorosity, PorosityField, Solid, solid_fraction_kernel};
 use crate::solver::{Op, SphData, missing};
-use crate::timing::{self, StageTimer};
 use crate::sph_kernel::{Access, BODIES, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
+use crate::timing::{self, StageTimer};
 use couplet_protocol::{BodyLoad, BodyState, Scene, Shape};
 use wgpu::util::DeviceExt;
 

@@ -10,10 +10,10 @@ use couplet_fluid::drag::DragLaw;
 use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::neighbour_grid::team_threads;
-use couplet_fluid::timing::StageTimer;
 use couplet_fluid::porosity::{
     PorosityField, Solid, boundary_state_cpu, porosity_gradient_from_counts,
 };
+use couplet_fluid::timing::StageTimer;
 use couplet_fluid::unresolved_coupling::{
     Grain, GrainBuffers, GrainSample, grain_pressure_force_cpu, grain_reaction_cpu, kernel,
     sample_grains_cpu,
@@ -901,7 +901,11 @@ fn regression_grain_passes_are_in_the_stage_table() {
         .advance(&gpu, 2.0 * solver.limits().dt, Some(&mut timer))
         .unwrap();
     assert_eq!(steps, 2);
-    assert_eq!(count(&timer, "sph: grain_solid_fraction"), 2, "a step's porosity");
+    assert_eq!(
+        count(&timer, "sph: grain_solid_fraction"),
+        2,
+        "a step's porosity"
+    );
     assert_eq!(count(&timer, "sph: grain_pressure_force"), 4, "two a step");
     assert_eq!(count(&timer, "sph: fluid_rates"), 4, "two a step");
     assert_eq!(timer.dropped(), 0, "passes left untimed");
