@@ -1,8 +1,9 @@
 // ---- grain_porosity.wgsl: the grains' solid fraction at each fluid particle, Robinson
 // eq. (9) (CPU twin: porosity.rs) ----
 // grain_solid_fraction: a team of TEAM_LANES threads per grain j (grid_common.wgsl), each
-// over its share of the grain's rows, after every sort (each fluid step). To
-// each fluid or wall particle a within the support it adds V_j W_aj, in counts of SOLID_UNIT
+// over its share of the grain's rows, after every sort: a window start's and each fluid
+// step's but the window's first, which sorts nothing (FluidSolver::start_sorted). To each
+// fluid or wall particle a within the support it adds V_j W_aj, in counts of SOLID_UNIT
 // (2^-31: a solid fraction up to 2 fits a u32; integer adds commute, so the sums are
 // exact and independent of thread order). porosity(a) = 1 − the sum
 // (grain_porosity_read.wgsl), held over the window.

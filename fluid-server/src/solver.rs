@@ -927,6 +927,13 @@ pub struct FluidSolver {
     wall_frames: Vec<BoundaryFrame>,
     /// The unresolved grains' sampling, when the scene has grains.
     grains: Option<crate::unresolved_coupling::GrainCoupling>,
+    /// `grain_loads` has just sorted the particles and set their porosity at τ = 0, and
+    /// nothing has run on them since: the next window's first step skips its sort and
+    /// porosity, which would repeat both on the same positions (the sort is stable, so
+    /// sorting sorted particles is the identity, and the porosity's sums are integer).
+    /// Set by [`FluidSolver::grain_loads`], taken by [`FluidSolver::advance`], cleared
+    /// by every other method that runs passes on the particles.
+    start_sorted: bool,
 }
 
 impl FluidSolver {
@@ -1040,6 +1047,7 @@ impl FluidSolver {
             stats: WindowStats::default(),
             wall_frames,
             grains,
+            start_sorted: false,
         };
         // Fluid pressures from the initial densities (Joubert eq. 4).
         solver.write_params(gpu);
@@ -1217,6 +1225,7 @@ impl FluidSolver {
         points: &[CouplingPoint],
         accelerations: &[BodyAcceleration],
     ) -> Result<(), FluidError> {
+        self.start_sorted = false;
         if !accelerations.is_empty() && accelerations.len() != states.len() {
             return Err(FluidError::AccelerationCount {
                 got: accelerations.len(),
@@ -1427,7 +1436,9 @@ impl FluidSolver {
     /// Records one predictor–corrector step (Joubert eqs. 20–23) as labelled passes.
     /// `tau`: the step's start since the window's (the grains' porosity moves them by v τ);
     /// `slot`: the step's place in the encoder's submission (steps before it in the same
-    /// encoder, below `gpu::MAX_STEPS_PER_SUBMIT`), where its τ goes.
+    /// encoder, below `gpu::MAX_STEPS_PER_SUBMIT`), where its τ goes. `sorted`: the
+    /// particles are as a sort left them, with their porosity at this τ, so the step
+    /// starts after both (the window's first, after `grain_loads`; see `start_sorted`).
     pub fn queue_step(
         &self,
         gpu: &Gpu,
@@ -1435,12 +1446,15 @@ impl FluidSolver {
         mut timer: Option<&mut StageTimer>,
         tau: f64,
         slot: u32,
+        sorted: bool,
     ) -> Result<(), FluidError> {
         let d = &self.data;
-        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerUpdate);
-        d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Sort);
-        if let Some(g) = &self.grains {
-            g.queue_solid_fraction(gpu, encoder, timer.as_deref_mut(), d, tau, slot)?;
+        if !sorted {
+            d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::MarkerUpdate);
+            d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Sort);
+            if let Some(g) = &self.grains {
+                g.queue_solid_fraction(gpu, encoder, timer.as_deref_mut(), d, tau, slot)?;
+            }
         }
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::SmoothingLengths);
         d.queue_op(gpu, encoder, timer.as_deref_mut(), Op::Gradients);
@@ -1485,6 +1499,7 @@ impl FluidSolver {
         dt: f64,
         load_weight: f64,
     ) -> Result<(), FluidError> {
+        self.start_sorted = false;
         self.step_params.dt = dt as f32;
         self.step_params.load_weight = load_weight as f32;
         self.write_params(gpu);
@@ -1535,6 +1550,9 @@ impl FluidSolver {
         };
         let mut per_submit = 1;
         let mut batch: Option<(wgpu::CommandEncoder, u32)> = None;
+        // Markers move at the step's MarkerUpdate, before its sort: then it stays.
+        let start_sorted =
+            std::mem::take(&mut self.start_sorted) && self.pipelines.markers.is_none();
         for s in 0..substeps {
             let recording = std::time::Instant::now();
             let (encoder, slot) = batch.get_or_insert_with(|| {
@@ -1548,7 +1566,14 @@ impl FluidSolver {
             if s == 0 {
                 self.queue_window_start(gpu, encoder);
             }
-            self.queue_step(gpu, encoder, timer.as_deref_mut(), f64::from(s) * dt, *slot)?;
+            self.queue_step(
+                gpu,
+                encoder,
+                timer.as_deref_mut(),
+                f64::from(s) * dt,
+                *slot,
+                s == 0 && start_sorted,
+            )?;
             *slot += 1;
             let last = s + 1 == substeps;
             if last {
@@ -1726,6 +1751,7 @@ impl FluidSolver {
         };
         let (loads, samples) =
             g.sample(gpu, &self.data, self.origin, states, timer.as_deref_mut())?;
+        self.start_sorted = true;
         if self.data.reaction.is_some() {
             self.step_params.reaction_unit =
                 crate::unresolved_coupling::reaction_unit(&self.consts, &samples) as f32;
@@ -1821,6 +1847,7 @@ impl FluidSolver {
 
     /// Mean number of neighbours inside the support per fluid particle (sorts first).
     pub fn neighbour_stats(&mut self, gpu: &Gpu) -> Result<f64, FluidError> {
+        self.start_sorted = false;
         let d = &self.data;
         let counts = storage_init(
             gpu,

@@ -741,7 +741,8 @@ impl GrainCoupling {
     }
 
     /// Records the fluid's porosity (Robinson eq. 9) with the grains moved by v τ from
-    /// the window's start, after a sort: at sampling (τ = 0) and after every step's sort,
+    /// the window's start, after a sort: at sampling (τ = 0) and after every later step's
+    /// sort (the window's first step keeps sampling's: `FluidSolver::start_sorted`),
     /// so that the porosity follows the grains instead of jumping once a window (each
     /// jump is a pressure pulse through the EOS on ρ/ε). `tau` goes to the GPU in `slot`
     /// of the τ slots (`GrainBuffers::tau_slots`), the step's place in the encoder's
