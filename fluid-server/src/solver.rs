@@ -1550,7 +1550,7 @@ impl FluidSolver {
         };
         let mut per_submit = 1;
         let mut batch: Option<(wgpu::CommandEncoder, u32)> = None;
-        // Markers move at the step's MarkerUpdate, before its sort: then it stays.
+        // Not with markers: the first step moves them (MarkerUpdate), then sorts.
         let start_sorted =
             std::mem::take(&mut self.start_sorted) && self.pipelines.markers.is_none();
         for s in 0..substeps {
