@@ -997,6 +997,9 @@ impl NeighbourGrid {
     }
 
     /// [`NeighbourGrid::check`] on the bytes of [`NeighbourGrid::error_record`].
+    ///
+    /// # Panics
+    /// If `record` is not that range's size (32 bytes): a caller's mistake, not a state.
     pub fn check_record(&self, record: &[u8]) -> Result<(), GridError> {
         let rec: GridErrorRecord = bytemuck::pod_read_unaligned(record);
         if rec.outside_count == 0 {

@@ -805,51 +805,59 @@ fn two_way_coupling_conserves_momentum() {
 #[test]
 fn steps_several_to_a_submission_repeat_one_a_submission() {
     let mut gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = grain_scene(1, true, "energy-pair");
-    let run = |gpu: &Gpu| {
-        let mut solver = FluidSolver::new(gpu, &s).unwrap();
-        let origin = solver.origin();
-        let volume = 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3);
-        let grain = Grain {
-            position: [0.003, -0.002, 0.001],
-            velocity: [0.5, 0.2, 0.0],
-            volume,
-            diameter: 0.006,
-            porosity: 1.0,
-        };
-        let window = 6.0 * solver.limits().dt;
-        let mut forces = Vec::new();
-        for _ in 0..3 {
-            let mut loads = solver
-                .grain_loads(gpu, &states(&[grain], origin, 2500.0), None)
-                .unwrap();
-            assert_eq!(solver.advance(gpu, window, None).unwrap(), 6);
-            solver.add_grain_pressure_forces(gpu, &mut loads).unwrap();
-            forces.push(loads[0].force);
-        }
-        (solver.data().read(gpu).unwrap(), forces)
-    };
     gpu.steps_per_submit = 1;
-    let (one, one_forces) = run(&gpu);
+    let (one, one_forces) = three_crossing_windows(&gpu, |_| {});
     gpu.steps_per_submit = 4;
-    let (four, four_forces) = run(&gpu);
+    let (four, four_forces) = three_crossing_windows(&gpu, |_| {});
     assert_eq!(one_forces, four_forces, "the grain's window loads");
-    assert_eq!(one.id, four.id);
-    let moved = (0..one.len()).filter(|&i| one.vel[i] != [0.0; 3]).count();
-    println!("{moved} of {} particles moved", one.len());
+    assert_same_particles(&gpu, &one, &four);
+}
+
+/// A grain of radius 3 mm (2500 kg/m³ in `states`) crossing `grain_scene`'s fluid at
+/// 0.5 m/s, near the box's centre.
+fn crossing_grain() -> Grain {
+    Grain {
+        position: [0.003, -0.002, 0.001],
+        velocity: [0.5, 0.2, 0.0],
+        volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
+        diameter: 0.006,
+        porosity: 1.0,
+    }
+}
+
+/// Three windows of 6 steps of `grain_scene(1, true, "energy-pair")` with
+/// [`crossing_grain`] held where it starts, `between` called after each window's
+/// `grain_loads`: the solver and the grain's window loads.
+fn three_crossing_windows(
+    gpu: &Gpu,
+    between: impl Fn(&mut FluidSolver),
+) -> (FluidSolver, Vec<[f64; 3]>) {
+    let mut solver = FluidSolver::new(gpu, &grain_scene(1, true, "energy-pair")).unwrap();
+    let grain = states(&[crossing_grain()], solver.origin(), 2500.0);
+    let window = 6.0 * solver.limits().dt;
+    let mut forces = Vec::new();
+    for _ in 0..3 {
+        let mut loads = solver.grain_loads(gpu, &grain, None).unwrap();
+        between(&mut solver);
+        assert_eq!(solver.advance(gpu, window, None).unwrap(), 6);
+        solver.add_grain_pressure_forces(gpu, &mut loads).unwrap();
+        forces.push(loads[0].force);
+    }
+    (solver, forces)
+}
+
+/// Every particle of `a` and `b` in the same order, at the same position, velocity and
+/// density, bit for bit, and more than 100 of them moving (the comparison sees the flow).
+fn assert_same_particles(gpu: &Gpu, a: &FluidSolver, b: &FluidSolver) {
+    let (a, b) = (a.data().read(gpu).unwrap(), b.data().read(gpu).unwrap());
+    assert_eq!(a.id, b.id, "the sorted order");
+    let moved = (0..a.len()).filter(|&i| a.vel[i] != [0.0; 3]).count();
+    println!("{moved} of {} particles moved", a.len());
     assert!(moved > 100, "only {moved} particles moved");
-    for i in 0..one.len() {
-        assert_eq!(
-            one.pos[i], four.pos[i],
-            "position of particle {}",
-            one.id[i]
-        );
-        assert_eq!(
-            one.vel[i], four.vel[i],
-            "velocity of particle {}",
-            one.id[i]
-        );
-        assert_eq!(one.rho[i], four.rho[i], "density of particle {}", one.id[i]);
+    for i in 0..a.len() {
+        assert_eq!(a.pos[i], b.pos[i], "position of particle {}", a.id[i]);
+        assert_eq!(a.vel[i], b.vel[i], "velocity of particle {}", a.id[i]);
+        assert_eq!(a.rho[i], b.rho[i], "density of particle {}", a.id[i]);
     }
 }
 
@@ -862,63 +870,41 @@ fn steps_several_to_a_submission_repeat_one_a_submission() {
 #[test]
 fn a_grain_window_sorts_once_and_ends_where_two_sorts_do() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = grain_scene(1, true, "energy-pair");
-    let grain = Grain {
-        position: [0.003, -0.002, 0.001],
-        velocity: [0.5, 0.2, 0.0],
-        volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
-        diameter: 0.006,
-        porosity: 1.0,
-    };
-    let run = |sort_twice: bool| {
-        let mut solver = FluidSolver::new(&gpu, &s).unwrap();
-        let origin = solver.origin();
-        let window = 6.0 * solver.limits().dt;
-        let mut forces = Vec::new();
-        for _ in 0..3 {
-            let mut loads = solver
-                .grain_loads(&gpu, &states(&[grain], origin, 2500.0), None)
-                .unwrap();
-            if sort_twice {
-                solver.run_ops(&gpu, &[], 1e-6, 0.0).unwrap();
-            }
-            assert_eq!(solver.advance(&gpu, window, None).unwrap(), 6);
-            solver.add_grain_pressure_forces(&gpu, &mut loads).unwrap();
-            forces.push(loads[0].force);
-        }
-        (solver, forces)
-    };
-    let (mut once, once_forces) = run(false);
-    let (twice, twice_forces) = run(true);
+    let (mut once, once_forces) = three_crossing_windows(&gpu, |_| {});
+    let (twice, twice_forces) = three_crossing_windows(&gpu, |solver| {
+        solver.run_ops(&gpu, &[], 1e-6, 0.0).unwrap();
+    });
     assert_eq!(once_forces, twice_forces, "the grain's window loads");
-    let (a, b) = (
-        once.data().read(&gpu).unwrap(),
-        twice.data().read(&gpu).unwrap(),
-    );
-    assert_eq!(a.id, b.id, "the sorted order");
-    let moved = (0..a.len()).filter(|&i| a.vel[i] != [0.0; 3]).count();
-    assert!(moved > 100, "only {moved} particles moved");
-    for i in 0..a.len() {
-        assert_eq!(a.pos[i], b.pos[i], "position of particle {}", a.id[i]);
-        assert_eq!(a.vel[i], b.vel[i], "velocity of particle {}", a.id[i]);
-        assert_eq!(a.rho[i], b.rho[i], "density of particle {}", a.id[i]);
-    }
+    assert_same_particles(&gpu, &once, &twice);
 
-    let origin = once.origin();
+    let grain = states(&[crossing_grain()], once.origin(), 2500.0);
     let mut timer = StageTimer::new(&gpu, 64);
-    once.grain_loads(&gpu, &states(&[grain], origin, 2500.0), Some(&mut timer))
-        .unwrap();
+    once.grain_loads(&gpu, &grain, Some(&mut timer)).unwrap();
     timer.collect(&gpu).unwrap();
     let window = 6.0 * once.limits().dt;
     assert_eq!(once.advance(&gpu, window, Some(&mut timer)).unwrap(), 6);
-    let count = |label: &str| {
-        (timer.totals_with_counts().into_iter())
-            .find(|(l, _, _)| l == label)
-            .map_or(0, |(_, _, n)| n)
-    };
-    assert_eq!(count("grid: count"), 6, "sorts: the start's and 5 steps'");
-    assert_eq!(count("sph: grain_solid_fraction"), 6, "porosity passes");
-    assert_eq!(count("sph: fluid_rates"), 12, "two a step");
+    assert_eq!(
+        passes(&timer, "grid: count"),
+        6,
+        "sorts: the start's and 5 steps'"
+    );
+    assert_eq!(
+        passes(&timer, "sph: grain_solid_fraction"),
+        6,
+        "porosity passes"
+    );
+    assert_eq!(passes(&timer, "sph: fluid_rates"), 12, "two a step");
+}
+
+/// The passes `timer` timed under `label` (0 if none), their time checked finite and
+/// not negative.
+fn passes(timer: &StageTimer, label: &str) -> u64 {
+    (timer.totals_with_counts().into_iter())
+        .find(|(l, _, _)| l == label)
+        .map_or(0, |(_, secs, n)| {
+            assert!(secs.is_finite() && secs >= 0.0, "{label}: {secs} s");
+            n
+        })
 }
 
 /// Regression (2026-12-01): the grains' passes of a step (`grain_solid_fraction` once,
@@ -934,26 +920,9 @@ fn regression_grain_passes_are_in_the_stage_table() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
     let s = grain_scene(1, true, "energy-pair");
     let mut solver = FluidSolver::new(&gpu, &s).unwrap();
-    let origin = solver.origin();
-    let grain = Grain {
-        position: [0.003, -0.002, 0.001],
-        velocity: [0.5, 0.2, 0.0],
-        volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
-        diameter: 0.006,
-        porosity: 1.0,
-    };
-    let count = |timer: &StageTimer, label: &str| {
-        (timer.totals_with_counts().into_iter())
-            .find(|(l, _, _)| l == label)
-            .map_or(0, |(_, secs, n)| {
-                assert!(secs.is_finite() && secs >= 0.0, "{label}: {secs} s");
-                n
-            })
-    };
+    let grain = states(&[crossing_grain()], solver.origin(), 2500.0);
     let mut timer = StageTimer::new(&gpu, 64);
-    solver
-        .grain_loads(&gpu, &states(&[grain], origin, 2500.0), Some(&mut timer))
-        .unwrap();
+    solver.grain_loads(&gpu, &grain, Some(&mut timer)).unwrap();
     timer.collect(&gpu).unwrap();
     for label in [
         "grid: count",
@@ -963,7 +932,7 @@ fn regression_grain_passes_are_in_the_stage_table() {
         "sph: tait_eos",
         "sph: spread_grain_reaction",
     ] {
-        assert_eq!(count(&timer, label), 1, "{label} in a window start");
+        assert_eq!(passes(&timer, label), 1, "{label} in a window start");
     }
     timer.reset();
     let steps = solver
@@ -971,12 +940,12 @@ fn regression_grain_passes_are_in_the_stage_table() {
         .unwrap();
     assert_eq!(steps, 2);
     assert_eq!(
-        count(&timer, "sph: grain_solid_fraction"),
+        passes(&timer, "sph: grain_solid_fraction"),
         1,
         "the second step's porosity"
     );
-    assert_eq!(count(&timer, "sph: grain_pressure_force"), 4, "two a step");
-    assert_eq!(count(&timer, "sph: fluid_rates"), 4, "two a step");
+    assert_eq!(passes(&timer, "sph: grain_pressure_force"), 4, "two a step");
+    assert_eq!(passes(&timer, "sph: fluid_rates"), 4, "two a step");
     assert_eq!(timer.dropped(), 0, "passes left untimed");
 }
 
