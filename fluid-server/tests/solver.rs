@@ -4,7 +4,9 @@
 mod common;
 
 use couplet_fluid::gpu::shared_test_gpu;
-use couplet_fluid::{FluidError, FluidLimits, FluidSolver, Op, SphConstants, WindowStats, stages};
+use couplet_fluid::{
+    FluidError, FluidLimits, FluidSolver, Op, ParticleSet, SphConstants, WindowStats, stages,
+};
 use couplet_protocol::{BodyState, Scene};
 use std::path::Path;
 
@@ -194,19 +196,25 @@ fn buoyancy_of_a_marker_sphere() {
     );
 }
 
+/// The error of one window of two steps over a random set of 10³ particles (30 % walls,
+/// velocity scale `u_scale`) that `spoil` has edited; panics if the window succeeds.
+fn spoiled_window_error(u_scale: f64, spoil: impl FnOnce(&mut ParticleSet)) -> FluidError {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let scene = common::scene("", "");
+    let c = SphConstants::from_scene(&scene).unwrap();
+    let mut set = common::random_set(&c, 10, 0.3, 0.1, u_scale, 9);
+    spoil(&mut set);
+    let mut solver = FluidSolver::from_particles(&gpu, &scene, set).unwrap();
+    let dt = solver.limits().dt;
+    solver.advance(&gpu, 2.0 * dt, None).unwrap_err()
+}
+
 /// A fluid particle with a non-finite velocity is reported at the end of the window
 /// with its id, the quantity and the step.
 #[test]
 fn blow_up_names_the_particle() {
-    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let scene = common::scene("", "");
-    let c = SphConstants::from_scene(&scene).unwrap();
-    let mut set = common::random_set(&c, 10, 0.3, 0.1, 0.1, 9);
     let bad = 17;
-    set.vel[bad] = [f64::NAN, 0.0, 0.0];
-    let mut solver = FluidSolver::from_particles(&gpu, &scene, set).unwrap();
-    let dt = solver.limits().dt;
-    let err = solver.advance(&gpu, 2.0 * dt, None).unwrap_err();
+    let err = spoiled_window_error(0.1, |set| set.vel[bad] = [f64::NAN, 0.0, 0.0]);
     let msg = err.to_string();
     println!("{msg}");
     match err {
@@ -235,17 +243,12 @@ fn blow_up_names_the_particle() {
 /// finite and sane. Reference: the id the test gives it.
 #[test]
 fn particle_outside_the_grid_is_named_at_the_window_end() {
-    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let scene = common::scene("", "");
-    let c = SphConstants::from_scene(&scene).unwrap();
-    let mut set = common::random_set(&c, 10, 0.3, 0.1, 0.0, 9);
     let id = 23;
-    assert!((id as usize) < set.kinds.n_fluid);
-    let fluid = set.id.iter().position(|&i| i == id).unwrap();
-    set.pos[fluid] = [40.0, 0.05, 0.05];
-    let mut solver = FluidSolver::from_particles(&gpu, &scene, set).unwrap();
-    let dt = solver.limits().dt;
-    let err = solver.advance(&gpu, 2.0 * dt, None).unwrap_err();
+    let err = spoiled_window_error(0.0, |set| {
+        assert!((id as usize) < set.kinds.n_fluid);
+        let fluid = set.id.iter().position(|&i| i == id).unwrap();
+        set.pos[fluid] = [40.0, 0.05, 0.05];
+    });
     let msg = err.to_string();
     match err {
         FluidError::Grid { step, .. } => {
