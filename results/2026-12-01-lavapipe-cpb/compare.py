@@ -1,10 +1,21 @@
 # Compares two block-velocity.csv files (t, downward velocity): the means over t >= 6 ms
 # (the 12 ms runs' judged stretch) and the second's records over the first's, interpolated
 # linearly in t.  python3 compare.py A/block-velocity.csv B/block-velocity.csv
+# With --stretches V, the means of one file's records over the stretches of the
+# w-0.9-narrow table in comparison.md, against a reference speed V (eq. 35):
+#   python3 compare.py --stretches 4.9124e-3 w-0.9-narrow/block-velocity.csv
 import csv,sys,bisect
 def load(p):
     r=list(csv.reader(open(p)))[1:]
     return [float(a) for a,b in r],[float(b) for a,b in r]
+if sys.argv[1]=="--stretches":
+    ref=float(sys.argv[2]); ts,vs=load(sys.argv[3])
+    edges=[0.006,0.012,0.06,0.12,0.18,0.27,0.361]
+    for a,b in zip(edges,edges[1:]):
+        s=[v for t,v in zip(ts,vs) if a<=t<b]
+        m=sum(s)/len(s)
+        print("t in [%.3f, %.3f): mean %.4e (n=%d), %+.2f %% off %.4e"%(a,b,m,len(s),100*(m/ref-1),ref))
+    sys.exit()
 ta,va=load(sys.argv[1]); tb,vb=load(sys.argv[2])
 def interp(t,ts,vs):
     i=bisect.bisect_left(ts,t)
