@@ -2,19 +2,59 @@
 # (the 12 ms runs' judged stretch) and the second's records over the first's, interpolated
 # linearly in t.  python3 compare.py A/block-velocity.csv B/block-velocity.csv
 # With --stretches V, the means of one file's records over the stretches of the
-# w-0.9-narrow table in comparison.md, against a reference speed V (eq. 35):
-#   python3 compare.py --stretches 4.9124e-3 w-0.9-narrow/block-velocity.csv
+# w-0.9-narrow table in comparison.md, for each file given, against a reference speed V
+# (eq. 35); a stretch a cut run did not reach is left out, one it reached part of is marked:
+#   python3 compare.py --stretches 4.9124e-3 w-0.9-narrow/block-velocity.csv [MORE.csv ...]
+# With --falls V, the same stretches' speeds from block-height.csv, each the drop in
+# height over the time (free of the velocity records' aliasing):
+#   python3 compare.py --falls 4.9124e-3 HIGH/block-height.csv
+# With --trend V T0 T1, a straight line through each file's records over T0 <= t < T1:
+#   python3 compare.py --trend 4.9124e-3 0.012 0.19 w-0.9-narrow/block-velocity.csv [MORE.csv ...]
 import csv,sys,bisect
 def load(p):
     r=list(csv.reader(open(p)))[1:]
     return [float(a) for a,b in r],[float(b) for a,b in r]
 if sys.argv[1]=="--stretches":
-    ref=float(sys.argv[2]); ts,vs=load(sys.argv[3])
+    ref=float(sys.argv[2])
     edges=[0.006,0.012,0.06,0.12,0.18,0.27,0.361]
-    for a,b in zip(edges,edges[1:]):
-        s=[v for t,v in zip(ts,vs) if a<=t<b]
-        m=sum(s)/len(s)
-        print("t in [%.3f, %.3f): mean %.4e (n=%d), %+.2f %% off %.4e"%(a,b,m,len(s),100*(m/ref-1),ref))
+    for p in sys.argv[3:]:
+        ts,vs=load(p); print(p)
+        for a,b in zip(edges,edges[1:]):
+            s=[v for t,v in zip(ts,vs) if a<=t<b]
+            if not s: continue  # a run cut before this stretch
+            cut=" (cut at t = %.3f s)"%ts[-1] if ts[-1]<b-2.5e-3 else ""
+            m=sum(s)/len(s)
+            print("t in [%.3f, %.3f): mean %.4e (n=%d), %+.2f %% off %.4e%s"%(a,b,m,len(s),100*(m/ref-1),ref,cut))
+    sys.exit()
+if sys.argv[1]=="--falls":
+    # The same stretches from block-height.csv (t, lowest grain centre above the floor):
+    # each stretch's speed is the drop in height between the records nearest its ends over the
+    # time between them, the exact mean of the velocity, free of the aliasing of the
+    # column's acoustic breathing that the velocity records carry.
+    ref=float(sys.argv[2])
+    edges=[0.006,0.012,0.06,0.12,0.18,0.27,0.361]
+    for p in sys.argv[3:]:
+        ts,ys=load(p); print(p)
+        for a,b in zip(edges,edges[1:]):
+            near=lambda x: min(range(len(ts)),key=lambda i: abs(ts[i]-x))
+            i,j=near(a),near(b)  # the records nearest the stretch's ends
+            if j<=i: continue
+            v=(ys[i]-ys[j])/(ts[j]-ts[i])
+            cut=" (cut at t = %.3f s)"%ts[-1] if ts[-1]<b-2.5e-3 else ""
+            print("t in [%.3f, %.3f): fall %.4e m/s over %.3f-%.3f s, %+.2f %% off %.4e; height %.3f -> %.3f mm%s"%(a,b,v,ts[i],ts[j],100*(v/ref-1),ref,1e3*ys[i],1e3*ys[j],cut))
+    sys.exit()
+if sys.argv[1]=="--trend":
+    # least-squares line through the records with T0 <= t < T1: the speed at the stretch's
+    # middle and the slope, both in % of V, with the slope's standard error (the records'
+    # scatter about the line, taken as independent: the acoustic breathing aliased by the
+    # 2 ms records is not, so read the error as a lower bound)
+    ref=float(sys.argv[2]); t0=float(sys.argv[3]); t1=float(sys.argv[4])
+    for p in sys.argv[5:]:
+        ts,vs=load(p); pts=[(t,100*(v/ref-1)) for t,v in zip(ts,vs) if t0<=t<t1]
+        n=len(pts); tm=sum(t for t,_ in pts)/n; ym=sum(y for _,y in pts)/n
+        sxx=sum((t-tm)**2 for t,_ in pts); b=sum((t-tm)*(y-ym) for t,y in pts)/sxx
+        res=sum((y-ym-b*(t-tm))**2 for t,y in pts)/(n-2); se=(res/sxx)**.5
+        print("%s: t in [%.3f, %.3f) (n=%d, to %.3f s): %+.2f %% off %.4e at t = %.3f s, slope %+.2f ± %.2f %% per 0.1 s"%(p,t0,t1,n,pts[-1][0],ym,ref,tm,0.1*b,0.1*se))
     sys.exit()
 ta,va=load(sys.argv[1]); tb,vb=load(sys.argv[2])
 def interp(t,ts,vs):

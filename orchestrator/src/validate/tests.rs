@@ -569,6 +569,43 @@ fn cpb_return_flow_reads_snapshots_off_the_body_times() {
     assert!((measured - u).abs() < 1e-9, "{row:?}");
 }
 
+/// Regression (cpb_settling_speed_from_aliased_records, 2026-12-02): the settling speed
+/// was the mean of the block's recorded velocities, and the column's acoustic breathing
+/// (a few per cent of the speed, period about 2H/c) aliases with the records. A block
+/// whose speed breathes by ±3 % with the records' own period, so that every record reads
+/// the crest: its fall over the judged 6–12 ms (30 whole periods) gives the true mean,
+/// 1 mm/s to 1e-9, where the records' mean reads 3 % high (reported beside it).
+#[test]
+fn cpb_settling_speed_is_the_fall_not_the_aliased_records() {
+    let (scene, mut rec) = cpb_synthetic_fall(|_| 2.5e-4);
+    let (v, a, period) = (1e-3, 3e-5, 2e-4);
+    let w = 2.0 * std::f64::consts::PI / period;
+    for b in &mut rec.bodies {
+        // From the steady fall's y0 − v t to y0 − (v t + a sin(ωt)/ω), speed v + a cos(ωt).
+        b.position[1] -= a * (w * b.time).sin() / w;
+        b.velocity[1] = -(v + a * (w * b.time).cos());
+    }
+    let mut r = Report::default();
+    constant_porosity_block(&scene, &rec, &mut r).unwrap();
+    let measured = |start: &str| -> f64 {
+        let row = (r.rows.iter())
+            .find(|r| r.quantity.starts_with(start))
+            .unwrap_or_else(|| panic!("no row {start:?}: {:?}", r.rows));
+        row.measured.split(' ').next().unwrap().parse().unwrap()
+    };
+    let fall = (r.values.iter()).find(|(k, _)| *k == "speed").unwrap().1;
+    assert!((fall - v).abs() < 1e-9 * v, "fall rate {fall}");
+    assert!(measured("block settling speed") == 1.0e-3, "{:?}", r.rows);
+    // The row prints four decimals: 1.0300e-3.
+    let records = measured("mean of the block's");
+    assert!(
+        (records - (v + a)).abs() < 1e-4 * v,
+        "records' mean {records}"
+    );
+    let change = measured("change of the settling speed");
+    assert!(change.abs() < 1e-6, "change {change} %");
+}
+
 /// The quick CPB scene's ε = 0.8 block falling steadily at 1 mm/s for 12 ms, with a
 /// fluid snapshot every millisecond 0.4 ns off the body times: one particle in the
 /// middle of the block rising at `u(t)`, one at rest well below it.
