@@ -696,11 +696,11 @@ pub(super) fn constant_porosity_block(
         ));
     }
     // The settling speed is the block's fall across the judged stretch over its duration,
-    // the exact time average of its velocity. A mean of the recorded velocities is not:
-    // the column breathes acoustically (period about 2H/c, a few per cent of the block's
-    // speed) and records every body_output_interval sample that breathing at aliased
-    // phases; in the water ε = 0.9 run to 0.36 s the records scattered by 0.6–2.7 %
-    // about their stretches' means (results/2026-12-01-lavapipe-cpb/comparison.md).
+    // the exact time average of its velocity whatever the record interval. A mean of the
+    // records weights the stretch's ends by a full interval and would alias any motion
+    // whose period is near a multiple of the interval; in the water ε = 0.9 quick runs,
+    // whose block speed oscillates by a few per cent with a period of about 31 ms, the
+    // two differed by less than 0.1 % (results/2026-12-01-lavapipe-cpb/comparison.md).
     // The records' mean is reported beside it.
     let fall_rate =
         |a: &BodySample, b: &BodySample| (a.position[1] - b.position[1]) / (b.time - a.time);

@@ -569,14 +569,13 @@ fn cpb_return_flow_reads_snapshots_off_the_body_times() {
     assert!((measured - u).abs() < 1e-9, "{row:?}");
 }
 
-/// Regression (cpb_settling_speed_from_aliased_records, 2026-12-02): the settling speed
-/// was the mean of the block's recorded velocities, and the column's acoustic breathing
-/// (a few per cent of the speed, period about 2H/c) aliases with the records. A block
-/// whose speed breathes by ±3 % with the records' own period, so that every record reads
-/// the crest: its fall over the judged 6–12 ms (30 whole periods) gives the true mean,
-/// 1 mm/s to 1e-9, where the records' mean reads 3 % high (reported beside it).
+/// The settling speed is the block's fall over the judged stretch over its time, the
+/// velocity's exact time average whatever the record interval. A block whose speed
+/// breathes by ±3 % with the records' own period, so that every record reads the crest:
+/// its fall over the judged 6–12 ms (30 whole periods) gives the true mean, 1 mm/s to
+/// 1e-9, where the records' mean (reported beside it) reads 3 % high.
 #[test]
-fn cpb_settling_speed_is_the_fall_not_the_aliased_records() {
+fn cpb_settling_speed_is_the_time_average_of_the_fall() {
     let (scene, mut rec) = cpb_synthetic_fall(|_| 2.5e-4);
     let (v, a, period) = (1e-3, 3e-5, 2e-4);
     let w = 2.0 * std::f64::consts::PI / period;
