@@ -6,10 +6,11 @@
 # (eq. 35); a stretch a cut run did not reach is left out, one it reached part of is marked:
 #   python3 compare.py --stretches 4.9124e-3 w-0.9-narrow/block-velocity.csv [MORE.csv ...]
 # With --falls V, the same stretches' speeds from block-height.csv, each the drop in
-# height over the time (free of the velocity records' aliasing):
+# height over the time (the velocity's exact mean over the stretch):
 #   python3 compare.py --falls 4.9124e-3 HIGH/block-height.csv
-# With --trend V T0 T1, a straight line through each file's records over T0 <= t < T1:
-#   python3 compare.py --trend 4.9124e-3 0.012 0.19 w-0.9-narrow/block-velocity.csv [MORE.csv ...]
+# With --periods V P, means over successive whole periods P of the block speed's slow
+# oscillation (about 31 ms), which the stretches above cut through:
+#   python3 compare.py --periods 4.9124e-3 0.031 w-0.9-narrow/block-velocity.csv [MORE.csv ...]
 import csv,sys,bisect
 def load(p):
     r=list(csv.reader(open(p)))[1:]
@@ -28,9 +29,8 @@ if sys.argv[1]=="--stretches":
     sys.exit()
 if sys.argv[1]=="--falls":
     # The same stretches from block-height.csv (t, lowest grain centre above the floor):
-    # each stretch's speed is the drop in height between the records nearest its ends over the
-    # time between them, the exact mean of the velocity, free of the aliasing of the
-    # column's acoustic breathing that the velocity records carry.
+    # each stretch's speed is the drop in height between the records nearest its ends over
+    # the time between them, the exact mean of the velocity.
     ref=float(sys.argv[2])
     edges=[0.006,0.012,0.06,0.12,0.18,0.27,0.361]
     for p in sys.argv[3:]:
@@ -59,19 +59,6 @@ if sys.argv[1]=="--periods":
             m=sum((t1-t0)*(v0+v1)/2 for (t0,v0),(t1,v1) in zip(pts,pts[1:]))/(pts[-1][0]-pts[0][0])
             print("t in [%.3f, %.3f]: mean %.4e, %+.2f %% off %.4e"%(a,b,m,100*(m/ref-1),ref))
             a=b
-    sys.exit()
-if sys.argv[1]=="--trend":
-    # least-squares line through the records with T0 <= t < T1: the speed at the stretch's
-    # middle and the slope, both in % of V, with the slope's standard error (the records'
-    # scatter about the line, taken as independent: the acoustic breathing aliased by the
-    # 2 ms records is not, so read the error as a lower bound)
-    ref=float(sys.argv[2]); t0=float(sys.argv[3]); t1=float(sys.argv[4])
-    for p in sys.argv[5:]:
-        ts,vs=load(p); pts=[(t,100*(v/ref-1)) for t,v in zip(ts,vs) if t0<=t<t1]
-        n=len(pts); tm=sum(t for t,_ in pts)/n; ym=sum(y for _,y in pts)/n
-        sxx=sum((t-tm)**2 for t,_ in pts); b=sum((t-tm)*(y-ym) for t,y in pts)/sxx
-        res=sum((y-ym-b*(t-tm))**2 for t,y in pts)/(n-2); se=(res/sxx)**.5
-        print("%s: t in [%.3f, %.3f) (n=%d, to %.3f s): %+.2f %% off %.4e at t = %.3f s, slope %+.2f ± %.2f %% per 0.1 s"%(p,t0,t1,n,pts[-1][0],ym,ref,tm,0.1*b,0.1*se))
     sys.exit()
 ta,va=load(sys.argv[1]); tb,vb=load(sys.argv[2])
 def interp(t,ts,vs):

@@ -933,9 +933,9 @@ pub(super) fn constant_porosity_block(
         &s,
         vec![(0.0, printed), (t_end, printed)],
     ));
-    // How far the block's lowest layer is from the closed floor, the height its fall is
-    // read from: a stretch's settling speed is the drop in it over the time, free of the
-    // records' aliasing (above).
+    // How far the block's lowest layer is from the closed floor: the distance a slowing
+    // near the floor would follow, and the height any stretch's settling speed can be
+    // read from as the drop in it over the time (`results/…/compare.py --falls`).
     let lowest = (scene.bodies.iter().enumerate())
         .filter(|(_, b)| b.translation_group.as_deref() == Some(lattice.name.as_str()))
         .min_by(|a, b| a.1.position[1].total_cmp(&b.1.position[1]))
