@@ -15,33 +15,27 @@ import csv,sys,bisect
 def load(p):
     r=list(csv.reader(open(p)))[1:]
     return [float(a) for a,b in r],[float(b) for a,b in r]
-if sys.argv[1]=="--stretches":
+EDGES=[0.006,0.012,0.06,0.12,0.18,0.27,0.361]  # the w-0.9-narrow table's stretches
+if sys.argv[1] in ("--stretches","--falls"):
+    # --falls reads block-height.csv (t, lowest grain centre above the floor): a stretch's
+    # speed is the drop in height between the records nearest its ends over the time
+    # between them, the exact mean of the velocity.
     ref=float(sys.argv[2])
-    edges=[0.006,0.012,0.06,0.12,0.18,0.27,0.361]
-    for p in sys.argv[3:]:
-        ts,vs=load(p); print(p)
-        for a,b in zip(edges,edges[1:]):
-            s=[v for t,v in zip(ts,vs) if a<=t<b]
-            if not s: continue  # a run cut before this stretch
-            cut=" (cut at t = %.3f s)"%ts[-1] if ts[-1]<b-2.5e-3 else ""
-            m=sum(s)/len(s)
-            print("t in [%.3f, %.3f): mean %.4e (n=%d), %+.2f %% off %.4e%s"%(a,b,m,len(s),100*(m/ref-1),ref,cut))
-    sys.exit()
-if sys.argv[1]=="--falls":
-    # The same stretches from block-height.csv (t, lowest grain centre above the floor):
-    # each stretch's speed is the drop in height between the records nearest its ends over
-    # the time between them, the exact mean of the velocity.
-    ref=float(sys.argv[2])
-    edges=[0.006,0.012,0.06,0.12,0.18,0.27,0.361]
     for p in sys.argv[3:]:
         ts,ys=load(p); print(p)
-        for a,b in zip(edges,edges[1:]):
-            near=lambda x: min(range(len(ts)),key=lambda i: abs(ts[i]-x))
-            i,j=near(a),near(b)  # the records nearest the stretch's ends
-            if j<=i: continue
-            v=(ys[i]-ys[j])/(ts[j]-ts[i])
+        for a,b in zip(EDGES,EDGES[1:]):
+            if sys.argv[1]=="--stretches":
+                s=[v for t,v in zip(ts,ys) if a<=t<b]
+                if not s: continue  # a run cut before this stretch
+                v=sum(s)/len(s); what="mean %.4e (n=%d)"%(v,len(s))
+            else:
+                near=lambda x: min(range(len(ts)),key=lambda i: abs(ts[i]-x))
+                i,j=near(a),near(b)
+                if j<=i: continue
+                v=(ys[i]-ys[j])/(ts[j]-ts[i])
+                what="fall %.4e m/s over %.3f-%.3f s (height %.3f -> %.3f mm)"%(v,ts[i],ts[j],1e3*ys[i],1e3*ys[j])
             cut=" (cut at t = %.3f s)"%ts[-1] if ts[-1]<b-2.5e-3 else ""
-            print("t in [%.3f, %.3f): fall %.4e m/s over %.3f-%.3f s, %+.2f %% off %.4e; height %.3f -> %.3f mm%s"%(a,b,v,ts[i],ts[j],100*(v/ref-1),ref,1e3*ys[i],1e3*ys[j],cut))
+            print("t in [%.3f, %.3f): %s, %+.2f %% off %.4e%s"%(a,b,what,100*(v/ref-1),ref,cut))
     sys.exit()
 if sys.argv[1]=="--periods":
     # Means over successive windows of P seconds from t = 0.012 s (P the period of the
