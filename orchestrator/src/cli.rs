@@ -177,8 +177,10 @@ enum Cmd {
         scenes: Option<PathBuf>,
         /// Analyse the run already in this folder (its scene.toml and run.mcap, as
         /// `couplet run --out` leaves them) instead of running: a run made on another
-        /// machine, or one variant of a case run by hand. The report goes to the folder.
-        #[arg(long, conflicts_with_all = ["quick", "sweep", "variants"])]
+        /// machine, or one variant of a case run by hand. The report and its series go to
+        /// --out when given (the folder may be read-only, or a run still going), else to
+        /// the folder. The scene is the folder's, so --set, --spacing and --scenes are refused.
+        #[arg(long, conflicts_with_all = ["quick", "sweep", "variants", "set", "spacing", "scenes"])]
         recording: Option<PathBuf>,
         #[command(flatten)]
         overrides: Overrides,
@@ -429,10 +431,11 @@ fn real_main(cli: Cli) -> anyhow::Result<()> {
         Cmd::Validate {
             name,
             recording: Some(dir),
+            out,
             ..
         } => {
             let name = name.unwrap_or_default();
-            let r = validate::analyse_recording(&name, &dir)
+            let r = validate::analyse_recording(&name, &dir, out.as_deref().unwrap_or(&dir))
                 .with_context(|| format!("analysing {} as {name}", dir.display()))?;
             println!("{}", r.markdown());
             if !r.passed() {
@@ -709,6 +712,36 @@ mod tests {
             &["plan", "scenes/dam-break.toml"],
         ] {
             assert!(!runs_windows(&parsed(args)), "{args:?}");
+        }
+    }
+
+    /// Regression (recording_ignored_out_and_set, 2026-12-02): `validate --recording DIR`
+    /// accepted `--out`, `--set`, `--spacing` and `--scenes` and used none of them, writing
+    /// its report into DIR (a read-only folder fetched from a GPU machine, or a run still
+    /// going). `--out` is now where the report goes; the others are refused, since the
+    /// scene is DIR's own.
+    #[test]
+    fn a_recording_takes_out_and_refuses_scene_overrides() {
+        let Cmd::Validate { recording, out, .. } =
+            parsed(&["validate", "cpb", "--recording", "runs/a", "--out", "x"])
+        else {
+            panic!("not validate")
+        };
+        assert_eq!(recording.as_deref(), Some(std::path::Path::new("runs/a")));
+        assert_eq!(out.as_deref(), Some(std::path::Path::new("x")));
+        for extra in [
+            &["--set", "time.end=1"][..],
+            &["--spacing", "0.01"],
+            &["--scenes", "scenes"],
+        ] {
+            let args = ["couplet", "validate", "cpb", "--recording", "runs/a"];
+            let e = Cli::try_parse_from(args.iter().chain(extra)).err();
+            let kind = e.as_ref().map(|e| e.kind());
+            assert_eq!(
+                kind,
+                Some(clap::error::ErrorKind::ArgumentConflict),
+                "{extra:?}: {e:?}"
+            );
         }
     }
 }

@@ -872,15 +872,20 @@ fn chosen_variants(
 }
 
 /// Analyses the run in `dir` (`scene.toml`, `run.mcap`) as case `name` without running
-/// it, and writes the report there. A case of variants is analysed as one of them (no
+/// it, and writes the report and its series to `out` (made if missing; `dir` itself when
+/// the caller has no other). A case of variants is analysed as one of them (no
 /// comparison across variants).
-pub fn analyse_recording(name: &str, dir: &Path) -> Result<Report, ValidateError> {
+pub fn analyse_recording(name: &str, dir: &Path, out: &Path) -> Result<Report, ValidateError> {
     let case = find(name)?;
     let (scene, _) = resolve_scene(&dir.join("scene.toml"), &[])?;
     let rec = crate::resume::read_chain(dir).map_err(ValidateError::Recording)?;
+    std::fs::create_dir_all(out).map_err(|source| ValidateError::Io {
+        what: format!("creating {}", out.display()),
+        source,
+    })?;
     let report = Report {
         from_recording: true,
-        ..analysed(case, &scene, &rec, dir.to_owned())?
+        ..analysed(case, &scene, &rec, out.to_owned())?
     };
     write_outputs(&report)?;
     Ok(report)

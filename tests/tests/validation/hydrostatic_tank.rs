@@ -37,6 +37,25 @@ fn hydrostatic_tank_quick_validation_passes() {
         rows,
         "re-analysis of the recording"
     );
+    // With `--out` the report goes there and the recording's folder is left as it was
+    // (regression recording_ignored_out_and_set: `--out` was accepted and ignored).
+    let elsewhere = out.path().join("again");
+    let before = std::fs::metadata(out.path().join("report.md")).unwrap();
+    let again = std::process::Command::new(CLI)
+        .args(["validate", "hydrostatic-tank", "--recording"])
+        .arg(out.path())
+        .arg("--out")
+        .arg(&elsewhere)
+        .output()
+        .unwrap();
+    assert!(
+        again.status.success(),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
+    assert_eq!(report_rows(&elsewhere), rows, "re-analysis into --out");
+    let after = std::fs::metadata(out.path().join("report.md")).unwrap();
+    assert_eq!(after.modified().unwrap(), before.modified().unwrap());
 }
 
 /// Joubert's scheme with his one-layer walls (`domain.wall_model = "joubert"`, pressure by
