@@ -275,6 +275,24 @@ impl ServerStart {
     }
 }
 
+/// The error and its causes, `: `-separated, each cause once. `{e:#}` appends every
+/// cause to its parent's text, but our error types already end their text with their
+/// source's (thiserror's `{source}`), so `{e:#}` printed such a cause twice.
+fn chain_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let s = cause.to_string();
+        if text.ends_with(&s) {
+            continue;
+        }
+        if !text.is_empty() {
+            text += ": ";
+        }
+        text += &s;
+    }
+    text
+}
+
 /// Parses the process arguments and runs; the exit code is what `main` returns.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -284,7 +302,7 @@ pub fn main() -> ExitCode {
             // A gRPC status (from `couplet ctl`) reads as its code and message.
             match e.downcast_ref::<tonic::Status>() {
                 Some(s) => eprintln!("couplet: {:?}: {}", s.code(), s.message()),
-                None => eprintln!("couplet: {e:#}"),
+                None => eprintln!("couplet: {}", chain_text(&e)),
             }
             // Stopped by Ctrl-C or SIGTERM: the exit code a shell gives the signal.
             match crate::interrupt::requested() {
@@ -743,5 +761,23 @@ mod tests {
                 "{extra:?}: {e:?}"
             );
         }
+    }
+
+    /// Regression (error_cause_printed_twice, 2026-12-02): a scene file that could not be
+    /// read printed "…: cannot read: No such file or directory (os error 2): No such file
+    /// or directory (os error 2)", the io error once in SceneError's text and once as
+    /// its source.
+    #[test]
+    fn an_error_prints_each_cause_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
+        let scene = couplet_protocol::scene::SceneError::Io {
+            file: "s.toml".into(),
+            source: io,
+        };
+        let e = anyhow::Error::new(scene).context("analysing d");
+        assert_eq!(chain_text(&e), "analysing d: s.toml: cannot read: gone");
+        // A cause that is not in its parent's text is still printed.
+        let e = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(chain_text(&e), "outer: inner");
     }
 }
