@@ -5,7 +5,7 @@
 use crate::error::FluidError;
 use crate::gpu::Gpu;
 use crate::kernel::SmoothingKernel;
-use crate::neighbour_grid::{GRID_REACH_DEFAULT, TEAM_LANES_GPU, grid_reach_wgsl, team_lanes_wgsl};
+use crate::neighbour_grid::{GRID_REACH_CPU, TEAM_LANES_GPU, grid_reach_wgsl, team_lanes_wgsl};
 use couplet_protocol::{KernelKind, PorosityPressure, Scene, ViscosityModel, WallKind, WallModel};
 
 /// Scene-fixed parameters of the standard WCSPH scheme, in SI units (`f64`; the WGSL
@@ -52,7 +52,7 @@ pub struct SphConstants {
     /// whose symmetry planes take eq. (27) instead.
     pub adami_symmetry: [bool; 3],
     /// The neighbour grid's reach R (`GRID_REACH` in WGSL): cells of at least
-    /// [`Self::grid_radius`]/R, pair loops over (2R + 1)² rows. [`GRID_REACH_DEFAULT`]
+    /// [`Self::grid_radius`]/R, pair loops over (2R + 1)² rows. [`GRID_REACH_CPU`]
     /// from the scene; the solver sets the device's with [`Self::for_adapter`]. A pair kernel
     /// must be built with the reach of the grid it is bound to, or it misses neighbours:
     /// kernels built outside the solver take `FluidSolver::constants`.
@@ -203,7 +203,7 @@ impl SphConstants {
             adami_symmetry: std::array::from_fn(|k| {
                 !joubert_walls && !scene.domain.periodic[k] && scene.domain.symmetry[k]
             }),
-            grid_reach: GRID_REACH_DEFAULT,
+            grid_reach: GRID_REACH_CPU,
             team_lanes: TEAM_LANES_GPU,
             dense_lanes: 1,
             wall_velocity_extrapolation: scene.domain.walls == WallKind::NoSlip
@@ -333,7 +333,7 @@ impl SphConstants {
         self.support_radius() * self.variable_h.unwrap_or(1.0)
     }
 
-    /// These constants with the grid reach of `gpu` (`Gpu::grid_reach`: the default, or
+    /// These constants with the grid reach of `gpu` (`Gpu::grid_reach`: its adapter's, or
     /// `COUPLET_GRID_REACH`'s) and its team lanes (`Gpu::team_lanes`).
     pub fn for_adapter(mut self, gpu: &Gpu) -> SphConstants {
         self.grid_reach = gpu.grid_reach();

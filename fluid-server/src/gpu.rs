@@ -7,7 +7,7 @@
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
 use crate::neighbour_grid::{
-    DENSE_LANES_ENV, GRID_REACH_DEFAULT, GRID_REACH_RANGE, TEAM_LANES_ENV, dense_team_lanes,
+    DENSE_LANES_ENV, GRID_REACH_RANGE, TEAM_LANES_ENV, dense_team_lanes, grid_reach_for,
     team_lanes_for, team_lanes_valid,
 };
 
@@ -41,8 +41,10 @@ pub enum GpuError {
     /// `GRID_REACH_RANGE`.
     #[error(
         "COUPLET_GRID_REACH = {value:?} is not a whole number from {} to {}: it sets the \
-         neighbour grid's cells per support radius (unset: {})",
-        GRID_REACH_RANGE.start(), GRID_REACH_RANGE.end(), GRID_REACH_DEFAULT
+         neighbour grid's cells per support radius (unset: {} on a CPU adapter, {} on a GPU)",
+        GRID_REACH_RANGE.start(), GRID_REACH_RANGE.end(),
+        crate::neighbour_grid::GRID_REACH_CPU,
+        crate::neighbour_grid::GRID_REACH_GPU
     )]
     BadGridReach { value: String },
     /// `COUPLET_TEAM_LANES` is set to something other than a divisor of the workgroup size.
@@ -74,7 +76,7 @@ pub enum GpuError {
 }
 
 /// The environment variable that overrides the neighbour grid's reach R (cells per
-/// support radius, `neighbour_grid::GRID_REACH_DEFAULT`), for measuring R on a machine
+/// support radius, `neighbour_grid::grid_reach_for` the adapter), for measuring R on a machine
 /// without a rebuild. Results do not depend on R beyond round-off (the order of the
 /// sums); speed does.
 pub const GRID_REACH_ENV: &str = "COUPLET_GRID_REACH";
@@ -110,7 +112,7 @@ pub struct Gpu {
     /// enabled as well whenever the adapter offers them.
     pub timestamps: bool,
     /// The neighbour grid's reach R set by [`GRID_REACH_ENV`], if it is set: every grid
-    /// takes it in place of `GRID_REACH_DEFAULT`.
+    /// takes it in place of the adapter's (`neighbour_grid::grid_reach_for`).
     pub grid_reach_override: Option<u32>,
     /// Lanes per item of the team passes (`neighbour_grid::team_lanes_for`), which every
     /// solver created on this device compiles and dispatches with: [`TEAM_LANES_ENV`]'s if
@@ -227,9 +229,10 @@ impl Gpu {
     }
 
     /// The neighbour grid's reach R: [`GRID_REACH_ENV`]'s if set, else
-    /// `neighbour_grid::GRID_REACH_DEFAULT`.
+    /// `neighbour_grid::grid_reach_for` the adapter type (2 on lavapipe, 3 on a GPU).
     pub fn grid_reach(&self) -> u32 {
-        self.grid_reach_override.unwrap_or(GRID_REACH_DEFAULT)
+        self.grid_reach_override
+            .unwrap_or_else(|| grid_reach_for(self.adapter_info.device_type))
     }
 
     /// The team passes' lanes per item this device starts with: [`TEAM_LANES_ENV`]'s if
@@ -248,12 +251,12 @@ impl Gpu {
     }
 
     /// One line for logs and `couplet plan`: name, driver, backend, timestamps, the team
-    /// passes' lanes (and the dense passes' and the grid reach when [`DENSE_LANES_ENV`]
-    /// and [`GRID_REACH_ENV`] set them).
+    /// passes' lanes, the grid reach (and the dense passes' lanes when [`DENSE_LANES_ENV`]
+    /// sets them).
     pub fn describe(&self) -> String {
         let i = &self.adapter_info;
         format!(
-            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}, team lanes {}{}{}{}{})",
+            "{} ({:?}, driver {} {}, backend {:?}, timestamps {}, team lanes {}{}{}, grid reach {}{}{})",
             i.name,
             i.device_type,
             i.driver,
@@ -269,8 +272,9 @@ impl Gpu {
                 Some(l) => format!(", dense lanes {l} from {DENSE_LANES_ENV}"),
                 None => String::new(),
             },
+            self.grid_reach(),
             match self.grid_reach_override {
-                Some(r) => format!(", grid reach {r} from {GRID_REACH_ENV}"),
+                Some(_) => format!(" from {GRID_REACH_ENV}"),
                 None => String::new(),
             },
             match self.steps_per_submit_override {

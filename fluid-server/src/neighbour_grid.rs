@@ -43,9 +43,10 @@ pub const GRID_COMMON_WGSL: &str = include_str!("../shaders/grid_common.wgsl");
 const NEIGHBOUR_GRID_WGSL: &str = include_str!("../shaders/neighbour_grid.wgsl");
 const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 
-/// Cells per grid radius R, and so how many cells the pair loops reach on each side of
-/// a particle's own cell (`GRID_REACH` in WGSL, from `SphConstants::wgsl`), unless
-/// `COUPLET_GRID_REACH` (`gpu::GRID_REACH_ENV`) sets another to measure it.
+/// Cells per grid radius R on a GPU, and so how many cells the pair loops reach on each
+/// side of a particle's own cell (`GRID_REACH` in WGSL, from `SphConstants::wgsl`),
+/// unless `COUPLET_GRID_REACH` (`gpu::GRID_REACH_ENV`) sets another to measure it.
+/// [`grid_reach_for`] picks it or [`GRID_REACH_CPU`] by the adapter.
 ///
 /// Cells of support/R and (2R+1)² rows of 2R+1 contiguous cells visit (2R+1)³/R³
 /// support³ of space per particle: 27 (R = 1), 15.6 (R = 2), 12.7 (R = 3), 11.4 (R = 4),
@@ -53,10 +54,25 @@ const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 /// rows ((2R+1)², each two `cell_start` loads, most of them nearly empty once a cell is
 /// narrower than a particle spacing) and sorts into R³ times as many cells.
 ///
-/// Every figure in README's "Measured on a GPU" has R = 2; other R have not been
-/// measured on a GPU. On lavapipe (Mesa 25.0.7, 2026-11-28, 2 vCPU, R = 2 and 3
-/// alternated, machine otherwise idle) cells no wider than a spacing made the dense
-/// pair stages faster, and whole runs no faster:
+/// On an NVIDIA H200 (2026-12-04, `couplet bench SCENE --steps N`, alone on the GPU,
+/// `results/2026-12-04-h200/bench-r2-r3.txt` and `bench-r3.txt`), fluid steps/s:
+///
+/// | scene | R = 2 | R = 3 |
+/// |---|---|---|
+/// | SPHERIC-2 dam break δ = 0.02 m (180 k particles, support 3 δ) | 1070 | 1499 |
+/// | the same, corrected gradients + Laplacian + shifting | 472 | 646 |
+/// | SPHERIC-2 δ = 0.01 m (1.04 M) | 284 | 354 |
+/// | SPHERIC-2 δ = 0.005 m (6.87 M) | 49.2 | 62.2 |
+/// | `lid-driven-cavity` (112 k, twice each) | 328, 328 | 480, 479 |
+/// | `settling-cylinder` (177 k, markers, a DEM exchange every step) | 226 | 288 |
+///
+/// so R = 3 on a GPU: 25–46 % faster on every scene measured. R = 4 is not measured
+/// there.
+pub const GRID_REACH_GPU: u32 = 3;
+
+/// Cells per grid radius R on a CPU adapter (lavapipe). There (Mesa 25.0.7, 2026-11-28,
+/// 2 vCPU, R = 2 and 3 alternated, machine otherwise idle) cells no wider than a spacing
+/// made the dense pair stages faster and whole runs no faster:
 ///
 /// | `COUPLET_GRID_REACH=R couplet …` | R = 2 | R = 3 |
 /// |---|---|---|
@@ -67,9 +83,20 @@ const REORDER_WGSL: &str = include_str!("../shaders/reorder.wgsl");
 /// | run dam-break-boxes δ = 0.02 m, 2.4 δ (README's main job): wall s | 108.2, 108.7 | 118.0, 110.1 |
 /// | the CI validation cases (`cargo test --release -p couplet-tests --test validation`): s | 1440.1 | 1422.7 |
 ///
-/// So R stays 2 everywhere. (On Mesa 22.3.6, R = 3 had been level with R = 2 on the
+/// so a CPU adapter keeps R = 2, and with it every figure CI and the tests' references
+/// were measured at. (On Mesa 22.3.6, R = 3 had been level with R = 2 on the
 /// hydrostatic tank and the settling sphere.)
-pub const GRID_REACH_DEFAULT: u32 = 2;
+pub const GRID_REACH_CPU: u32 = 2;
+
+/// The neighbour grid's reach an adapter of `device_type` takes unless
+/// `COUPLET_GRID_REACH` says otherwise: [`GRID_REACH_CPU`] on a CPU adapter,
+/// [`GRID_REACH_GPU`] on any other.
+pub fn grid_reach_for(device_type: wgpu::DeviceType) -> u32 {
+    match device_type {
+        wgpu::DeviceType::Cpu => GRID_REACH_CPU,
+        _ => GRID_REACH_GPU,
+    }
+}
 
 /// The values `COUPLET_GRID_REACH` may take.
 pub const GRID_REACH_RANGE: std::ops::RangeInclusive<u32> = 1..=4;
@@ -225,7 +252,7 @@ pub const GRID_ORDER_MAX_SLICE: u32 = 1024;
 pub struct GridParams {
     /// Lower corner of the grid.
     pub origin: [f32; 4],
-    /// Cell edge per axis: support/R (R the grid's reach, [`GRID_REACH_DEFAULT`]), or on a
+    /// Cell edge per axis: support/R (R the grid's reach, [`grid_reach_for`]), or on a
     /// periodic axis the period over a whole number of cells (at least that).
     pub cell_size: [f32; 4],
     pub inv_cell_size: [f32; 4],
@@ -301,9 +328,10 @@ pub enum GridError {
     #[error(
         "periodic axis {axis} is {length} m long, shorter than {need} m: a period must hold \
          2R + 1 = {cells} cells of at least support/R ({support} m / R) for R = {reach}, the \
-         grid's reach here, and for R = {GRID_REACH_DEFAULT}, so that no pair is seen \
-         through two images and a scene runs whatever COUPLET_GRID_REACH says; lengthen \
-         the domain along that axis or reduce the support",
+         grid's reach here, and for R = {GRID_REACH_CPU} and R = {GRID_REACH_GPU}, the \
+         defaults of a CPU adapter and a GPU, so that no pair is seen through two images \
+         and a scene runs on any machine whatever COUPLET_GRID_REACH says; lengthen the \
+         domain along that axis or reduce the support",
         axis = ["x", "y", "z"][*axis], cells = 2 * reach + 1
     )]
     PeriodTooShort {
@@ -476,14 +504,14 @@ fn bind(
 
 impl NeighbourGrid {
     /// Grid for `n` particles with cells of `support_radius / reach` (R, see
-    /// [`GRID_REACH_DEFAULT`]; the pair kernels' `GRID_REACH` must be the same), over
+    /// [`grid_reach_for`]; the pair kernels' `GRID_REACH` must be the same), over
     /// [min − pad, max + pad] on a closed axis, pad = one support radius (R cells:
     /// particles may drift slightly past the domain — wall layers, a step's overshoot
     /// before the boundary pushes back — without an error), and over exactly [min, max)
     /// in a whole number of cells (each at least that size, at least 2R + 1 of them) on
-    /// a periodic axis. A period must also hold the 2R + 1 cells of R =
-    /// [`GRID_REACH_DEFAULT`] (2.5 supports), so that a scene's acceptance does not depend
-    /// on `COUPLET_GRID_REACH` (R = 3 needs only 7/3).
+    /// a periodic axis. A period must also hold the 2R + 1 cells of both defaults,
+    /// [`GRID_REACH_CPU`] (2.5 supports) and [`GRID_REACH_GPU`] (7/3), so that a scene's
+    /// acceptance depends neither on the machine nor on `COUPLET_GRID_REACH`.
     pub fn new(
         gpu: &Gpu,
         bounds: GridBox,
@@ -519,12 +547,14 @@ impl NeighbourGrid {
                 let fits = |r: u32| {
                     (length * f64::from(r) / support_radius).floor() as u64 >= u64::from(2 * r + 1)
                 };
-                if !(fits(reach) && fits(GRID_REACH_DEFAULT)) {
+                let reaches = [reach, GRID_REACH_CPU, GRID_REACH_GPU];
+                if !reaches.iter().all(|&r| fits(r)) {
                     let need = |r: u32| f64::from(2 * r + 1) / f64::from(r);
+                    let most = reaches.iter().map(|&r| need(r)).fold(0.0, f64::max);
                     return Err(GridError::PeriodTooShort {
                         axis: a,
                         length,
-                        need: need(reach).max(need(GRID_REACH_DEFAULT)) * support_radius,
+                        need: most * support_radius,
                         support: support_radius,
                         reach,
                     });
@@ -1056,6 +1086,26 @@ mod tests {
         assert_eq!(team_threads(1000, 8), 8000);
     }
 
+    /// The grid's reach by adapter type: cells of support/2 on a CPU adapter (lavapipe,
+    /// where R = 3 made whole runs no faster) and of support/3 on every other (an H200 ran
+    /// each bench scene 25–46 % faster at R = 3). Reference: the tables in
+    /// `GRID_REACH_GPU`'s and `GRID_REACH_CPU`'s documentation; both lie in the range
+    /// `COUPLET_GRID_REACH` may set.
+    #[test]
+    fn grid_reach_by_adapter() {
+        assert_eq!(grid_reach_for(wgpu::DeviceType::Cpu), 2);
+        for t in [
+            wgpu::DeviceType::DiscreteGpu,
+            wgpu::DeviceType::IntegratedGpu,
+            wgpu::DeviceType::VirtualGpu,
+            wgpu::DeviceType::Other,
+        ] {
+            assert_eq!(grid_reach_for(t), 3, "{t:?}");
+        }
+        assert!(GRID_REACH_RANGE.contains(&GRID_REACH_CPU));
+        assert!(GRID_REACH_RANGE.contains(&GRID_REACH_GPU));
+    }
+
     /// The dense passes' lanes by particle count: a GPU's 8 below 2^19 / 4 = 131 072
     /// particles, then halved at each doubling of the count, 1 from 524 288 on (the grain
     /// columns' 44 206 particles: 8; the cavity's 112 360: 8; SPHERIC-2's 1.04 M: 1), and
@@ -1098,7 +1148,7 @@ mod tests {
             &gpu,
             GridBox::closed([0.0; 3], [1.0; 3]),
             0.25,
-            GRID_REACH_DEFAULT,
+            gpu.grid_reach(),
             n,
         )
         .unwrap();

@@ -3,7 +3,7 @@
 
 use couplet_protocol::{DragLawName, Scene, ViscosityModel, WallKind, WallModel};
 
-use crate::neighbour_grid::GRID_REACH_DEFAULT;
+use crate::neighbour_grid::{GRID_REACH_CPU, GRID_REACH_GPU};
 
 /// One GPU stage of a fluid step.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -64,8 +64,9 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     push(
         NEIGHBOUR_GRID,
         format!(
-            "cell size ≥ support/{reach} = {:.3e} m{}; stable counting sort by cell once per step{}",
-            radius / f64::from(GRID_REACH_DEFAULT),
+            "cell size ≥ support/R = {:.3e} m on a GPU (R = {GRID_REACH_GPU}), {:.3e} m on a CPU adapter (R = {GRID_REACH_CPU}){}; stable counting sort by cell once per step{}",
+            radius / f64::from(GRID_REACH_GPU),
+            radius / f64::from(GRID_REACH_CPU),
             match variable_h {
                 Some(r) => format!(" (the support of the largest h, {r} h: variable h)"),
                 None => String::new(),
@@ -78,7 +79,6 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
                     periodic.join(", ")
                 )
             },
-            reach = GRID_REACH_DEFAULT
         ),
     );
     let laminar = scene.effects.viscosity == ViscosityModel::Laminar && f.kinematic_viscosity > 0.0;

@@ -4,7 +4,7 @@
 
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::neighbour_grid::{
-    GATHER_BUFFERS_PER_PASS, GRID_COMMON_WGSL, GRID_REACH_DEFAULT, GRID_REACH_RANGE, GridBox,
+    GATHER_BUFFERS_PER_PASS, GRID_COMMON_WGSL, GRID_REACH_CPU, GRID_REACH_RANGE, GridBox,
     GridError, GridParams, NeighbourGrid, grid_reach_wgsl,
 };
 use couplet_fluid::shaders;
@@ -72,16 +72,16 @@ fn upload_and_register(gpu: &Gpu, grid: &mut NeighbourGrid, p: &Particles) -> On
     b
 }
 
-/// `scene(n, seed, GRID_REACH_DEFAULT)` on the GPU, its pos, vel, rho and ids
+/// `scene(n, seed, GRID_REACH_CPU)` on the GPU, its pos, vel, rho and ids
 /// registered with a grid of support 0.125 over the closed box [0, 1] × [0, 0.75] ×
 /// [0, 0.5].
 fn scene_in_box(gpu: &Gpu, n: usize, seed: u64) -> (Particles, NeighbourGrid, OnGpu) {
-    let parts = Particles::from_positions(&scene(n, seed, GRID_REACH_DEFAULT));
+    let parts = Particles::from_positions(&scene(n, seed, GRID_REACH_CPU));
     let mut grid = NeighbourGrid::new(
         gpu,
         GridBox::closed([0.0; 3], [1.0, 0.75, 0.5]),
         0.125,
-        GRID_REACH_DEFAULT,
+        GRID_REACH_CPU,
         n as u32,
     )
     .unwrap();
@@ -326,8 +326,7 @@ fn grid_refuses_a_period_too_short_for_any_adapter() {
                 "{err}"
             );
             assert!(
-                err.to_string()
-                    .contains(&format!("R = {GRID_REACH_DEFAULT}")),
+                err.to_string().contains(&format!("R = {GRID_REACH_CPU}")),
                 "{err}"
             );
         }
@@ -672,7 +671,7 @@ fn grid_reports_particle_outside() {
         &gpu,
         GridBox::closed([0.0; 3], [1.0; 3]),
         0.1,
-        GRID_REACH_DEFAULT,
+        GRID_REACH_CPU,
         n as u32,
     )
     .unwrap();
@@ -747,7 +746,7 @@ fn grid_params_layout_agrees_with_wgsl() {
         &gpu,
         GridBox::closed([0.0; 3], [1.0; 3]),
         0.5,
-        GRID_REACH_DEFAULT,
+        GRID_REACH_CPU,
         16,
     )
     .unwrap();
@@ -803,7 +802,7 @@ fn main() {
     let module = shaders::module(
         &gpu,
         "layout test",
-        &[&grid_reach_wgsl(GRID_REACH_DEFAULT), GRID_COMMON_WGSL, WGSL],
+        &[&grid_reach_wgsl(GRID_REACH_CPU), GRID_COMMON_WGSL, WGSL],
     );
     let pipeline = shaders::compute_pipeline_with_layouts(
         &gpu,
@@ -894,7 +893,7 @@ fn gpu_stage_timer_reports_sort_stages() {
         &gpu,
         GridBox::closed([0.0; 3], [1.6, 0.67, 0.6]),
         0.03,
-        GRID_REACH_DEFAULT,
+        GRID_REACH_CPU,
         n,
     )
     .unwrap();

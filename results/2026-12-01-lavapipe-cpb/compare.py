@@ -11,6 +11,7 @@
 # With --periods V P, means over successive whole periods P of the block speed's slow
 # oscillation (about 31 ms), which the stretches above cut through:
 #   python3 compare.py --periods 4.9124e-3 0.031 w-0.9-narrow/block-velocity.csv [MORE.csv ...]
+# With --turns V, each file's turning points (local extrema) as per cent off V.
 import csv,sys,bisect
 def load(p):
     r=list(csv.reader(open(p)))[1:]
@@ -36,6 +37,17 @@ if sys.argv[1] in ("--stretches","--falls"):
                 what="fall %.4e m/s over %.3f-%.3f s (height %.3f -> %.3f mm)"%(v,ts[i],ts[j],1e3*ys[i],1e3*ys[j])
             cut=" (cut at t = %.3f s)"%ts[-1] if ts[-1]<b-2.5e-3 else ""
             print("t in [%.3f, %.3f): %s, %+.2f %% off %.4e%s"%(a,b,what,100*(v/ref-1),ref,cut))
+    sys.exit()
+if sys.argv[1]=="--turns":
+    # The velocity records' turning points (local maxima and minima), each as its time and
+    # its offset from V, for reading an oscillation's period and decay off a run:
+    #   python3 compare.py --turns 2.9689e-4 wg-0.8-c10-16ms/block-velocity.csv
+    ref=float(sys.argv[2])
+    for p in sys.argv[3:]:
+        ts,vs=load(p); print(p)
+        for i in range(1,len(vs)-1):
+            if (vs[i]-vs[i-1])*(vs[i+1]-vs[i])<0:
+                print("t = %6.2f ms: %s %+7.1f %% off %.4e"%(1e3*ts[i],"max" if vs[i]>vs[i-1] else "min",100*(vs[i]/ref-1),ref))
     sys.exit()
 if sys.argv[1]=="--periods":
     # Means over successive windows of P seconds from t = 0.012 s (P the period of the

@@ -282,7 +282,7 @@ fn gpu_vals_files_name_cases_variants_and_points_that_exist() {
             );
         }
     }
-    // 15 lines to run on 2026-11-29 (the cavity sweep's are all done and commented):
+    // 13 lines to run on 2026-12-04 (the cavity sweep, the full cavity and the ring done):
     // a guard against a filter that reads none.
     assert!(vals.len() >= 10, "{} VALS lines", vals.len());
     let benches = script_lines("gpu-benches");
