@@ -1066,33 +1066,16 @@ mod tests {
     use super::*;
     use crate::gpu::shared_test_gpu;
 
-    /// The team lanes by adapter type (one on a CPU adapter, where a team only adds its
-    /// sum and barrier; `TEAM_LANES_GPU` elsewhere) and the counts `COUPLET_TEAM_LANES`
-    /// may set: the divisors of the workgroup size (128), so that no team straddles two
-    /// workgroups. Reference: the definitions above.
+    /// What an adapter type takes by default: the team lanes (one on a CPU adapter, where
+    /// a team only adds its sum and barrier; `TEAM_LANES_GPU` elsewhere) and the grid's
+    /// reach (cells of support/2 on a CPU adapter, where R = 3 made whole runs no faster;
+    /// support/3 elsewhere, 25–46 % faster on an H200), and the counts
+    /// `COUPLET_TEAM_LANES` may set: the divisors of the workgroup size (128), so that no
+    /// team straddles two workgroups. Reference: the definitions above and the tables in
+    /// `GRID_REACH_GPU`'s and `GRID_REACH_CPU`'s documentation.
     #[test]
-    fn team_lanes_by_adapter_and_the_counts_allowed() {
+    fn adapter_defaults_and_the_team_counts_allowed() {
         assert_eq!(team_lanes_for(wgpu::DeviceType::Cpu), 1);
-        for t in [
-            wgpu::DeviceType::DiscreteGpu,
-            wgpu::DeviceType::IntegratedGpu,
-            wgpu::DeviceType::VirtualGpu,
-            wgpu::DeviceType::Other,
-        ] {
-            assert_eq!(team_lanes_for(t), 8, "{t:?}");
-        }
-        let allowed: Vec<u32> = (0..=300).filter(|&l| team_lanes_valid(l)).collect();
-        assert_eq!(allowed, [1, 2, 4, 8, 16, 32, 64, 128]);
-        assert_eq!(team_threads(1000, 8), 8000);
-    }
-
-    /// The grid's reach by adapter type: cells of support/2 on a CPU adapter (lavapipe,
-    /// where R = 3 made whole runs no faster) and of support/3 on every other (an H200 ran
-    /// each bench scene 25–46 % faster at R = 3). Reference: the tables in
-    /// `GRID_REACH_GPU`'s and `GRID_REACH_CPU`'s documentation; both lie in the range
-    /// `COUPLET_GRID_REACH` may set.
-    #[test]
-    fn grid_reach_by_adapter() {
         assert_eq!(grid_reach_for(wgpu::DeviceType::Cpu), 2);
         for t in [
             wgpu::DeviceType::DiscreteGpu,
@@ -1100,10 +1083,14 @@ mod tests {
             wgpu::DeviceType::VirtualGpu,
             wgpu::DeviceType::Other,
         ] {
+            assert_eq!(team_lanes_for(t), 8, "{t:?}");
             assert_eq!(grid_reach_for(t), 3, "{t:?}");
         }
         assert!(GRID_REACH_RANGE.contains(&GRID_REACH_CPU));
         assert!(GRID_REACH_RANGE.contains(&GRID_REACH_GPU));
+        let allowed: Vec<u32> = (0..=300).filter(|&l| team_lanes_valid(l)).collect();
+        assert_eq!(allowed, [1, 2, 4, 8, 16, 32, 64, 128]);
+        assert_eq!(team_threads(1000, 8), 8000);
     }
 
     /// The dense passes' lanes by particle count: a GPU's 8 below 2^19 / 4 = 131 072
