@@ -27,7 +27,8 @@
 // (P_i/ρ_i) ∇ε_i (porosity_gradient): with the EOS on ρ/ε (Robinson eq. 15) these are the
 // terms that conserve energy; each grain gets the opposite of the ∇ε term
 // (unresolved_coupling.wgsl). Otherwise pressure_porosity is 1 and the gradient 0.
-// δ-SPH diffuses ρ/ε (`porosity(i)`, 1 without grains) and adds ε_i times it to dρ/dt.
+// δ-SPH diffuses ρ/ε (`porosity(i)`, 1 without grains) and adds ε_i times it to dρ/dt;
+// DIFFUSION_FOURTAKAS picks Fourtakas et al. 2019's term over Antuono et al. 2010's.
 // A team of DENSE_LANES threads per fluid particle gathers from the neighbour cells
 // (grid_common.wgsl, team_row): each lane sums its share of the rows, `dense_team_sum`
 // adds the lanes' sums in lane order and the first lane writes (neighbour_grid.rs,
@@ -121,7 +122,9 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                     let g_j = select(g_i, grad_p(j) / rho_j, is_fluid(id[j]));
                     mc_div += v_j * dot(g_j - g_i, b_i * grad_w);
                 }
-                if DENSITY_DIFFUSION && is_fluid(id[j]) {
+                if DENSITY_DIFFUSION && DIFFUSION_FOURTAKAS && is_fluid(id[j]) {
+                    drho_i += eps_i * fourtakas2019_diffusion_term(m_j, rho_f_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, params.gravity.xyz);
+                } else if DENSITY_DIFFUSION && is_fluid(id[j]) {
                     drho_i += eps_i * antuono2010_diffusion_term(m_j, rho_f_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
                 }
                 // Free-slip walls carry pressure but no shear.

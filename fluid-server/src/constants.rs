@@ -6,7 +6,9 @@ use crate::error::FluidError;
 use crate::gpu::Gpu;
 use crate::kernel::SmoothingKernel;
 use crate::neighbour_grid::{GRID_REACH_CPU, TEAM_LANES_GPU, grid_reach_wgsl, team_lanes_wgsl};
-use couplet_protocol::{KernelKind, PorosityPressure, Scene, ViscosityModel, WallKind, WallModel};
+use couplet_protocol::{
+    DensityDiffusionForm, KernelKind, PorosityPressure, Scene, ViscosityModel, WallKind, WallModel,
+};
 
 /// Scene-fixed parameters of the standard WCSPH scheme, in SI units (`f64`; the WGSL
 /// constants are the same numbers rounded to `f32`).
@@ -119,6 +121,9 @@ pub struct SphConstants {
     pub shifting_beta: f64,
     /// δ-SPH density diffusion coefficient δ (Antuono et al. 2010); 0: off.
     pub density_diffusion: f64,
+    /// Which δ-SPH term (`effects.density_diffusion_form`): Antuono's renormalised
+    /// gradients, or Fourtakas et al. 2019's hydrostatic difference.
+    pub density_diffusion_form: DensityDiffusionForm,
     /// The scene has unresolved grains: their sampling reads du/dt after a sort, so
     /// the grid permutes `dvel` with the particles.
     pub grains: bool,
@@ -230,6 +235,7 @@ impl SphConstants {
             mass_correction: scene.effects.mass_correction,
             shifting_beta: scene.effects.particle_shifting,
             density_diffusion: scene.effects.density_diffusion,
+            density_diffusion_form: scene.effects.density_diffusion_form,
             grains: !scene.grains().is_empty(),
             grain_reaction: scene.coupling.two_way && !scene.grains().is_empty(),
             porosity_pair: scene.coupling.porosity_pressure == PorosityPressure::EnergyPair
@@ -278,7 +284,12 @@ impl SphConstants {
         self.gradient_correction
             || self.uses_b_hat()
             || self.shifting_beta > 0.0
-            || self.density_diffusion > 0.0
+            || self.antuono_diffusion()
+    }
+
+    /// δ-SPH with Antuono's renormalised density gradients: the gradient pass writes ∇ρ.
+    pub fn antuono_diffusion(&self) -> bool {
+        self.density_diffusion > 0.0 && self.density_diffusion_form == DensityDiffusionForm::Antuono
     }
 
     /// `a − b` as the nearest image on the periodic axes ([`Self::period`]): the CPU twin
@@ -382,6 +393,7 @@ impl SphConstants {
              const SHIFTING_BETA: f32 = {beta:e};\n\
              const DENSITY_DIFFUSION: bool = {diffusion};\n\
              const DIFFUSION_DELTA: f32 = {delta:e};\n\
+             const DIFFUSION_FOURTAKAS: bool = {fourtakas};\n\
              const VARIABLE_H: bool = {variable_h};\n\
              const POROSITY_PAIR: bool = {porosity_pair};\n\
              const MAX_H: f32 = {max_h:e};\n\
@@ -428,6 +440,7 @@ impl SphConstants {
             beta = self.shifting_beta,
             diffusion = self.density_diffusion > 0.0,
             delta = self.density_diffusion,
+            fourtakas = self.density_diffusion_form == DensityDiffusionForm::Fourtakas,
             variable_h = self.variable_h.is_some(),
             porosity_pair = self.porosity_pair,
             max_h = k.h * self.variable_h.unwrap_or(1.0),

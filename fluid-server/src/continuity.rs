@@ -14,6 +14,13 @@
 //! Molteni 2010, eq. 5) adds over fluid neighbours `δ h c_s Σ_j V_j ψ_ij·∇W_ij`,
 //! `ψ_ij = 2(ρ_j − ρ_i) r_ji/r_ij² − (⟨∇ρ⟩ᶜ_i + ⟨∇ρ⟩ᶜ_j)`, with the renormalised density
 //! gradients of the gradient pass (h: the smoothing length of the kernel in use).
+//! With `effects.density_diffusion_form = "fourtakas"` the term is Fourtakas,
+//! Domínguez, Vacondio & Rogers 2019's instead (DualSPHysics `DensityDT=2`):
+//! `ψ_ij = 2(ρ_j − ρ_i − ρ^H_ji) r_ji/r_ij²`, no gradients, with the hydrostatic density
+//! difference `ρ^H_ji = ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1)` of the equation of state
+//! ([`fourtakas2019_hydrostatic_difference`]). Antuono's gradients make the term zero
+//! on a hydrostatic field only where the support is complete; Fourtakas's is zero there
+//! at a free surface too (`operators.rs`, `fourtakas_diffusion_vanishes_on_a_hydrostatic_column`).
 //! Among unresolved grains it diffuses the intrinsic density ρ/ε (Robinson eq. 15's
 //! argument): ρ stands for ρ/ε in ψ and in the gradients, and the term is multiplied by
 //! ε_i, the rate of ρ = ε ρ_f at fixed ε. On the superficial ρ it would diffuse the
@@ -34,10 +41,11 @@
 //! The gradients `⟨∇p⟩ᶜ` are the gradient pass's (start of the step, in both stages of
 //! the predictor–corrector: the term is O(Δt) already, so the lag is O(Δt²)).
 
-use crate::constants::SphConstants;
+use crate::constants::{MIN_TAIT_BASE, SphConstants};
 use crate::joubert2020_gradients::{Gradients, laplacian_b_hat_cpu, mat_vec, truncation_cpu};
 use crate::particles::{Kind, ParticleSet, dot, sub};
 use crate::robinson_variable_h::{kernel_at, omega_cpu, pair_neighbours};
+use couplet_protocol::DensityDiffusionForm;
 
 pub const CONTINUITY_WGSL: &str = include_str!("../shaders/continuity.wgsl");
 
@@ -117,9 +125,18 @@ pub fn continuity_among_grains_cpu(
         if c.density_diffusion > 0.0 && set.kinds.kind(set.id[j]) == Kind::Fluid {
             let r_ij = sub(set.pos[i], set.pos[j]);
             let (rho_f_i, rho_f_j) = (set.rho[i] / eps(i), set.rho[j] / eps(j));
-            let f = -2.0 * (rho_f_j - rho_f_i) / dot(r_ij, r_ij);
-            let (gi, gj) = (grad_rho(i), grad_rho(j));
-            let psi: [f64; 3] = std::array::from_fn(|k| f * r_ij[k] - (gi[k] + gj[k]));
+            let psi: [f64; 3] = match c.density_diffusion_form {
+                DensityDiffusionForm::Antuono => {
+                    let f = -2.0 * (rho_f_j - rho_f_i) / dot(r_ij, r_ij);
+                    let (gi, gj) = (grad_rho(i), grad_rho(j));
+                    std::array::from_fn(|k| f * r_ij[k] - (gi[k] + gj[k]))
+                }
+                DensityDiffusionForm::Fourtakas => {
+                    let rho_h = fourtakas2019_hydrostatic_difference(c, r_ij);
+                    let f = -2.0 * (rho_f_j - rho_f_i - rho_h) / dot(r_ij, r_ij);
+                    r_ij.map(|x| f * x)
+                }
+            };
             d += eps(i)
                 * c.density_diffusion
                 * c.kernel.h
@@ -133,4 +150,14 @@ pub fn continuity_among_grains_cpu(
         d += set.rho[i] * c.mass_correction * dt * (l15 - mc_div);
     }
     d
+}
+
+/// Fourtakas et al. 2019's hydrostatic density difference between neighbour j and
+/// particle i, `r_ij` = r_i − r_j apart: ρ^H_ji = ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1), the
+/// Tait density (Joubert eq. 4 inverted) of the hydrostatic pressure step ρ0 g·r_ji, with
+/// the fluid's gravity. Twin of `fourtakas2019_hydrostatic_difference` in continuity.wgsl
+/// (which takes a series where f32 would lose the step's digits).
+pub fn fourtakas2019_hydrostatic_difference(c: &SphConstants, r_ij: [f64; 3]) -> f64 {
+    let x = -c.rho0 * dot(c.gravity_fluid, r_ij) / c.tait_b();
+    c.rho0 * ((1.0 + x).max(MIN_TAIT_BASE).powf(1.0 / c.gamma) - 1.0)
 }

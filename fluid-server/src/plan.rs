@@ -1,7 +1,9 @@
 //! The list of GPU stages a scene runs, and why: a pure function of the scene, used by
 //! the solver to build its passes and by `couplet plan` (which needs no GPU).
 
-use couplet_protocol::{DragLawName, Scene, ViscosityModel, WallKind, WallModel};
+use couplet_protocol::{
+    DensityDiffusionForm, DragLawName, Scene, ViscosityModel, WallKind, WallModel,
+};
 
 use crate::neighbour_grid::{GRID_REACH_CPU, GRID_REACH_GPU};
 
@@ -31,6 +33,7 @@ pub const BLOWUP_CHECK: &str = "blowup_check";
 pub const GRADIENTS: &str = "joubert2020_gradients";
 pub const PARTICLE_SHIFTING: &str = "particle_shifting";
 pub const DENSITY_DIFFUSION: &str = "antuono2010_density_diffusion";
+pub const FOURTAKAS_DENSITY_DIFFUSION: &str = "fourtakas2019_density_diffusion";
 pub const MASS_CORRECTION: &str = "joubert2020_mass_correction";
 pub const SAMPLE_GRAINS: &str = "robinson_sample_grains";
 pub const GRAIN_REACTION: &str = "robinson_grain_reaction";
@@ -86,6 +89,7 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     let laplacian = scene.effects.laplacian_correction && laminar;
     let beta = scene.effects.particle_shifting;
     let delta = scene.effects.density_diffusion;
+    let fourtakas = scene.effects.density_diffusion_form == DensityDiffusionForm::Fourtakas;
     let gamma_mc = scene.effects.mass_correction;
     if let Some(r) = variable_h {
         push(
@@ -98,7 +102,8 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
             ),
         );
     }
-    if correction || laplacian || beta > 0.0 || delta > 0.0 {
+    let antuono = delta > 0.0 && !fourtakas;
+    if correction || laplacian || beta > 0.0 || antuono {
         let users: Vec<&str> = [
             (correction, "effects.gradient_correction"),
             (
@@ -106,7 +111,7 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
                 "effects.laplacian_correction (B̂ of eq. 11, a 6 × 6 solve)",
             ),
             (beta > 0.0, "effects.particle_shifting (Taylor terms)"),
-            (delta > 0.0, "effects.density_diffusion (renormalised ∇ρ)"),
+            (antuono, "effects.density_diffusion (renormalised ∇ρ)"),
             (
                 gamma_mc > 0.0,
                 "effects.mass_correction (∇p, and B̂ of eq. 11 for eq. 15)",
@@ -249,9 +254,18 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     }
     if delta > 0.0 {
         push(
-            DENSITY_DIFFUSION,
+            if fourtakas {
+                FOURTAKAS_DENSITY_DIFFUSION
+            } else {
+                DENSITY_DIFFUSION
+            },
             format!(
-                "effects.density_diffusion δ = {delta}: δ-SPH (Antuono et al. 2010) in the continuity pair loop{}",
+                "effects.density_diffusion δ = {delta}: δ-SPH ({}) in the continuity pair loop{}",
+                if fourtakas {
+                    "Fourtakas et al. 2019: the hydrostatic density difference removed, no gradients"
+                } else {
+                    "Antuono et al. 2010: renormalised ∇ρ"
+                },
                 if scene.grains().is_empty() {
                     ""
                 } else {

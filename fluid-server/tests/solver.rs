@@ -36,7 +36,8 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, 0.3, 0.2] }}]
 
 /// The stage list follows the effects: viscosity and artificial viscosity appear only
 /// when on; markers and loads only with resolved bodies; gravity only on the fluid; the
-/// gradient pass only with the correction or shifting, the shift only with shifting.
+/// gradient pass only with the correction, shifting or Antuono's δ-SPH, the shift only
+/// with shifting.
 #[test]
 fn stages_follow_the_scene() {
     let names = |s: &Scene| stages(s).iter().map(|s| s.name).collect::<Vec<_>>();
@@ -67,6 +68,22 @@ fn stages_follow_the_scene() {
         assert!(n.contains(&s), "{s} missing from {n:?}");
     }
     assert!(stages(&full).iter().all(|s| !s.reason.is_empty()));
+    // δ-SPH: Antuono's form needs the gradient pass's ∇ρ, Fourtakas's does not.
+    let antuono = names(&tank("[effects]\ndensity_diffusion = 0.1"));
+    assert!(
+        antuono.contains(&"joubert2020_gradients")
+            && antuono.contains(&"antuono2010_density_diffusion"),
+        "{antuono:?}"
+    );
+    let fourtakas = names(&tank(
+        "[effects]\ndensity_diffusion = 0.1\ndensity_diffusion_form = \"fourtakas\"",
+    ));
+    assert!(
+        !fourtakas.contains(&"joubert2020_gradients")
+            && fourtakas.contains(&"fourtakas2019_density_diffusion")
+            && !fourtakas.contains(&"antuono2010_density_diffusion"),
+        "{fourtakas:?}"
+    );
 }
 
 /// Joubert eq. (24): Δt = s min(δ/(c + c/10), δ²/ν), with Morris's 0.125 h²/ν when smaller.

@@ -10,10 +10,10 @@ pub use payload::{
     ParticleRecord, Role, SideReport, WindowHeader, monotonic_ns, scene_digest,
 };
 pub use scene::{
-    BodySpec, ContactLaw, CouplingMode, CouplingScheme, DemSpec, Domain, DragLawName, EffectsSpec,
-    FluidBlock, FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta, Motion, OutputSpec,
-    PorosityPressure, Scene, SceneError, Shape, SoftSphereSpec, TimeSpec, ViscosityModel, WallKind,
-    WallModel,
+    BodySpec, ContactLaw, CouplingMode, CouplingScheme, DemSpec, DensityDiffusionForm, Domain,
+    DragLawName, EffectsSpec, FluidBlock, FluidSpec, GravitySpec, InitialFlow, KernelKind, Meta,
+    Motion, OutputSpec, PorosityPressure, Scene, SceneError, Shape, SoftSphereSpec, TimeSpec,
+    ViscosityModel, WallKind, WallModel,
 };
 pub use service::{ServiceLeaf, service_name};
 pub use validate::{ValidationError, validate_loads, validate_points, validate_states};

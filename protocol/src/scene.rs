@@ -473,6 +473,17 @@ pub enum ViscosityModel {
     Laminar,
 }
 
+/// The δ-SPH term of `effects.density_diffusion` (`effects.density_diffusion_form`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DensityDiffusionForm {
+    /// Antuono, Colagrossi, Marrone & Molteni 2010: renormalised density gradients.
+    #[default]
+    Antuono,
+    /// Fourtakas, Domínguez, Vacondio & Rogers 2019: the hydrostatic difference removed.
+    Fourtakas,
+}
+
 /// `[effects]`: which physics the fluid server dispatches. An effect that is off
 /// dispatches no kernel and allocates no buffer.
 #[derive(Debug, Clone, Deserialize)]
@@ -540,6 +551,22 @@ pub struct EffectsSpec {
     /// (ARCHITECTURE.md, "An odd-even pressure mode among grains").
     #[serde(default)]
     pub density_diffusion: f64,
+    /// Which δ-SPH term `density_diffusion` adds (unused when it is 0):
+    /// - `"antuono"` (default): Antuono et al. 2010's ψ_ij = 2(ρ_j − ρ_i) r_ji/r² −
+    ///   (⟨∇ρ⟩ᶜ_i + ⟨∇ρ⟩ᶜ_j), with renormalised density gradients from the gradient pass.
+    ///   The gradients make the term vanish on a hydrostatic field where the support is
+    ///   complete; where it is truncated (a free surface) the renormalisation is poorly
+    ///   conditioned and the term is not zero.
+    /// - `"fourtakas"`: Fourtakas, Domínguez, Vacondio & Rogers 2019 (Computers & Fluids
+    ///   190, 346–361; DualSPHysics `DensityDT=2`): ψ_ij = 2(ρ_j − ρ_i − ρ^H_ji) r_ji/r²,
+    ///   ρ^H_ji = ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1), the hydrostatic density difference of
+    ///   the equation of state (r_ji = r_j − r_i, g the gravity on the fluid, B the Tait
+    ///   stiffness). No gradients, so it needs no gradient pass; it is zero on a
+    ///   hydrostatic field at a free surface too, to second order in ρ0 g r/B.
+    ///
+    /// Default `"antuono"`: every scene validated before 2026-12 ran with it.
+    #[serde(default)]
+    pub density_diffusion_form: DensityDiffusionForm,
     /// The gradient correction's free-surface switch: where a particle's support reaches
     /// past the fluid's edge (its truncation matrix has det M below 0.95 of a complete
     /// support's, `couplet_fluid` `FREE_SURFACE_FRACTION`: the two rows below a flat
@@ -588,6 +615,7 @@ impl Default for EffectsSpec {
             mass_correction: 0.0,
             particle_shifting: 0.0,
             density_diffusion: 0.0,
+            density_diffusion_form: DensityDiffusionForm::default(),
             free_surface: None,
             variable_smoothing_length: false,
         }
