@@ -25,6 +25,9 @@
 // largest entry): B̂ = I (Morris's operator with the gradient term) and counted in
 // diag[1] with the B fallbacks; `store_bhat` writes it (joubert2020_gradients.rs).
 // With variable h (robinson_variable_h.rs) every sum takes particle i's own h_i.
+// GRAD_U, GRAD_P, GRAD_RHO and SHIFT_SUMS (joubert2020_gradients.rs, GradientFields) say
+// which of ∇u, ∇p, ∇ρ/ε and s_i the scene reads; the others are neither summed nor
+// written.
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, store_bhat,
 // smoothing_length, porosity (porosity.rs: 1 without grains).
 
@@ -221,15 +224,24 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 let vgw = (pos[j].w / rho_j) * grad_factor_at(r, h_i) * r_ij;
                 // −V_j ∇W ⊗ r_ij: column c is −V_j ∇W r_ij[c].
                 m -= mat3x3<f32>(vgw * r_ij.x, vgw * r_ij.y, vgw * r_ij.z);
-                let du = vel[j].xyz - u_i;
-                gux += du.x * vgw;
-                guy += du.y * vgw;
-                guz += du.z * vgw;
-                gp += (press[j] - pr_i) * vgw;
-                grho += (rho_j / porosity(j) - rho_f_i) * vgw;
-                r_sum += r;
-                count += 1.0;
-                s += (pos[j].w / LATTICE_MASS) * r_ij / (r2 * r);
+                // Only the fields the scene reads (joubert2020_gradients.rs, GradientFields).
+                if GRAD_U {
+                    let du = vel[j].xyz - u_i;
+                    gux += du.x * vgw;
+                    guy += du.y * vgw;
+                    guz += du.z * vgw;
+                }
+                if GRAD_P {
+                    gp += (press[j] - pr_i) * vgw;
+                }
+                if GRAD_RHO {
+                    grho += (rho_j / porosity(j) - rho_f_i) * vgw;
+                }
+                if SHIFT_SUMS {
+                    r_sum += r;
+                    count += 1.0;
+                    s += (pos[j].w / LATTICE_MASS) * r_ij / (r2 * r);
+                }
                 if B_HAT_SOLVE {
                     let e = r_ij / r;
                     let vf = (pos[j].w / rho_j) * grad_factor_at(r, h_i);
@@ -251,21 +263,30 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
             }
         }
     }
-    // The team's sums, in uniform control flow (B_HAT_SOLVE is a constant).
+    // The team's sums, in uniform control flow (the GRAD_* flags and B_HAT_SOLVE are
+    // constants).
     let t0 = dense_team_sum(vec4<f32>(m[0], r_sum), lid);
     let t1 = dense_team_sum(vec4<f32>(m[1], count), lid);
     let t2 = dense_team_sum(vec4<f32>(m[2], s.x), lid);
-    let t3 = dense_team_sum(vec4<f32>(gux, s.y), lid);
-    let t4 = dense_team_sum(vec4<f32>(guy, s.z), lid);
     m = mat3x3<f32>(t0.xyz, t1.xyz, t2.xyz);
     r_sum = t0.w;
     count = t1.w;
-    s = vec3<f32>(t2.w, t3.w, t4.w);
-    gux = t3.xyz;
-    guy = t4.xyz;
-    guz = dense_team_sum(vec4<f32>(guz, 0.0), lid).xyz;
-    gp = dense_team_sum(vec4<f32>(gp, 0.0), lid).xyz;
-    grho = dense_team_sum(vec4<f32>(grho, 0.0), lid).xyz;
+    if GRAD_U || SHIFT_SUMS {
+        let t3 = dense_team_sum(vec4<f32>(gux, s.y), lid);
+        let t4 = dense_team_sum(vec4<f32>(guy, s.z), lid);
+        s = vec3<f32>(t2.w, t3.w, t4.w);
+        gux = t3.xyz;
+        guy = t4.xyz;
+    }
+    if GRAD_U {
+        guz = dense_team_sum(vec4<f32>(guz, 0.0), lid).xyz;
+    }
+    if GRAD_P {
+        gp = dense_team_sum(vec4<f32>(gp, 0.0), lid).xyz;
+    }
+    if GRAD_RHO {
+        grho = dense_team_sum(vec4<f32>(grho, 0.0), lid).xyz;
+    }
     if B_HAT_SOLVE {
         q4a = dense_team_sum(q4a, lid);
         q4b = dense_team_sum(q4b, lid);
@@ -331,15 +352,23 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     bmat[3u * i] = vec4<f32>(b[0], select(0.0, 1.0, FREE_SURFACE_SWITCH && det < FREE_SURFACE_DET));
     bmat[3u * i + 1u] = vec4<f32>(b[1], 0.0);
     bmat[3u * i + 2u] = vec4<f32>(b[2], 0.0);
-    grads[6u * i] = vec4<f32>(b * gux, 0.0);
-    grads[6u * i + 1u] = vec4<f32>(b * guy, 0.0);
-    grads[6u * i + 2u] = vec4<f32>(b * guz, 0.0);
-    grads[6u * i + 3u] = vec4<f32>(b * gp, 0.0);
-    grads[6u * i + 5u] = vec4<f32>(b * grho, 0.0);
-    var r_mean = 0.0;
-    if count > 0.0 {
-        r_mean = r_sum / count;
+    if GRAD_U {
+        grads[6u * i] = vec4<f32>(b * gux, 0.0);
+        grads[6u * i + 1u] = vec4<f32>(b * guy, 0.0);
+        grads[6u * i + 2u] = vec4<f32>(b * guz, 0.0);
     }
-    grads[6u * i + 4u] = vec4<f32>(r_mean * r_mean * s, 0.0);
+    if GRAD_P {
+        grads[6u * i + 3u] = vec4<f32>(b * gp, 0.0);
+    }
+    if GRAD_RHO {
+        grads[6u * i + 5u] = vec4<f32>(b * grho, 0.0);
+    }
+    if SHIFT_SUMS {
+        var r_mean = 0.0;
+        if count > 0.0 {
+            r_mean = r_sum / count;
+        }
+        grads[6u * i + 4u] = vec4<f32>(r_mean * r_mean * s, 0.0);
+    }
     atomicMax(&diag[0], bitcast<u32>(length(u_i)));
 }

@@ -111,11 +111,45 @@ fn store_bhat(i: u32, d: vec4<f32>, o: vec4<f32>) {
 const NO_BHAT_WGSL: &str = "fn store_bhat(i: u32, d: vec4<f32>, o: vec4<f32>) {}
 ";
 
+/// Which of the pass's fields a scene reads, so that the pass sums only those (WGSL
+/// constants `GRAD_U`, `GRAD_P`, `GRAD_RHO`, `SHIFT_SUMS`; `B_i`, its fallback count and
+/// the free-surface flag are always written): ⟨∇u⟩ᶜ and s_i by particle shifting (the
+/// Taylor terms and the shift direction of eqs. 17–19), ⟨∇p⟩ᶜ by particle shifting and
+/// the mass correction (eqs. 15–16), ⟨∇ρ⟩ᶜ by Antuono's δ-SPH. A field not summed is
+/// left as it was in the buffer (zero from its allocation). With the gradient
+/// correction alone the pass is M and B only, the pair loop's loads pos, ρ (and
+/// porosity among grains) without vel and p.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GradientFields {
+    pub grad_u: bool,
+    pub grad_p: bool,
+    pub grad_rho: bool,
+    pub shift: bool,
+}
+
+impl GradientFields {
+    pub fn of(c: &SphConstants) -> Self {
+        let shifting = c.shifting_beta > 0.0;
+        GradientFields {
+            grad_u: shifting,
+            grad_p: shifting || c.mass_correction > 0.0,
+            grad_rho: c.antuono_diffusion(),
+            shift: shifting,
+        }
+    }
+}
+
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
+    let f = GradientFields::of(c);
     let guard = format!(
-        "const B_DET_MIN: f32 = {B_DET_MIN:e};\nconst LAP_PIVOT_MIN: f32 = {LAP_PIVOT_MIN:e};\nconst FREE_SURFACE_DET: f32 = {:e};\n",
-        free_surface_det(c)
+        "const B_DET_MIN: f32 = {B_DET_MIN:e};\nconst LAP_PIVOT_MIN: f32 = {LAP_PIVOT_MIN:e};\nconst FREE_SURFACE_DET: f32 = {:e};\n\
+         const GRAD_U: bool = {};\nconst GRAD_P: bool = {};\nconst GRAD_RHO: bool = {};\nconst SHIFT_SUMS: bool = {};\n",
+        free_surface_det(c),
+        f.grad_u,
+        f.grad_p,
+        f.grad_rho,
+        f.shift
     );
     let mut particles = vec![
         (pb::POS, Access::Read),

@@ -14,12 +14,16 @@ const EFFECTS: &str = "[effects]\ngradient_correction = true\nparticle_shifting 
 
 /// B_i, ⟨∇u⟩ᶜ, ⟨∇p⟩ᶜ, ⟨∇ρ⟩ᶜ and s_i of 2744 jittered lattice particles (30 % walls) against the
 /// twin: each within 2e-4 of its largest magnitude (f32 sums of ~100 terms, then a 3×3
-/// inverse of condition ≲ 3); the near-singular count and ‖u‖max exactly / to f32.
+/// inverse of condition ≲ 3); the near-singular count and ‖u‖max exactly / to f32. With
+/// shifting and Antuono's δ-SPH the scene reads every field (`GradientFields`).
 #[test]
 fn gradients_match_cpu_twin() {
     at_each_team_width(|gpu| {
         for kernel in ["wendland-c2", "quintic"] {
-            let s = scene(&format!("kernel = \"{kernel}\""), EFFECTS);
+            let s = scene(
+                &format!("kernel = \"{kernel}\""),
+                &format!("{EFFECTS}\ndensity_diffusion = 0.1"),
+            );
             let c = SphConstants::from_scene(&s).unwrap();
             let set = random_set(&c, 14, 0.3, 0.2, 0.5, 11);
             let mut solver = FluidSolver::from_particles(gpu, &s, set).unwrap();
@@ -101,6 +105,46 @@ fn gradients_match_cpu_twin() {
             );
         }
     });
+}
+
+/// With the gradient correction alone the scene reads none of the fields
+/// (`GradientFields`): the pass sums and writes B_i only, which still matches the twin
+/// within 2e-4 of its largest entry (as above), and leaves the fields as allocated, zero.
+/// Reference: the twin (f64), and the allocation's zeros.
+#[test]
+fn gradient_pass_sums_only_the_fields_a_scene_reads() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let s = scene(
+        "kernel = \"wendland-c2\"",
+        "[effects]\ngradient_correction = true",
+    );
+    let c = SphConstants::from_scene(&s).unwrap();
+    let fields = couplet_fluid::joubert2020_gradients::GradientFields::of(&c);
+    assert!(!fields.grad_u && !fields.grad_p && !fields.grad_rho && !fields.shift);
+    let set = random_set(&c, 14, 0.3, 0.2, 0.5, 11);
+    let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
+    solver
+        .run_ops(&gpu, &[Op::Sort, Op::Gradients], 1e-4, 1.0)
+        .unwrap();
+    let got = solver.data().read(&gpu).unwrap();
+    let g = solver
+        .data()
+        .read_gradients(&gpu)
+        .unwrap()
+        .expect("the gradient pass runs");
+    let want = gradients_cpu(&c, &got);
+    let b = &g.b;
+    let pairs = (want.iter().enumerate())
+        .filter_map(|(i, w)| w.map(|w| (i, w)))
+        .flat_map(|(i, w)| (0..9).map(move |k| (b[i][k / 3][k % 3], w.b[k / 3][k % 3])));
+    let (e, m) = max_err(pairs);
+    println!("B alone: max |Δ| = {e:e} of {m:e}");
+    assert!(m > 0.0 && e <= 2e-4 * m, "B: max |Δ| = {e:e}, max = {m:e}");
+    let written = (g.fields.iter())
+        .flat_map(|f| f.iter().flatten())
+        .filter(|x| **x != 0.0)
+        .count();
+    assert_eq!(written, 0, "field entries written without a reader");
 }
 
 /// A fluid block with free surfaces on five faces and a corner, on a floor of wall
