@@ -6,13 +6,13 @@
 
 mod common;
 
-use common::{at_each_team_width, max_err, random_set, scene};
+use common::{at_each_team_width, fluid_at, max_err, random_set, scene};
 use couplet_fluid::adami2012_boundary_pressure::boundary_pressure_cpu;
 use couplet_fluid::fluid_rates::fluid_rates_cpu;
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::joubert2020_body_loads::{MarkerGeometry, marker_load_cpu};
 use couplet_fluid::tait_eos::tait_eos_cpu;
-use couplet_fluid::{FluidSolver, Kind, Op, ParticleKinds, ParticleSet, SphConstants};
+use couplet_fluid::{FluidSolver, Kind, Op, ParticleSet, SphConstants};
 use couplet_protocol::{BodyState, CouplingPoint, Scene};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -409,22 +409,12 @@ fn fourtakas_diffusion_vanishes_on_a_hydrostatic_column() {
         let c = SphConstants::from_scene(&s).unwrap();
         let (d, origin, g) = (c.spacing, 0.02, 9.81);
         let y_s = origin + ny as f64 * d;
-        let mut set = ParticleSet::default();
-        for k in 0..nx * ny * nx {
-            let p = [k % nx, (k / nx) % ny, k / (nx * ny)].map(|x| origin + (x as f64 + 0.5) * d);
-            let rho = c.rho0 * (1.0 + c.rho0 * g * (y_s - p[1]) / c.tait_b()).powf(1.0 / c.gamma);
-            set.pos.push(p);
-            set.vel.push([0.0; 3]);
-            set.rho.push(rho);
-            set.mass.push(c.mass);
-            set.press.push(c.pressure(rho));
-            set.id.push(k as u32);
-        }
-        set.kinds = ParticleKinds {
-            n_fluid: nx * ny * nx,
-            n_wall: 0,
-            n_markers: 0,
-        };
+        let points: Vec<[f64; 3]> = (0..nx * ny * nx)
+            .map(|k| [k % nx, (k / nx) % ny, k / (nx * ny)].map(|x| origin + (x as f64 + 0.5) * d))
+            .collect();
+        let set = fluid_at(&c, &points, [0.0; 3], |p| {
+            c.rho0 * (1.0 + c.rho0 * g * (y_s - p[1]) / c.tait_b()).powf(1.0 / c.gamma)
+        });
         let (got, drho, _, want) = rates_pass(&gpu, &s, &c, set, 1e-4);
         // Positions are the solver's, from its origin: the top two rows from the highest.
         let y_top = got.pos.iter().map(|p| p[1]).fold(f64::MIN, f64::max);
@@ -517,23 +507,13 @@ fn pressure_gradient_of_linear_field_and_translation() {
         // p, which adds 2p/(ρc²) ≤ 0.25 % to the symmetric form's error at c = 20 m/s.
         let (p0, a) = (-500.0, 5000.0); // Pa, Pa/m
         let u = [0.3, -0.2, 0.1];
-        let mut set = ParticleSet::default();
-        for k in 0..n * n * n {
-            let p = [(k % n) as f64, ((k / n) % n) as f64, (k / (n * n)) as f64]
-                .map(|x| (x + 0.5) * c.spacing);
-            let rho = c.density(p0 + a * p[0]);
-            set.pos.push(p);
-            set.vel.push(u);
-            set.rho.push(rho);
-            set.mass.push(c.mass);
-            set.press.push(c.pressure(rho));
-            set.id.push(k as u32);
-        }
-        set.kinds = ParticleKinds {
-            n_fluid: n * n * n,
-            n_wall: 0,
-            n_markers: 0,
-        };
+        let points: Vec<[f64; 3]> = (0..n * n * n)
+            .map(|k| {
+                [(k % n) as f64, ((k / n) % n) as f64, (k / (n * n)) as f64]
+                    .map(|x| (x + 0.5) * c.spacing)
+            })
+            .collect();
+        let set = fluid_at(&c, &points, u, |p| c.density(p0 + a * p[0]));
         let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
         solver
             .run_ops(&gpu, &[Op::Sort, Op::FluidRates], 1e-4, 1.0)

@@ -114,6 +114,33 @@ pub fn fluid_lattice(n: usize, s: f64, origin: f64, m: f64, rho: f64) -> Particl
     set
 }
 
+/// Fluid only, one particle at each of `points` with the lattice mass of `c`, velocity
+/// `u`, density `rho(x)` and the equation of state's pressure of it.
+#[allow(dead_code)] // not every test binary that includes `common` builds fluid sets
+pub fn fluid_at(
+    c: &SphConstants,
+    points: &[[f64; 3]],
+    u: [f64; 3],
+    rho: impl Fn([f64; 3]) -> f64,
+) -> ParticleSet {
+    let mut set = ParticleSet::default();
+    for (k, &p) in points.iter().enumerate() {
+        let r = rho(p);
+        set.pos.push(p);
+        set.vel.push(u);
+        set.rho.push(r);
+        set.mass.push(c.mass);
+        set.press.push(c.pressure(r));
+        set.id.push(k as u32);
+    }
+    set.kinds = ParticleKinds {
+        n_fluid: points.len(),
+        n_wall: 0,
+        n_markers: 0,
+    };
+    set
+}
+
 /// Largest |a − b| and largest |b| over pairs of scalars.
 pub fn max_err(pairs: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
     pairs.fold((0.0, 0.0), |(e, m), (a, b)| {
