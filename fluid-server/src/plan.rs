@@ -123,8 +123,21 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
         push(
             GRADIENTS,
             format!(
-                "{}: B = M⁻¹ of Joubert eq. (10) and corrected ∇u, ∇p, ∇ρ once per step after the sort{}",
+                "{}: B = M⁻¹ of Joubert eq. (10){} once per step after the sort{}",
                 users.join(", "),
+                crate::SphConstants::from_scene(scene).map_or(String::new(), |c| {
+                    let f = crate::joubert2020_gradients::GradientFields::of(&c);
+                    let fields: Vec<&str> = [
+                        (f.grad_u, "corrected ∇u"),
+                        (f.grad_p, "corrected ∇p"),
+                        (f.grad_rho, "corrected ∇ρ"),
+                        (f.shift, "the shift direction of eq. (17)"),
+                    ]
+                    .iter()
+                    .filter_map(|(on, name)| on.then_some(*name))
+                    .collect();
+                    fields.iter().map(|f| format!(", {f}")).collect()
+                }),
                 if scene.free_surface_switch() {
                     format!(
                         "; effects.free_surface: where det M < {} of a complete support's (the rows whose support reaches past the fluid's edge) continuity and pressure keep the standard forms",
