@@ -122,10 +122,12 @@ fn fluid_rates(@builtin(workgroup_id) wid: vec3<u32>,
                     let g_j = select(g_i, grad_p(j) / rho_j, is_fluid(id[j]));
                     mc_div += v_j * dot(g_j - g_i, b_i * grad_w);
                 }
-                if DENSITY_DIFFUSION && DIFFUSION_FOURTAKAS && is_fluid(id[j]) {
-                    drho_i += eps_i * fourtakas2019_diffusion_term(m_j, rho_f_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, params.gravity.xyz);
-                } else if DENSITY_DIFFUSION && is_fluid(id[j]) {
-                    drho_i += eps_i * antuono2010_diffusion_term(m_j, rho_f_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
+                if DENSITY_DIFFUSION && is_fluid(id[j]) {
+                    if DIFFUSION_FOURTAKAS {
+                        drho_i += eps_i * fourtakas2019_diffusion_term(m_j, rho_f_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, params.gravity.xyz);
+                    } else {
+                        drho_i += eps_i * antuono2010_diffusion_term(m_j, rho_f_i, rho_j / porosity(j), rho_j, r_ij, r2, grad_w, grad_rho_i, grad_rho(j));
+                    }
                 }
                 // Free-slip walls carry pressure but no shear.
                 let wall = is_wall(id[j]);

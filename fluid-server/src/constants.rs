@@ -292,6 +292,12 @@ impl SphConstants {
         self.density_diffusion > 0.0 && self.density_diffusion_form == DensityDiffusionForm::Antuono
     }
 
+    /// The rates pass reads the gradient pass's fields: ∇ρ for Antuono's δ-SPH, ∇p for
+    /// the mass correction (Joubert eqs. 15–16).
+    pub fn rates_read_gradients(&self) -> bool {
+        self.antuono_diffusion() || self.mass_correction > 0.0
+    }
+
     /// `a − b` as the nearest image on the periodic axes ([`Self::period`]): the CPU twin
     /// of `pair_vec` in `grid_common.wgsl`, in f64.
     pub fn pair_vec(&self, a: [f64; 3], b: [f64; 3]) -> [f64; 3] {

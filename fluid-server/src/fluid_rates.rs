@@ -95,7 +95,7 @@ const OWN_WALL_VELOCITY_WGSL: &str = "fn wall_velocity(j: u32) -> vec3<f32> {
 
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
-    let grads = c.antuono_diffusion() || c.mass_correction > 0.0;
+    let grads = c.rates_read_gradients();
     // The B matrix and the gradient buffer are bound only when their effect is on.
     let mut bindings = BINDINGS.to_vec();
     if c.uses_b_matrix() {
@@ -183,7 +183,7 @@ pub fn fluid_rates_among_grains_cpu(
     porosity: Option<PorosityAt>,
 ) -> Vec<Option<(f64, [f64; 3])>> {
     let eps = porosity.as_ref().map(|e| e.porosity);
-    let grads = if c.antuono_diffusion() || c.mass_correction > 0.0 {
+    let grads = if c.rates_read_gradients() {
         gradients_among_grains_cpu(c, set, eps)
     } else {
         Vec::new()
