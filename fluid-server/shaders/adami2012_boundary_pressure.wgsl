@@ -11,8 +11,10 @@
 // ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (Adami et al. 2012, §2.3), through
 // `store_wall_velocity(i, v)` (adami2012_boundary_pressure.rs: a no-op when off); the
 // layers of a symmetry plane (ADAMI_SYMMETRY) take ṽ_w mirrored across it instead.
+// Rows without fluid are skipped (row_has_fluid, fluid_rows.wgsl): the sums are over
+// fluid only.
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, tait_eos (library),
-// fill_side (adami2012_boundary_pressure.rs).
+// row_fluid (fluid_rows.rs), fill_side (adami2012_boundary_pressure.rs).
 
 // ---- kernels ----
 // The axes across which the wall particle at x mirrors the fluid's velocity: those of
@@ -58,6 +60,10 @@ fn adami2012_boundary_pressure(@builtin(workgroup_id) wid: vec3<u32>,
         let reach2 = support2_at(MAX_H);
         let side = fill_side(i);
         for (var r = i32(lane); r < ROWS; r += i32(TEAM_LANES)) {
+            // No fluid in the row, nothing to add (fluid_rows.wgsl).
+            if !row_has_fluid(c_i, team_row(r).x, team_row(r).y) {
+                continue;
+            }
             let rs = row_ranges(c_i, team_row(r).x, team_row(r).y);
             for (var k = 0u; k < row_length(rs); k++) {
                 let j = row_slot(rs, k);

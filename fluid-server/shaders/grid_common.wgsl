@@ -119,8 +119,13 @@ fn row_ranges(c: vec3<i32>, dy: i32, dz: i32) -> vec4<u32> {
     return row_ranges_within(c, dy, dz, GRID_REACH);
 }
 
-// `row_ranges` over the cells c.x − reach ..= c.x + reach, reach ≤ GRID_REACH.
-fn row_ranges_within(c: vec3<i32>, dy: i32, dz: i32, reach: i32) -> vec4<u32> {
+// `row_base` of a row beyond a closed face (no cell has this index: the grid's cell
+// count is checked against the largest binding, so it stays far below).
+const NO_ROW: u32 = 0xffffffffu;
+
+// The index of cell (0, c.y + dy, c.z + dz), wrapped on periodic y and z, or NO_ROW when
+// that row lies beyond a closed face.
+fn row_base(c: vec3<i32>, dy: i32, dz: i32) -> u32 {
     let dims = vec3<i32>(grid.dims.xyz);
     let periodic = periodic_axes();
     var y = c.y + dy;
@@ -132,9 +137,19 @@ fn row_ranges_within(c: vec3<i32>, dy: i32, dz: i32, reach: i32) -> vec4<u32> {
         z = (z + dims.z) % dims.z;
     }
     if y < 0 || y >= dims.y || z < 0 || z >= dims.z {
+        return NO_ROW;
+    }
+    return grid.dims.x * (u32(y) + grid.dims.y * u32(z));
+}
+
+// `row_ranges` over the cells c.x − reach ..= c.x + reach, reach ≤ GRID_REACH.
+fn row_ranges_within(c: vec3<i32>, dy: i32, dz: i32, reach: i32) -> vec4<u32> {
+    let dims = vec3<i32>(grid.dims.xyz);
+    let periodic = periodic_axes();
+    let row = row_base(c, dy, dz);
+    if row == NO_ROW {
         return vec4<u32>(0u);
     }
-    let row = grid.dims.x * (u32(y) + grid.dims.y * u32(z));
     var x0 = c.x - reach;
     var x1 = c.x + reach;
     if periodic.x {

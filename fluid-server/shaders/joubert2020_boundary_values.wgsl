@@ -20,7 +20,10 @@
 // det M < B_DET_MIN (tr M/3)³, or |n̂·S| δ < B_DET_MIN) the particle takes Adami et
 // al.'s (2012) uncorrected extrapolation instead and is counted in diag[2]. No fluid
 // neighbour: p = 0, ρ = ρ0, symmetry velocity 0.
-// Needs: prelude, SPH constants, B_DET_MIN, StepParams, grid_common, kernel, tait_eos.
+// Rows without fluid are skipped (row_has_fluid, fluid_rows.wgsl): the sums are over
+// fluid only.
+// Needs: prelude, SPH constants, B_DET_MIN, StepParams, grid_common, row_fluid
+// (fluid_rows.rs), kernel, tait_eos.
 
 // ---- kernels ----
 // `pos`, boundary_density and store_boundary_mass: porosity.rs, boundary_state_wgsl.
@@ -67,6 +70,10 @@ fn joubert2020_boundary_values(@builtin(workgroup_id) wid: vec3<u32>,
     var sum_vw = vec3<f32>(0.0);
     for (var dz = -GRID_REACH; dz <= GRID_REACH; dz++) {
         for (var dy = -GRID_REACH; dy <= GRID_REACH; dy++) {
+            // No fluid in the row, nothing to add (fluid_rows.wgsl).
+            if !row_has_fluid(c_i, dy, dz) {
+                continue;
+            }
             let rs = row_ranges(c_i, dy, dz);
             for (var k = 0u; k < row_length(rs); k++) {
                 let j = row_slot(rs, k);

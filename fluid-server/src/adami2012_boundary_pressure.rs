@@ -34,6 +34,7 @@
 //! below mid-way between two (`adami_symmetry_planes_exert_no_shear`).
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
+use crate::fluid_rows::row_fluid_read_wgsl;
 use crate::gpu::Gpu;
 use crate::kernel::kernel_library;
 use crate::marker_update::MARKER_UPDATE_WGSL;
@@ -90,7 +91,9 @@ pub fn kernel(
         (pb::RHO, Access::ReadWrite),
         (pb::PRESS, Access::ReadWrite),
         (pb::ID, Access::Read),
+        (pb::ROW_FLUID, Access::Read),
     ]);
+    let rows = row_fluid_read_wgsl();
     let store = if c.wall_velocity_extrapolation {
         particles.push((pb::WALL_VEL, Access::ReadWrite));
         STORE_WALL_VELOCITY_WGSL
@@ -118,6 +121,7 @@ pub fn kernel(
             &consts,
             STEP_PARAMS_WGSL,
             GRID_COMMON_WGSL,
+            &rows,
             kernel_library(),
             library(TAIT_EOS_WGSL),
             marker_lib,

@@ -112,8 +112,12 @@ pub struct Gpu {
     /// enabled as well whenever the adapter offers them.
     pub timestamps: bool,
     /// The neighbour grid's reach R set by [`GRID_REACH_ENV`], if it is set: every grid
-    /// takes it in place of the adapter's (`neighbour_grid::grid_reach_for`).
+    /// takes it in place of the adapter's (`neighbour_grid::grid_reach_for`). Public so
+    /// that a test can build grids at each R on the one test device (`shared_test_gpu`
+    /// restores it).
     pub grid_reach_override: Option<u32>,
+    /// The reach [`GRID_REACH_ENV`] set, if it is set.
+    grid_reach_env: Option<u32>,
     /// Lanes per item of the team passes (`neighbour_grid::team_lanes_for`), which every
     /// solver created on this device compiles and dispatches with: [`TEAM_LANES_ENV`]'s if
     /// set, else the adapter's ([`Gpu::adapter_team_lanes`]). Public so that a parity
@@ -220,6 +224,7 @@ impl Gpu {
             adapter_info,
             timestamps,
             grid_reach_override,
+            grid_reach_env: grid_reach_override,
             team_lanes,
             team_lanes_override,
             dense_lanes_override,
@@ -381,13 +386,14 @@ static TEST_GPU: OnceLock<Result<Mutex<Gpu>, GpuError>> = OnceLock::new();
 /// GPU (or one lavapipe): every GPU test holds this lock for its whole body, which
 /// serialises them and spares each the cost of opening a device. A test that
 /// panicked while holding the lock does not poison the others. Each lock restores the
-/// device's own team lanes ([`Gpu::adapter_team_lanes`]), so a test that sets
-/// [`Gpu::team_lanes`] changes no other test.
+/// device's own team lanes ([`Gpu::adapter_team_lanes`]) and grid reach, so a test that
+/// sets [`Gpu::team_lanes`] or [`Gpu::grid_reach_override`] changes no other test.
 pub fn shared_test_gpu() -> Result<MutexGuard<'static, Gpu>, GpuError> {
     match TEST_GPU.get_or_init(|| Gpu::new().map(Mutex::new)) {
         Ok(m) => {
             let mut gpu = m.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
             gpu.team_lanes = gpu.adapter_team_lanes();
+            gpu.grid_reach_override = gpu.grid_reach_env;
             gpu.steps_per_submit = gpu
                 .steps_per_submit_override
                 .unwrap_or(STEPS_PER_SUBMIT_DEFAULT);

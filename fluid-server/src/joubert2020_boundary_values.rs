@@ -37,6 +37,7 @@
 
 use crate::adami2012_boundary_pressure::extrapolate_cpu;
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
+use crate::fluid_rows::row_fluid_read_wgsl;
 use crate::gpu::Gpu;
 use crate::joubert2020_gradients::{B_DET_MIN, Mat3, determinant, inverse, mat_vec};
 use crate::kernel::kernel_library;
@@ -92,7 +93,9 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
         (pb::PRESS, Access::ReadWrite),
         (pb::ID, Access::Read),
         (pb::BOUNDARY_FRAME, Access::Read),
+        (pb::ROW_FLUID, Access::Read),
     ]);
+    let rows = row_fluid_read_wgsl();
     SphKernel::new(
         gpu,
         "sph: joubert2020_boundary_values",
@@ -101,6 +104,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             &guard,
             STEP_PARAMS_WGSL,
             GRID_COMMON_WGSL,
+            &rows,
             kernel_library(),
             library(TAIT_EOS_WGSL),
             &state,

@@ -27,6 +27,7 @@ pub mod continuity;
 pub mod drag;
 pub mod error;
 pub mod fluid_rates;
+pub mod fluid_rows;
 pub mod initial_mass;
 pub mod integrate;
 pub mod joubert2020_body_loads;

@@ -37,7 +37,7 @@ use crate::shaders;
 use crate::timing::{self, StageTimer};
 
 /// WGSL for pair kernels: `GridParams`, the group-1 bindings, `cell_coord`,
-/// `cell_index`, `cell_in_grid`, `cell_range`, `row_ranges`, `row_slot`, `pair_vec` and the loop pattern (see
+/// `cell_index`, `cell_in_grid`, `cell_range`, `row_base`, `row_ranges`, `row_slot`, `pair_vec` and the loop pattern (see
 /// the file's header).
 pub const GRID_COMMON_WGSL: &str = include_str!("../shaders/grid_common.wgsl");
 const NEIGHBOUR_GRID_WGSL: &str = include_str!("../shaders/neighbour_grid.wgsl");

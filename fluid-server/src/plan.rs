@@ -67,7 +67,7 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
     push(
         NEIGHBOUR_GRID,
         format!(
-            "cell size ≥ support/R = {:.3e} m on a GPU (R = {GRID_REACH_GPU}), {:.3e} m on a CPU adapter (R = {GRID_REACH_CPU}){}; stable counting sort by cell once per step{}",
+            "cell size ≥ support/R = {:.3e} m on a GPU (R = {GRID_REACH_GPU}), {:.3e} m on a CPU adapter (R = {GRID_REACH_CPU}){}; stable counting sort by cell once per step, then the fluid in each cell's row of 2R + 1 cells, so that the boundary passes skip rows without fluid (fluid_rows){}",
             radius / f64::from(GRID_REACH_GPU),
             radius / f64::from(GRID_REACH_CPU),
             match variable_h {

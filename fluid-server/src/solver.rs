@@ -47,9 +47,9 @@ use crate::timing::{self, StageTimer};
 use crate::window_stats::WindowStats;
 use crate::{
     adami2012_boundary_pressure, blowup_check, body_load_reduce, body_non_penetration, fluid_rates,
-    integrate, joubert2020_body_loads, joubert2020_boundary_values, joubert2020_gradients,
-    marker_update, neighbour_count, particle_shifting, plan, robinson_variable_h, tait_eos,
-    window_stats,
+    fluid_rows, integrate, joubert2020_body_loads, joubert2020_boundary_values,
+    joubert2020_gradients, marker_update, neighbour_count, particle_shifting, plan,
+    robinson_variable_h, tait_eos, window_stats,
 };
 use couplet_protocol::{BodyLoad, BodyState, CouplingPoint, ParticleRecord, Scene};
 use wgpu::util::DeviceExt;
@@ -114,6 +114,7 @@ pub struct MarkerPipelines {
 /// The compiled kernels of a scene (no data).
 pub struct SphPipelines {
     tait_eos: SphKernel,
+    fluid_rows: SphKernel,
     boundary_pressure: SphKernel,
     fluid_rates: SphKernel,
     predict: SphKernel,
@@ -138,6 +139,7 @@ impl SphPipelines {
     ) -> Self {
         SphPipelines {
             tait_eos: tait_eos::kernel(gpu, c),
+            fluid_rows: fluid_rows::kernel(gpu, c, grid_layout),
             boundary_pressure: if c.joubert_walls {
                 joubert2020_boundary_values::kernel(gpu, c, grid_layout)
             } else {
@@ -205,6 +207,7 @@ struct BoundMarkers {
 
 struct Bound {
     tait_eos: BoundKernel,
+    fluid_rows: BoundKernel,
     boundary_pressure: BoundKernel,
     fluid_rates: BoundKernel,
     predict: BoundKernel,
@@ -260,6 +263,9 @@ pub struct SphData {
     /// The grains' solid fraction per particle (u32 counts of 2^-31, permuted; Robinson
     /// eq. 9), in scenes with grains.
     pub solid: Option<wgpu::Buffer>,
+    /// The fluid in each grid cell's row window (one u32 per cell, written after every
+    /// sort; [`crate::fluid_rows`]), which the boundary passes read to skip rows.
+    pub row_fluid: wgpu::Buffer,
     /// ∇ε per particle (i32 counts, four per particle, permuted), with
     /// `coupling.porosity_pressure = "energy-pair"`.
     pub solid_grad: Option<wgpu::Buffer>,
@@ -423,6 +429,11 @@ impl SphData {
         grid.register(&rho, 4)?;
         grid.register(&press, 4)?;
         grid.register_ids(&id)?;
+        let row_fluid = storage_init(
+            gpu,
+            "sph: fluid per row window",
+            &vec![0u8; grid.params.n_cells as usize * 4],
+        );
         let solid = c
             .grains
             .then(|| storage_init(gpu, "sph: grain solid fraction", &zeros4));
@@ -511,6 +522,7 @@ impl SphData {
                     pb::BHAT => gradients.as_ref()?.bhat.as_ref()?,
                     pb::SOLID => solid.as_ref()?,
                     pb::SOLID_GRAD => solid_grad.as_ref()?,
+                    pb::ROW_FLUID => &row_fluid,
                     pb::SMOOTHING => smoothing.as_ref()?,
                     pb::REACTION_LO => &reaction.as_ref()?.lo,
                     pb::REACTION_HI => &reaction.as_ref()?.hi,
@@ -576,6 +588,10 @@ impl SphData {
                     .tait_eos
                     .bind(gpu, resolve, None)
                     .ok_or_else(|| missing("tait_eos"))?,
+                fluid_rows: p
+                    .fluid_rows
+                    .bind(gpu, resolve, g)
+                    .ok_or_else(|| missing("fluid_rows"))?,
                 boundary_pressure: match (&p.markers, &bodies) {
                     (
                         Some(MarkerPipelines {
@@ -676,6 +692,7 @@ impl SphData {
             wall_vel,
             boundary_frame,
             solid,
+            row_fluid,
             solid_grad,
             reaction,
             smoothing,
@@ -699,7 +716,11 @@ impl SphData {
         let m = b.markers.as_ref();
         let (kernel, label): (&BoundKernel, &str) = match op {
             Op::Sort => {
-                self.grid.queue_sort(gpu, encoder, &self.pos, timer);
+                let mut timer = timer;
+                self.grid
+                    .queue_sort(gpu, encoder, &self.pos, timer.as_deref_mut());
+                let mut pass = timing::begin_pass(timer, gpu, encoder, "sph: fluid_rows");
+                b.fluid_rows.dispatch(&mut pass, self.grid.params.n_cells);
                 return;
             }
             Op::TaitEos => (&b.tait_eos, "sph: tait_eos"),

@@ -67,6 +67,9 @@ pub mod particle_binding {
     /// i32 counts of 2^-24/h, four per particle, permuted by the sort; only with
     /// `coupling.porosity_pressure = "energy-pair"` ([`crate::porosity`]).
     pub const SOLID_GRAD: u32 = 18;
+    /// The fluid particles in each neighbour-grid cell's row window (one u32 per cell,
+    /// not per particle), written after every sort ([`crate::fluid_rows`]).
+    pub const ROW_FLUID: u32 = 19;
 }
 
 /// Bodies and markers, group 2.

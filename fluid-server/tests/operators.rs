@@ -11,6 +11,7 @@ use couplet_fluid::adami2012_boundary_pressure::boundary_pressure_cpu;
 use couplet_fluid::fluid_rates::fluid_rates_cpu;
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
 use couplet_fluid::joubert2020_body_loads::{MarkerGeometry, marker_load_cpu};
+use couplet_fluid::neighbour_grid::{TEAM_LANES_CPU, TEAM_LANES_GPU};
 use couplet_fluid::tait_eos::tait_eos_cpu;
 use couplet_fluid::{FluidSolver, Kind, Op, ParticleSet, SphConstants};
 use couplet_protocol::{BodyState, CouplingPoint, Scene};
@@ -127,6 +128,109 @@ fn boundary_pressure_matches_cpu_twin() {
             assert!(er <= 1e-6 * c.rho0, "{kernel}: max |Δρ_w| = {er:e}");
         }
     });
+}
+
+/// A scene whose fluid fills one corner of a larger box, so that most wall particles
+/// stand far from it: closed, or periodic in x (`periodic_x`) with the fluid across the
+/// whole period (the row windows wrap around the x faces).
+fn corner_scene(periodic_x: bool) -> Scene {
+    let text = format!(
+        r#"
+[meta]
+name = "fluid-in-a-corner"
+[time]
+end = 1.0
+output_interval = 0.1
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.3, 0.2, 0.1]
+periodic = [{periodic_x}, false, false]
+[fluid]
+density = 1000.0
+kinematic_viscosity = 1e-3
+sound_speed = 20.0
+spacing = 0.01
+blocks = [{{ min = [0.0, 0.0, 0.0], max = [{}, 0.06, 0.1] }}]
+"#,
+        if periodic_x { 0.3 } else { 0.1 }
+    );
+    Scene::parse(&text, std::path::Path::new("corner.toml")).expect("test scene")
+}
+
+/// `fluid_rows` (the fluid in each grid cell's row window, written after the sort)
+/// against its CPU twin, exactly, closed and periodic in x, at the team lanes and grid
+/// reach of a CPU adapter (1, R = 2) and of a GPU (8, R = 3); and
+/// the Adami boundary pass, which skips the rows it says hold no fluid, against its
+/// twin (which walks every neighbour) on every wall particle, near the fluid and far
+/// from it, within `boundary_pressure_matches_cpu_twin`'s bounds. The scenes are chosen
+/// so that the skip is exercised: over 40 % of the cells' row windows hold no fluid, and
+/// over 40 % of the walls have no fluid neighbour (p = 0, ρ = ρ0 from the twin).
+#[test]
+fn fluid_rows_match_cpu_twin_and_boundary_pass_skips_only_rows_without_fluid() {
+    let mut gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    for (lanes, reach) in [(TEAM_LANES_CPU, 2), (TEAM_LANES_GPU, 3)] {
+        gpu.team_lanes = lanes;
+        gpu.grid_reach_override = Some(reach);
+        let gpu = &*gpu;
+        for periodic_x in [false, true] {
+            let s = corner_scene(periodic_x);
+            let c = SphConstants::from_scene(&s).unwrap().for_adapter(gpu);
+            let set = couplet_fluid::initial_particles(&s, &c).unwrap();
+            let mut solver = FluidSolver::from_particles(gpu, &s, set).unwrap();
+            solver
+                .run_ops(gpu, &[Op::Sort, Op::BoundaryPressure], 1e-4, 1.0)
+                .unwrap();
+            let got = solver.data().read(gpu).unwrap();
+            let g = &solver.data().grid;
+            let n_cells = u64::from(g.params.n_cells);
+            let rows: Vec<u32> = gpu
+                .read_buffer(&solver.data().row_fluid, 0, n_cells)
+                .unwrap();
+            let cell_start: Vec<u32> = gpu.read_buffer(&g.cell_start, 0, n_cells + 1).unwrap();
+            let fluid_slot: Vec<bool> = (got.id.iter())
+                .map(|&id| got.kinds.kind(id) == Kind::Fluid)
+                .collect();
+            let dims = [g.params.dims[0], g.params.dims[1], g.params.dims[2]];
+            let want_rows = couplet_fluid::fluid_rows::fluid_rows_cpu(
+                dims,
+                periodic_x,
+                reach,
+                &cell_start,
+                &fluid_slot,
+            );
+            let case = format!("lanes {lanes}, R = {reach}, periodic x {periodic_x}");
+            assert_eq!(rows, want_rows, "{case}: fluid per row window");
+            let empty = rows.iter().filter(|&&n| n == 0).count();
+
+            let want = boundary_pressure_cpu(&c, &got);
+            let walls: Vec<usize> = (0..got.len()).filter(|&i| want[i].is_some()).collect();
+            let dry = (walls.iter())
+                .filter(|&&i| {
+                    got.neighbours(i, c.support_radius())
+                        .all(|j| !fluid_slot[j])
+                })
+                .count();
+            let (ep, mp) = max_err(walls.iter().map(|&i| (got.press[i], want[i].unwrap().0)));
+            let (er, _) = max_err(walls.iter().map(|&i| (got.rho[i], want[i].unwrap().1)));
+            println!(
+                "{case}: {empty} of {n_cells} row windows without fluid; {dry} of {} walls without a fluid neighbour; max |Δp_w| = {ep:e} of {mp:e}, max |Δρ_w| = {er:e}",
+                walls.len()
+            );
+            assert!(
+                empty as f64 > 0.4 * n_cells as f64,
+                "{case}: {empty} empty windows"
+            );
+            assert!(
+                dry as f64 > 0.4 * walls.len() as f64,
+                "{case}: {dry} dry walls"
+            );
+            assert!(
+                mp > 100.0 && ep <= PAIR_RTOL * mp,
+                "{case}: max |Δp_w| = {ep:e} of {mp:e}"
+            );
+            assert!(er <= 1e-6 * c.rho0, "{case}: max |Δρ_w| = {er:e}");
+        }
+    }
 }
 
 /// `fluid.background_pressure` P_b: the EOS and its inverse shift by P_b on both sides.
