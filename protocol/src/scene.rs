@@ -1316,6 +1316,18 @@ impl Scene {
                 );
             }
         }
+        if self.domain.wall_model == WallModel::Joubert && self.may_hold_a_free_surface() {
+            w.push(
+                "domain.wall_model = \"joubert\" with a free surface (an open top, or fluid \
+                 blocks that leave part of the domain empty): every such run tried has blown \
+                 up, the hydrostatic tank's quick at 0.03–0.06 s open or closed, the dam \
+                 break's at 0.01 s, with or without δ-SPH (2026-12-04). Beside a one-layer wall \
+                 the support is truncated, so the free-surface switch takes the standard \
+                 pressure term there, and that term needs the full wall layers of \
+                 \"adami\" (ARCHITECTURE.md, \"The free-surface switch\"); use \"adami\""
+                    .into(),
+            );
+        }
         let weighs = self.gravity.on_fluid && self.gravity.vector.iter().any(|g| *g != 0.0);
         if weighs && self.has_resolved_bodies() && !self.effects.gradient_correction {
             w.push(
@@ -1327,6 +1339,24 @@ impl Scene {
             );
         }
         w
+    }
+
+    /// Whether the fluid can have a free surface: the domain's top is open
+    /// ([`DomainSpec::open_top`]), or its fluid blocks, clipped to the domain, fill less
+    /// than all of it (overlapping blocks count twice, so a domain they leave partly empty
+    /// can pass for full).
+    pub fn may_hold_a_free_surface(&self) -> bool {
+        let Some(f) = &self.fluid else {
+            return false;
+        };
+        let d = &self.domain;
+        let volume = |min: [f64; 3], max: [f64; 3]| -> f64 {
+            (0..3)
+                .map(|k| (max[k].min(d.max[k]) - min[k].max(d.min[k])).max(0.0))
+                .product()
+        };
+        let filled: f64 = f.blocks.iter().map(|b| volume(b.min, b.max)).sum();
+        d.open_top() || filled < volume(d.min, d.max) * (1.0 - 1e-9)
     }
 
     /// `effects.variable_smoothing_length` and `fluid.max_smoothing_ratio`: the ratio is
@@ -2023,6 +2053,31 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
                 .unwrap()
                 .warnings()
                 .is_empty()
+        );
+    }
+
+    /// Joubert's one-layer walls with a free surface are warned of: an open top, or a
+    /// closed box the blocks fill only in part; a closed box filled to the lid (the
+    /// closed-tank validation, five-bodies) is not.
+    #[test]
+    fn joubert_walls_with_a_free_surface_are_warned_of() {
+        let warned = |domain: &str, top: &str| {
+            let text = MINIMAL
+                .replace(
+                    "max = [1, 1, 1]\n",
+                    &format!("max = [1, 1, 1]\nwall_model = \"joubert\"\n{domain}\n"),
+                )
+                .replace("max = [1, 0.5, 1]", &format!("max = [1, {top}, 1]"))
+                + "[effects]\ngradient_correction = true\n";
+            (Scene::parse(&text, Path::new("t.toml")).unwrap().warnings())
+                .iter()
+                .any(|w| w.contains("joubert"))
+        };
+        assert!(warned("", "1"), "open top");
+        assert!(warned("closed_top = true", "0.5"), "closed, half filled");
+        assert!(
+            !warned("closed_top = true", "1"),
+            "closed, filled to the lid"
         );
     }
 
