@@ -421,7 +421,9 @@ pub enum WallModel {
     /// The time step (Joubert eq. 24) takes δ/2, the layer's distance from the fluid.
     /// Eq. (25)'s viscous term is not included yet (exact for fluid at rest and channel
     /// flows), and nothing but compression stops fluid crossing the one layer: a driven
-    /// cavity blows up near its lid corners (ARCHITECTURE.md).
+    /// cavity blows up near its lid corners (ARCHITECTURE.md). Not for a free surface:
+    /// every open tank and dam break tried blew up within 0.06 s, and the scene warns
+    /// (`Scene::may_hold_a_free_surface`).
     Joubert,
 }
 
