@@ -11,8 +11,8 @@
 // bit for bit the same. Most wall particles of a tank stand far from the fluid (25 067
 // walls to 10 850 fluid in the SPHERIC-2 tank at δ = 0.04 m), and each walked its whole
 // neighbourhood of walls (fluid_rows.rs gives the measured cost).
-// Needs: prelude, SPH constants, StepParams, grid_common; the caller declares `row_fluid`
-// (fluid_rows.rs, ROW_FLUID_READ_WGSL).
+// Needs: prelude, SPH constants, StepParams, grid_common; a boundary pass declares
+// `row_fluid` read-only (fluid_rows.rs, row_fluid_read_wgsl).
 
 // Whether row (dy, dz) around cell c (inside the grid) holds any fluid slot.
 fn row_has_fluid(c: vec3<i32>, dy: i32, dz: i32) -> bool {

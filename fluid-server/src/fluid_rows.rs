@@ -9,7 +9,7 @@
 //! whole neighbourhood of walls. The SPHERIC-2 tank at δ = 0.04 m has 25 067 wall
 //! particles to 10 850 fluid, and there the Adami pass was 45 % of the step on lavapipe
 //! (`couplet bench scenes/spheric2-dam-break.toml --spacing 0.04 --steps 30`,
-//! 2026-12-04: 30.0 ms of 66.7 ms a step, two passes a step); 28 % on an H200 at
+//! 2026-12-04: 30.0 ms of the stages' 66.7 ms a step, two passes a step); 28 % on an H200 at
 //! 1.04 M particles (`results/2026-12-04-h200`).
 //!
 //! GPU memory: 4 B per grid cell.

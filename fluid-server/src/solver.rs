@@ -248,6 +248,9 @@ pub struct SphData {
     /// The window's telemetry, one vec4 per workgroup ([`crate::window_stats`]).
     pub stats_partials: wgpu::Buffer,
     pub grid: NeighbourGrid,
+    /// The fluid in each grid cell's row window (one u32 per cell, written after every
+    /// sort; [`crate::fluid_rows`]), which the boundary passes read to skip rows.
+    pub row_fluid: wgpu::Buffer,
     pub bodies: Option<BodyBuffers>,
     /// The gradient pass's outputs (see [`crate::joubert2020_gradients`]); only with
     /// the gradient correction or particle shifting.
@@ -263,9 +266,6 @@ pub struct SphData {
     /// The grains' solid fraction per particle (u32 counts of 2^-31, permuted; Robinson
     /// eq. 9), in scenes with grains.
     pub solid: Option<wgpu::Buffer>,
-    /// The fluid in each grid cell's row window (one u32 per cell, written after every
-    /// sort; [`crate::fluid_rows`]), which the boundary passes read to skip rows.
-    pub row_fluid: wgpu::Buffer,
     /// ∇ε per particle (i32 counts, four per particle, permuted), with
     /// `coupling.porosity_pressure = "energy-pair"`.
     pub solid_grad: Option<wgpu::Buffer>,
