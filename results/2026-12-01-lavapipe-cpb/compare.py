@@ -53,17 +53,20 @@ if sys.argv[1]=="--periods":
     # Means over successive windows of P seconds from t = 0.012 s (P the period of the
     # block speed's slow oscillation, so that each mean holds a whole period of it), by the
     # trapezoidal rule over the velocity records (within 0.01 % of the fall's mean on
-    # the runs here), against V: python3 compare.py --periods V P A.csv [B.csv ...]
-    ref=float(sys.argv[2]); P=float(sys.argv[3])
-    for p in sys.argv[4:]:
-        ts,vs=load(p); print(p); a=0.012
+    # the runs here), against V: python3 compare.py --periods V P A.csv [B.csv ...];
+    # `--periods V P --from T0 A.csv …` starts at T0 s instead (the water–glycerol
+    # quicks' tables: the acoustic period, 0.0024, from 0.0012).
+    ref=float(sys.argv[2]); P=float(sys.argv[3]); files=sys.argv[4:]; start=0.012
+    if files[:1]==["--from"]: start=float(files[1]); files=files[2:]
+    for p in files:
+        ts,vs=load(p); print(p); a=start
         while a+P<=ts[-1]+1e-9:
             k=[i for i,t in enumerate(ts) if a-1e-9<=t<=a+P+1e-9]
             pts=[(a,vs[k[0]]+(vs[k[0]]-vs[k[0]-1])*(a-ts[k[0]])/(ts[k[0]]-ts[k[0]-1]))]+[(ts[i],vs[i]) for i in k]
             b=a+P; i=k[-1]
             if ts[i]<b and i+1<len(ts): pts.append((b,vs[i]+(vs[i+1]-vs[i])*(b-ts[i])/(ts[i+1]-ts[i])))
             m=sum((t1-t0)*(v0+v1)/2 for (t0,v0),(t1,v1) in zip(pts,pts[1:]))/(pts[-1][0]-pts[0][0])
-            print("t in [%.3f, %.3f]: mean %.4e, %+.2f %% off %.4e"%(a,b,m,100*(m/ref-1),ref))
+            print("t in [%.4f, %.4f]: mean %.4e, %+.2f %% off %.4e"%(a,b,m,100*(m/ref-1),ref))
             a=b
     sys.exit()
 ta,va=load(sys.argv[1]); tb,vb=load(sys.argv[2])
