@@ -2059,8 +2059,8 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
     }
 
     /// Joubert's one-layer walls with a free surface are warned of: an open top, or a
-    /// closed box the blocks fill only in part; a closed box filled to the lid (the
-    /// closed-tank validation, five-bodies) is not.
+    /// closed box the blocks fill only in part; a closed box filled to the lid (as the
+    /// closed tank's Joubert-walled validation) is not.
     #[test]
     fn joubert_walls_with_a_free_surface_are_warned_of() {
         let warned = |domain: &str, top: &str| {
