@@ -4,7 +4,9 @@
 //! where an instability starts, long before the blow-up check stops the run.
 //!
 //! `cargo run --release -p couplet-fluid --example window_trace -- SCENE [PATH=VALUE…]
-//! [window=S] [end=S] [every=N]` (N: print every Nth window, default 5), e.g. the open tank that showed the corrected scheme's
+//! [window=S] [end=S] [every=N] [slabs=K]` (N: print every Nth window, default 5; K > 0 also
+//! prints the fluid's mean vertical velocity in K equal slabs of the domain's height, bottom
+//! first), e.g. the open tank that showed the corrected scheme's
 //! free-surface blow-up: `… scenes/hydrostatic-tank.toml effects.gradient_correction=true
 //! effects.free_surface=false fluid.spacing=0.02 window=0.001 end=0.05`.
 use couplet_fluid::FluidSolver;
@@ -22,12 +24,14 @@ fn main() {
     let mut window: f64 = 1e-3;
     let mut end: f64 = 0.1;
     let mut every: usize = 5;
+    let mut slabs: usize = 0;
     for kv in &args[2..] {
         let (k, v) = kv.split_once('=').unwrap();
         match k {
             "window" => window = v.parse().unwrap(),
             "end" => end = v.parse().unwrap(),
             "every" => every = v.parse().unwrap(),
+            "slabs" => slabs = v.parse().unwrap(),
             _ => text = couplet_protocol::scene::override_field(&text, path, k, v).unwrap(),
         }
     }
@@ -74,6 +78,21 @@ fn main() {
                 set.pos[fast].map(|x| (x * 1000.0).round() / 1000.0),
                 set.vel[fast].map(|x| (x * 1000.0).round() / 1000.0)
             );
+        }
+        if slabs > 0 && (w % every == 0 || r.is_err()) {
+            let (y0, y1) = (scene.domain.min[1], scene.domain.max[1]);
+            let mut sum = vec![(0.0f64, 0usize); slabs];
+            for &k in &fluid {
+                let b = ((set.pos[k][1] - y0) / (y1 - y0) * slabs as f64).floor();
+                let b = (b.max(0.0) as usize).min(slabs - 1);
+                sum[b].0 += set.vel[k][1];
+                sum[b].1 += 1;
+            }
+            let means: Vec<String> = sum
+                .iter()
+                .map(|(s, n)| format!("{:+.3e}", s / (*n).max(1) as f64))
+                .collect();
+            println!("  slab mean u_y (m/s, bottom first): {}", means.join(" "));
         }
         if let Err(e) = r {
             println!("{e}");
