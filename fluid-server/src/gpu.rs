@@ -255,6 +255,16 @@ impl Gpu {
             .unwrap_or_else(|| dense_team_lanes(n, self.team_lanes))
     }
 
+    /// Bytes of memory the driver holds for this device's live buffers: wgpu-hal's count
+    /// of each buffer's allocation, alignment included (wgpu's `counters` feature). It
+    /// counts every buffer, the mapped read-back ones (host memory on a discrete GPU)
+    /// too. It waits for the device first, so that buffers dropped before are freed.
+    pub fn buffer_memory(&self) -> Result<u64, GpuError> {
+        self.wait()?;
+        let bytes = self.device.get_internal_counters().hal.buffer_memory.read();
+        Ok(u64::try_from(bytes).unwrap_or(0))
+    }
+
     /// One line for logs and `couplet plan`: name, driver, backend, timestamps, the team
     /// passes' lanes, the grid reach (and the dense passes' lanes when [`DENSE_LANES_ENV`]
     /// sets them).

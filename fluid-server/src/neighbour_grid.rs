@@ -503,6 +503,12 @@ fn bind(
 }
 
 impl NeighbourGrid {
+    /// Bytes of the grid's buffers that scale with its cells, not its particles:
+    /// `cell_start` and the scan's block totals.
+    pub fn cell_bytes(&self) -> u64 {
+        self.cell_start.size() + self.prefix_sum.scratch_bytes()
+    }
+
     /// Grid for `n` particles with cells of `support_radius / reach` (R, see
     /// [`grid_reach_for`]; the pair kernels' `GRID_REACH` must be the same), over
     /// [min − pad, max + pad] on a closed axis, pad = one support radius (R cells:

@@ -62,11 +62,16 @@ pub struct PrefixSum {
     add_block_offsets: wgpu::ComputePipeline,
     levels: Vec<Level>,
     /// Block totals of every level (level k's totals are level k+1's data).
-    _block_sums: Vec<wgpu::Buffer>,
+    block_sums: Vec<wgpu::Buffer>,
     n: u32,
 }
 
 impl PrefixSum {
+    /// Bytes of the block totals this scan keeps (about 4 B per SCAN_BLOCK entries).
+    pub fn scratch_bytes(&self) -> u64 {
+        self.block_sums.iter().map(wgpu::Buffer::size).sum()
+    }
+
     /// Prepares the scan of `data[0..n]` (`data` needs `STORAGE` usage).
     pub fn new(gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> Result<PrefixSum, PrefixSumError> {
         let label = format!("{data:?}");
@@ -164,7 +169,7 @@ impl PrefixSum {
             scan_blocks,
             add_block_offsets,
             levels,
-            _block_sums: block_sums,
+            block_sums,
             n,
         })
     }

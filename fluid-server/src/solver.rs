@@ -1082,6 +1082,18 @@ impl FluidSolver {
         Ok(solver)
     }
 
+    /// Bytes of this solver's GPU buffers that scale with the neighbour grid's cells (the
+    /// domain's volume over the cell's) rather than with its particles: the grid's cell
+    /// ranges and scan totals and the fluid count of each cell's row window.
+    pub fn grid_cell_bytes(&self) -> u64 {
+        self.data.grid.cell_bytes() + self.data.row_fluid.size()
+    }
+
+    /// Cells of the neighbour grid.
+    pub fn grid_cells(&self) -> u32 {
+        self.data.grid.params.n_cells
+    }
+
     pub fn counts(&self) -> ParticleCounts {
         let k = self.data.kinds;
         ParticleCounts {

@@ -392,3 +392,91 @@ fn a_restored_solver_continues_bit_for_bit() {
     let err = FluidSolver::restore(&gpu, &plain, &saved).err().unwrap();
     assert!(err.to_string().contains("buffers"), "{err}");
 }
+
+/// Bytes of GPU buffer a particle costs, against the inventory of every per-particle
+/// buffer the solver allocates (ARCHITECTURE.md, "GPU memory per particle"). Standard
+/// scheme, closed tank with Adami's no-slip walls: the state (pos 16, vel 16, ρ 4, p 4,
+/// id 4, dρ/dt 4, du/dt 16, ρ_n 4, u_n 16 = 84 B), the grid's sort (cell, rank, slot in
+/// the atomics' order, gather map: 16 B), the reorder's scratch (a slice per gathered
+/// buffer: pos, vel, ρ, p, id = 44 B), the walls' extrapolated velocity (16 B, kept for
+/// every slot) and the window statistics' partials (16 B per workgroup of 128 = 0.125 B):
+/// 160.125 B. The gradient pass (Joubert's correction, or Antuono's δ-SPH, which needs
+/// ∇ρ) adds B (48 B) and the six gradient slots (96 B): 304.125 B; the corrected
+/// Laplacian its B̂ (32 B): 336.125 B.
+///
+/// Measured as wgpu-hal's count of live buffer bytes (Gpu::buffer_memory) with the fluid
+/// at two heights in the same box, so that the walls and the grid's cells are the same
+/// and only fluid particles differ (64 000 of them): the allocations' alignment moves
+/// the difference by at most a few hundred bytes a buffer, under 0.2 B a particle.
+/// What stays beside n × that is the grid's cells (`grid_cell_bytes`) and a few small
+/// buffers (uniforms, diagnostics): under 1 MiB.
+#[test]
+fn buffer_memory_per_particle_matches_the_inventory() {
+    let gpu = shared_test_gpu().unwrap();
+    let scene = |height: f64, effects: &str| {
+        let text = format!(
+            r#"
+[meta]
+name = "tank"
+[time]
+end = 1.0
+output_interval = 0.1
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.2, 0.32, 0.2]
+[fluid]
+density = 1000.0
+kinematic_viscosity = 1e-6
+sound_speed = 17.5
+spacing = 0.005
+support = 3.0
+blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, {height}, 0.2] }}]
+[effects]
+{effects}
+"#
+        );
+        Scene::parse(&text, Path::new("tank.toml")).unwrap()
+    };
+    for (effects, inventory) in [
+        ("", 160.125),
+        ("gradient_correction = true", 304.125),
+        ("density_diffusion = 0.1", 304.125),
+        (
+            "gradient_correction = true\nlaplacian_correction = true",
+            336.125,
+        ),
+    ] {
+        let before = gpu.buffer_memory().unwrap();
+        let mut sizes = Vec::new();
+        for height in [0.1, 0.3] {
+            let mut solver = FluidSolver::new(&gpu, &scene(height, effects)).unwrap();
+            // Both kinds of step and a read-back: every buffer a run keeps.
+            let dt = solver.limits().dt;
+            solver.advance(&gpu, 2.0 * dt, None).unwrap();
+            let bytes = gpu.buffer_memory().unwrap() - before;
+            let c = solver.counts();
+            sizes.push((
+                bytes as f64,
+                f64::from(c.fluid + c.wall),
+                solver.grid_cell_bytes() as f64,
+            ));
+        }
+        let [(b0, n0, cells0), (b1, n1, cells1)] = [sizes[0], sizes[1]];
+        assert_eq!(cells0, cells1, "{effects}: the same box, the same cells");
+        assert_eq!(
+            n1 - n0,
+            64_000.0,
+            "{effects}: 40 × 40 × 40 more fluid particles"
+        );
+        let per_particle = (b1 - b0) / (n1 - n0);
+        assert!(
+            (per_particle - inventory).abs() < 0.2,
+            "{effects:?}: {per_particle:.3} B a particle, the inventory says {inventory}"
+        );
+        let rest = b0 - inventory * n0 - cells0;
+        assert!(
+            (0.0..1024.0 * 1024.0).contains(&rest),
+            "{effects:?}: {rest} B beside the particles' and the cells'"
+        );
+    }
+}

@@ -70,6 +70,10 @@ pub fn bench(
     let wall = t.elapsed().as_secs_f64();
     let (record, submit) = solver.record_seconds();
     let (record, submit) = (record - record0, submit - submit0);
+    // Every buffer the run keeps, after both kinds of step and a read-back; before the
+    // stage timer's query buffers.
+    let memory = gpu.buffer_memory()?;
+    let cell_bytes = solver.grid_cell_bytes();
     // … then the same number of steps again with every stage timed.
     let mut timer = StageTimer::new(&gpu, 64);
     solver.advance(&gpu, dt * steps as f64, Some(&mut timer))?;
@@ -122,6 +126,11 @@ pub fn bench(
         w,
         "pair-interactions/s: {:.3e}",
         total * neighbours * passes * steps_f / wall
+    );
+    let _ = writeln!(
+        w,
+        "{}",
+        memory_lines(&gpu, &solver, memory, cell_bytes, total)
     );
     let _ = writeln!(
         w,
@@ -200,6 +209,38 @@ pub fn bench(
         );
     }
     Ok(o)
+}
+
+/// What the fluid's GPU buffers take, per particle and in all, and how many particles of
+/// this scene's kind the BENCHMARKS.md target's 80 GB device would hold
+/// (`../shared/BENCHMARKS.md`: ≥ 400 M particles in 80 GB, ≤ 190 B a particle).
+fn memory_lines(
+    gpu: &Gpu,
+    solver: &FluidSolver,
+    memory: u64,
+    cell_bytes: u64,
+    particles: f64,
+) -> String {
+    const MIB: f64 = 1024.0 * 1024.0;
+    const TARGET_DEVICE: f64 = 80e9;
+    let per_particle = memory as f64 / particles;
+    let particle_part = memory.saturating_sub(cell_bytes) as f64 / particles;
+    // One vec4<f32> array (positions, velocities) per binding: the adapter's largest
+    // storage binding caps the particles of one solver whatever the memory.
+    let binding = gpu.device.limits().max_storage_buffer_binding_size;
+    format!(
+        "GPU buffer memory (wgpu-hal's count of live buffers, after the warm-up): {:.2} MiB, \
+         {per_particle:.1} B a particle; of it the neighbour grid's {} cells {:.2} MiB \
+         ({:.1} B a cell), the rest {particle_part:.1} B a particle\n\
+         at {per_particle:.1} B a particle an 80 GB device holds {:.0} M such particles; \
+         one vec4 array binding ({binding} B at most here) caps a solver at {:.0} M",
+        memory as f64 / MIB,
+        solver.grid_cells(),
+        cell_bytes as f64 / MIB,
+        cell_bytes as f64 / f64::from(solver.grid_cells().max(1)),
+        TARGET_DEVICE / per_particle / 1e6,
+        binding as f64 / 16.0 / 1e6,
+    )
 }
 
 /// The bodies' states where the scene puts them, from its DEM engine.
