@@ -22,6 +22,19 @@ pub enum FluidError {
         limit: u64,
     },
     #[error(
+        "{n} particles need {} bytes in the GPU buffer `{buffer}` ({stride} B a particle), \
+         and one storage binding holds at most {limit} bytes on this adapter: this scene's \
+         effects allow at most {max} particles (ARCHITECTURE.md, \"GPU memory per particle\")",
+        *n as u64 * stride
+    )]
+    TooManyParticles {
+        n: usize,
+        buffer: String,
+        stride: u64,
+        limit: u64,
+        max: u64,
+    },
+    #[error(
         "set_bodies: {got} coupling points, but the marker capacity fixed at the first call is {capacity}"
     )]
     MarkerCount { got: usize, capacity: usize },

@@ -134,6 +134,11 @@ pub struct Gpu {
     /// test device (`shared_test_gpu` restores it).
     pub steps_per_submit: u32,
     steps_per_submit_override: Option<u32>,
+    /// The most bytes one storage binding may hold, which the solver checks every buffer
+    /// against before binding it (wgpu would panic): the device's limit, 2³¹ − 1 at
+    /// most under wgpu. Public so that a test can lower it to exercise those checks at a
+    /// small size (`shared_test_gpu` restores it).
+    pub storage_binding_limit: u64,
 }
 
 /// The whole number the environment variable `name` sets, if it is set: `Err` with what
@@ -218,6 +223,7 @@ impl Gpu {
             (1..=MAX_STEPS_PER_SUBMIT).contains(&k)
         })
         .map_err(|value| GpuError::BadStepsPerSubmit { value })?;
+        let storage_binding_limit = device.limits().max_storage_buffer_binding_size;
         Ok(Gpu {
             device,
             queue,
@@ -230,6 +236,7 @@ impl Gpu {
             dense_lanes_override,
             steps_per_submit: steps_per_submit_override.unwrap_or(STEPS_PER_SUBMIT_DEFAULT),
             steps_per_submit_override,
+            storage_binding_limit,
         })
     }
 
@@ -396,8 +403,9 @@ static TEST_GPU: OnceLock<Result<Mutex<Gpu>, GpuError>> = OnceLock::new();
 /// GPU (or one lavapipe): every GPU test holds this lock for its whole body, which
 /// serialises them and spares each the cost of opening a device. A test that
 /// panicked while holding the lock does not poison the others. Each lock restores the
-/// device's own team lanes ([`Gpu::adapter_team_lanes`]) and grid reach, so a test that
-/// sets [`Gpu::team_lanes`] or [`Gpu::grid_reach_override`] changes no other test.
+/// device's own team lanes ([`Gpu::adapter_team_lanes`]), grid reach, steps a submission
+/// and storage binding limit, so a test that sets [`Gpu::team_lanes`],
+/// [`Gpu::grid_reach_override`] or [`Gpu::storage_binding_limit`] changes no other test.
 pub fn shared_test_gpu() -> Result<MutexGuard<'static, Gpu>, GpuError> {
     match TEST_GPU.get_or_init(|| Gpu::new().map(Mutex::new)) {
         Ok(m) => {
@@ -407,6 +415,7 @@ pub fn shared_test_gpu() -> Result<MutexGuard<'static, Gpu>, GpuError> {
             gpu.steps_per_submit = gpu
                 .steps_per_submit_override
                 .unwrap_or(STEPS_PER_SUBMIT_DEFAULT);
+            gpu.storage_binding_limit = gpu.device.limits().max_storage_buffer_binding_size;
             Ok(gpu)
         }
         Err(e) => Err(e.clone()),

@@ -539,8 +539,7 @@ impl NeighbourGrid {
         if n == 0 {
             return Err(GridError::NoParticles);
         }
-        let limits = gpu.device.limits();
-        let max_binding = limits.max_storage_buffer_binding_size;
+        let max_binding = gpu.storage_binding_limit;
         let pad = support_radius;
         let mut origin = [0.0f64; 3];
         let mut cell_size = [cell_min; 3];
@@ -903,7 +902,7 @@ impl NeighbourGrid {
     /// [`NeighbourGrid::new`] checked that a 16-byte slice fits).
     fn build_gather_passes(&self, gpu: &Gpu) -> Vec<GatherPass> {
         let n = u64::from(self.params.n_particles);
-        let max_binding = gpu.device.limits().max_storage_buffer_binding_size;
+        let max_binding = gpu.storage_binding_limit;
         let mut passes = Vec::new();
         for wide in [true, false] {
             let slice_bytes = n * if wide { 16 } else { 4 };

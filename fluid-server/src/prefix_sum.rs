@@ -90,7 +90,7 @@ impl PrefixSum {
                 size: data.size(),
             });
         }
-        let max = gpu.device.limits().max_storage_buffer_binding_size;
+        let max = gpu.storage_binding_limit;
         if needed > max {
             return Err(PrefixSumError::TooLarge {
                 n,

@@ -300,18 +300,57 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_SRC)
     .union(wgpu::BufferUsages::COPY_DST);
 
-fn storage_init(gpu: &Gpu, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+/// A storage buffer holding `bytes`, refused when one binding cannot hold it (every
+/// buffer here is bound whole; wgpu would panic).
+fn storage_init(gpu: &Gpu, label: &str, bytes: &[u8]) -> Result<wgpu::Buffer, FluidError> {
+    let limit = gpu.storage_binding_limit;
+    if bytes.len() as u64 > limit {
+        return Err(FluidError::TooLarge {
+            what: format!("the GPU buffer `{label}`"),
+            needed: bytes.len() as u64,
+            limit,
+        });
+    }
     // Bindings need a non-empty buffer: an empty array still gets 16 bytes.
     let mut contents = bytes.to_vec();
     if contents.len() < 16 {
         contents.resize(16, 0);
     }
-    gpu.device
+    Ok(gpu
+        .device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
             contents: &contents,
             usage: STORAGE,
-        })
+        }))
+}
+
+/// A storage buffer of `stride` bytes for each of `n` particles, zeroed (WebGPU zeroes
+/// every new buffer), refused with the most particles one binding holds at this stride
+/// when it cannot hold `n` (ARCHITECTURE.md, "GPU memory per particle").
+fn particle_buffer(
+    gpu: &Gpu,
+    label: &str,
+    n: usize,
+    stride: u64,
+) -> Result<wgpu::Buffer, FluidError> {
+    let limit = gpu.storage_binding_limit;
+    let bytes = n as u64 * stride;
+    if bytes > limit {
+        return Err(FluidError::TooManyParticles {
+            n,
+            buffer: label.to_owned(),
+            stride,
+            limit,
+            max: limit / stride,
+        });
+    }
+    Ok(gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(16),
+        usage: STORAGE,
+        mapped_at_creation: false,
+    }))
 }
 
 fn vec4s(v: &[[f64; 3]]) -> Vec<[f32; 4]> {
@@ -363,13 +402,16 @@ impl SphData {
                 expected: n,
             });
         }
-        let limit = gpu.device.limits().max_storage_buffer_binding_size;
-        let needed = n as u64 * 16;
-        if needed > limit {
-            return Err(FluidError::TooLarge {
-                what: format!("{n} particles (vec4 arrays)"),
-                needed,
+        // The state's vec4 arrays first: with its widest buffer refused, a scene learns
+        // the most particles it may have.
+        let limit = gpu.storage_binding_limit;
+        if n as u64 * 16 > limit {
+            return Err(FluidError::TooManyParticles {
+                n,
+                buffer: "sph: pos".into(),
+                stride: 16,
                 limit,
+                max: limit / 16,
             });
         }
         let f32s = |v: &[f64]| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
@@ -377,17 +419,15 @@ impl SphData {
         let pos_mass: Vec<[f32; 4]> = (set.pos.iter().zip(&set.mass))
             .map(|(p, m)| [p[0] as f32, p[1] as f32, p[2] as f32, *m as f32])
             .collect();
-        let pos = storage_init(gpu, "sph: pos", bytemuck::cast_slice(&pos_mass));
-        let vel = storage_init(gpu, "sph: vel", bytemuck::cast_slice(&vec4s(&set.vel)));
-        let rho = storage_init(gpu, "sph: rho", bytemuck::cast_slice(&f32s(&set.rho)));
-        let press = storage_init(gpu, "sph: press", bytemuck::cast_slice(&f32s(&set.press)));
-        let id = storage_init(gpu, "sph: id", bytemuck::cast_slice(&set.id));
-        let zeros4 = vec![0u8; n * 4];
-        let zeros16 = vec![0u8; n * 16];
-        let drho = storage_init(gpu, "sph: drho", &zeros4);
-        let dvel = storage_init(gpu, "sph: dvel", &zeros16);
-        let rho_n = storage_init(gpu, "sph: rho_n", &zeros4);
-        let vel_n = storage_init(gpu, "sph: vel_n", &zeros16);
+        let pos = storage_init(gpu, "sph: pos", bytemuck::cast_slice(&pos_mass))?;
+        let vel = storage_init(gpu, "sph: vel", bytemuck::cast_slice(&vec4s(&set.vel)))?;
+        let rho = storage_init(gpu, "sph: rho", bytemuck::cast_slice(&f32s(&set.rho)))?;
+        let press = storage_init(gpu, "sph: press", bytemuck::cast_slice(&f32s(&set.press)))?;
+        let id = storage_init(gpu, "sph: id", bytemuck::cast_slice(&set.id))?;
+        let drho = particle_buffer(gpu, "sph: drho", n, 4)?;
+        let dvel = particle_buffer(gpu, "sph: dvel", n, 16)?;
+        let rho_n = particle_buffer(gpu, "sph: rho_n", n, 4)?;
+        let vel_n = particle_buffer(gpu, "sph: vel_n", n, 16)?;
         let step_params = StepParams {
             n_total: n as u32,
             n_fluid: set.kinds.n_fluid as u32,
@@ -415,13 +455,13 @@ impl SphData {
                 0,
                 0,
             ]),
-        );
-        let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 48]);
+        )?;
+        let bad_values = storage_init(gpu, "sph: blow-up values", &[0u8; 48])?;
         let stats_partials = storage_init(
             gpu,
             "sph: window stats partials",
             &vec![0u8; window_stats::partials_bytes(n as u32) as usize],
-        );
+        )?;
 
         let mut grid = NeighbourGrid::new(gpu, bounds, c.grid_radius(), c.grid_reach, n as u32)?;
         grid.register(&pos, 16)?;
@@ -433,10 +473,11 @@ impl SphData {
             gpu,
             "sph: fluid per row window",
             &vec![0u8; grid.params.n_cells as usize * 4],
-        );
+        )?;
         let solid = c
             .grains
-            .then(|| storage_init(gpu, "sph: grain solid fraction", &zeros4));
+            .then(|| particle_buffer(gpu, "sph: grain solid fraction", n, 4))
+            .transpose()?;
         if let Some(s) = &solid {
             // Grains are sampled after a sort, from the rates of the step before it; the
             // porosity is set once per window.
@@ -445,36 +486,50 @@ impl SphData {
         }
         let solid_grad = c
             .porosity_pair
-            .then(|| storage_init(gpu, "sph: grain porosity gradient", &zeros16));
+            .then(|| particle_buffer(gpu, "sph: grain porosity gradient", n, 16))
+            .transpose()?;
         if let Some(s) = &solid_grad {
             grid.register(s, 16)?;
         }
         let reaction = c
             .grain_reaction
-            .then(|| crate::unresolved_coupling::ReactionBuffers {
-                lo: storage_init(gpu, "sph: grain reaction (low words)", &zeros16),
-                hi: storage_init(gpu, "sph: grain reaction (high words)", &zeros16),
-            });
+            .then(|| -> Result<_, FluidError> {
+                Ok(crate::unresolved_coupling::ReactionBuffers {
+                    lo: particle_buffer(gpu, "sph: grain reaction (low words)", n, 16)?,
+                    hi: particle_buffer(gpu, "sph: grain reaction (high words)", n, 16)?,
+                })
+            })
+            .transpose()?;
         if let Some(r) = &reaction {
             grid.register(&r.lo, 16)?;
             grid.register(&r.hi, 16)?;
         }
 
-        let gradients = pipelines.gradients.is_some().then(|| GradientBuffers {
-            bmat: storage_init(gpu, "sph: B matrix", &vec![0u8; n * 48]),
-            grads: storage_init(gpu, "sph: corrected gradients", &vec![0u8; n * 96]),
-            bhat: c
-                .uses_b_hat()
-                .then(|| storage_init(gpu, "sph: Laplacian truncation", &vec![0u8; n * 32])),
-            diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16]),
-        });
+        let gradients = pipelines
+            .gradients
+            .is_some()
+            .then(|| -> Result<_, FluidError> {
+                Ok(GradientBuffers {
+                    // The widest first (see the state's check above).
+                    grads: particle_buffer(gpu, "sph: corrected gradients", n, 96)?,
+                    bmat: particle_buffer(gpu, "sph: B matrix", n, 48)?,
+                    bhat: c
+                        .uses_b_hat()
+                        .then(|| particle_buffer(gpu, "sph: Laplacian truncation", n, 32))
+                        .transpose()?,
+                    diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16])?,
+                })
+            })
+            .transpose()?;
         let smoothing = c
             .variable_h
             .is_some()
-            .then(|| storage_init(gpu, "sph: smoothing lengths", &vec![0u8; n * 8]));
+            .then(|| particle_buffer(gpu, "sph: smoothing lengths", n, 8))
+            .transpose()?;
         let wall_vel = c
             .wall_velocity_extrapolation
-            .then(|| storage_init(gpu, "sph: wall velocity", &vec![0u8; n * 16]));
+            .then(|| particle_buffer(gpu, "sph: wall velocity", n, 16))
+            .transpose()?;
         let boundary_frame = c.joubert_walls.then(|| {
             // Markers' frames are written by every set_bodies.
             let mut frames = wall_frames.to_vec();
@@ -484,24 +539,27 @@ impl SphData {
             );
             storage_init(gpu, "sph: boundary frames", bytemuck::cast_slice(&frames))
         });
-        let bodies = (set.kinds.n_markers > 0).then(|| {
-            let m = set.kinds.n_markers;
-            let cap = body_capacity.max(1);
-            BodyBuffers {
-                markers_in: storage_init(gpu, "sph: markers in", &vec![0u8; m * 48]),
-                bodies: storage_init(gpu, "sph: bodies", &vec![0u8; cap * 32]),
-                clock: storage_init(gpu, "sph: clock", &[0u8; 16]),
-                marker_load: storage_init(gpu, "sph: marker load", &vec![0u8; m * 32]),
-                marker_load_c: storage_init(
-                    gpu,
-                    "sph: marker load compensation",
-                    &vec![0u8; m * 32],
-                ),
-                load_ranges: storage_init(gpu, "sph: load ranges", &vec![0u8; cap * 16]),
-                body_loads: storage_init(gpu, "sph: body loads", &vec![0u8; cap * 32]),
-                body_capacity: cap,
-            }
-        });
+        let boundary_frame = boundary_frame.transpose()?;
+        let bodies = (set.kinds.n_markers > 0)
+            .then(|| -> Result<_, FluidError> {
+                let m = set.kinds.n_markers;
+                let cap = body_capacity.max(1);
+                Ok(BodyBuffers {
+                    markers_in: storage_init(gpu, "sph: markers in", &vec![0u8; m * 48])?,
+                    bodies: storage_init(gpu, "sph: bodies", &vec![0u8; cap * 32])?,
+                    clock: storage_init(gpu, "sph: clock", &[0u8; 16])?,
+                    marker_load: storage_init(gpu, "sph: marker load", &vec![0u8; m * 32])?,
+                    marker_load_c: storage_init(
+                        gpu,
+                        "sph: marker load compensation",
+                        &vec![0u8; m * 32],
+                    )?,
+                    load_ranges: storage_init(gpu, "sph: load ranges", &vec![0u8; cap * 16])?,
+                    body_loads: storage_init(gpu, "sph: body loads", &vec![0u8; cap * 32])?,
+                    body_capacity: cap,
+                })
+            })
+            .transpose()?;
 
         let bound = {
             let particle = |b: u32| -> Option<&wgpu::Buffer> {
@@ -1882,11 +1940,7 @@ impl FluidSolver {
     pub fn neighbour_stats(&mut self, gpu: &Gpu) -> Result<f64, FluidError> {
         self.start_sorted = false;
         let d = &self.data;
-        let counts = storage_init(
-            gpu,
-            "sph: neighbour counts",
-            &vec![0u8; d.n_total as usize * 4],
-        );
+        let counts = particle_buffer(gpu, "sph: neighbour counts", d.n_total as usize, 4)?;
         let resolve = |g: u32, b: u32| -> Option<&wgpu::Buffer> {
             match (g, b) {
                 (PARTICLES, pb::POS) => Some(&d.pos),

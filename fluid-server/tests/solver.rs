@@ -11,6 +11,11 @@ use couplet_protocol::{BodyState, Scene};
 use std::path::Path;
 
 fn tank(extra: &str) -> Scene {
+    tank_with(0.02, 0.3, extra)
+}
+
+/// The tank at fluid spacing `spacing`, its fluid `height` deep.
+fn tank_with(spacing: f64, height: f64, extra: &str) -> Scene {
     let text = format!(
         r#"
 [meta]
@@ -25,9 +30,9 @@ max = [0.2, 0.32, 0.2]
 density = 1000.0
 kinematic_viscosity = 1e-6
 sound_speed = 17.5
-spacing = 0.02
+spacing = {spacing}
 support = 2.0
-blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, 0.3, 0.2] }}]
+blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, {height}, 0.2] }}]
 {extra}
 "#
     );
@@ -413,30 +418,6 @@ fn a_restored_solver_continues_bit_for_bit() {
 #[test]
 fn buffer_memory_per_particle_matches_the_inventory() {
     let gpu = shared_test_gpu().unwrap();
-    let scene = |height: f64, effects: &str| {
-        let text = format!(
-            r#"
-[meta]
-name = "tank"
-[time]
-end = 1.0
-output_interval = 0.1
-[domain]
-min = [0.0, 0.0, 0.0]
-max = [0.2, 0.32, 0.2]
-[fluid]
-density = 1000.0
-kinematic_viscosity = 1e-6
-sound_speed = 17.5
-spacing = 0.005
-support = 3.0
-blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, {height}, 0.2] }}]
-[effects]
-{effects}
-"#
-        );
-        Scene::parse(&text, Path::new("tank.toml")).unwrap()
-    };
     for (effects, inventory) in [
         ("", 160.125),
         ("gradient_correction = true", 304.125),
@@ -449,7 +430,8 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, {height}, 0.2] }}]
         let before = gpu.buffer_memory().unwrap();
         let mut sizes = Vec::new();
         for height in [0.1, 0.3] {
-            let mut solver = FluidSolver::new(&gpu, &scene(height, effects)).unwrap();
+            let scene = tank_with(0.005, height, &format!("[effects]\n{effects}"));
+            let mut solver = FluidSolver::new(&gpu, &scene).unwrap();
             // Both kinds of step and a read-back: every buffer a run keeps.
             let dt = solver.limits().dt;
             solver.advance(&gpu, 2.0 * dt, None).unwrap();
@@ -478,5 +460,69 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, {height}, 0.2] }}]
             (0.0..1024.0 * 1024.0).contains(&rest),
             "{effects:?}: {rest} B beside the particles' and the cells'"
         );
+    }
+}
+
+/// Regression (2026-12-05): a scene whose corrected gradients (96 B a particle) outgrew
+/// one storage binding panicked in wgpu's bind-group validation (`couplet bench
+/// scenes/spheric2-dam-break.toml --spacing 0.008 --set effects.gradient_correction=true`
+/// on lavapipe, 1.9 M particles against 128 MiB: "Buffer binding 10 range 182502432
+/// exceeds `max_*_buffer_binding_size`"; on an H200 any corrected scene past 22 M
+/// particles). Now every buffer is checked before it is bound and the scene is refused
+/// with the most particles its effects allow. The binding limit is lowered here so that
+/// a small tank crosses it.
+#[test]
+fn buffers_past_one_binding_are_refused_not_a_panic() {
+    let mut gpu = shared_test_gpu().unwrap();
+    // The tank at δ = 0.01 m, 12 000 fluid particles: a binding for 32 B each still
+    // holds the grid's 4 B a cell.
+    let standard = tank_with(0.01, 0.3, "[effects]\nviscosity = \"none\"");
+    let corrected = tank_with(
+        0.01,
+        0.3,
+        "[effects]\nviscosity = \"none\"\ngradient_correction = true",
+    );
+    let n = {
+        let c = FluidSolver::new(&gpu, &standard).unwrap().counts();
+        (c.fluid + c.wall) as usize
+    };
+    // Room for the state's 16 B a particle, not for the gradients' 96.
+    gpu.storage_binding_limit = n as u64 * 32;
+    FluidSolver::new(&gpu, &standard).expect("the standard scheme's widest buffer fits");
+    match FluidSolver::new(&gpu, &corrected) {
+        Err(FluidError::TooManyParticles {
+            n: got,
+            buffer,
+            stride,
+            max,
+            ..
+        }) => {
+            assert_eq!(
+                (got, buffer.as_str(), stride),
+                (n, "sph: corrected gradients", 96)
+            );
+            assert_eq!(
+                max,
+                n as u64 / 3,
+                "32 B a particle's room holds a third at 96 B"
+            );
+        }
+        Err(e) => panic!("refused for another reason: {e}"),
+        Ok(_) => panic!("{n} particles at 96 B passed a binding of {} B", n * 32),
+    }
+    // Too small for the state itself (12 B a particle: the grid's cells still fit):
+    // refused at its positions, 16 B a particle.
+    gpu.storage_binding_limit = n as u64 * 12;
+    match FluidSolver::new(&gpu, &standard) {
+        Err(e @ FluidError::TooManyParticles { stride: 16, .. }) => {
+            let text = e.to_string();
+            assert!(
+                text.contains(&format!("at most {} particles", n * 3 / 4))
+                    && text.contains("sph: pos"),
+                "{text}"
+            );
+        }
+        Err(e) => panic!("refused for another reason: {e}"),
+        Ok(_) => panic!("{n} particles at 16 B passed a binding of {} B", n * 12),
     }
 }

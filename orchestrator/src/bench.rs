@@ -227,7 +227,7 @@ fn memory_lines(
     let particle_part = memory.saturating_sub(cell_bytes) as f64 / particles;
     // One vec4<f32> array (positions, velocities) per binding: the adapter's largest
     // storage binding caps the particles of one solver whatever the memory.
-    let binding = gpu.device.limits().max_storage_buffer_binding_size;
+    let binding = gpu.storage_binding_limit;
     format!(
         "GPU buffer memory (wgpu-hal's count of live buffers, after the warm-up): {:.2} MiB, \
          {per_particle:.1} B a particle; of it the neighbour grid's {} cells {:.2} MiB \
