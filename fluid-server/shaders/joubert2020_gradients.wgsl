@@ -25,9 +25,10 @@
 // largest entry): B̂ = I (Morris's operator with the gradient term) and counted in
 // diag[1] with the B fallbacks; `store_bhat` writes it (joubert2020_gradients.rs).
 // With variable h (robinson_variable_h.rs) every sum takes particle i's own h_i.
-// GRAD_U, GRAD_P, GRAD_RHO and SHIFT_SUMS (joubert2020_gradients.rs, GradientFields) say
-// which of ∇u, ∇p, ∇ρ/ε and s_i the scene reads; the others are neither summed nor
-// written.
+// GRAD_U, GRAD_P, GRAD_RHO, SHIFT_SUMS and STORE_B (joubert2020_gradients.rs,
+// GradientFields) say which of ∇u, ∇p, ∇ρ/ε, s_i and B_i the scene reads; the others are
+// neither summed nor written, and the gradient buffer holds GRAD_STRIDE vec4 a particle,
+// each field read at its GRAD_SLOT_*.
 // Needs: prelude, SPH constants, StepParams, grid_common, kernel, store_bhat,
 // smoothing_length, porosity (porosity.rs: 1 without grains).
 
@@ -160,10 +161,11 @@ fn solve_bhat(a_in: array<f32, 36>, out: ptr<function, array<f32, 6>>) -> bool {
 @group(0) @binding(2) var<storage, read> rho: array<f32>;
 @group(0) @binding(3) var<storage, read> press: array<f32>;
 @group(0) @binding(4) var<storage, read> id: array<u32>;
-// Columns of B_i: bmat[3i + c].
+// Columns of B_i: bmat[3i + c] (with STORE_B; else 16 bytes, never written).
 @group(0) @binding(9) var<storage, read_write> bmat: array<vec4<f32>>;
-// grads[6i + 0..2] = ⟨∇u_x⟩ᶜ, ⟨∇u_y⟩ᶜ, ⟨∇u_z⟩ᶜ; [6i + 3] = ⟨∇p⟩ᶜ; [6i + 4] = s_i;
-// [6i + 5] = ⟨∇ρ⟩ᶜ.
+// From g = GRAD_STRIDE i: grads[g + GRAD_SLOT_U + 0..2] = ⟨∇u_x⟩ᶜ, ⟨∇u_y⟩ᶜ, ⟨∇u_z⟩ᶜ;
+// [g + GRAD_SLOT_P] = ⟨∇p⟩ᶜ; [g + GRAD_SLOT_S] = s_i; [g + GRAD_SLOT_RHO] = ⟨∇ρ⟩ᶜ; only
+// the fields read (16 bytes, never written, when none is).
 @group(0) @binding(10) var<storage, read_write> grads: array<vec4<f32>>;
 @group(3) @binding(4) var<storage, read_write> diag: array<atomic<u32>, 4>;
 
@@ -348,27 +350,31 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
     if singular {
         atomicAdd(&diag[1], 1u);
     }
-    // w of the first column: 1 in the free-surface zone (the rates take the standard forms).
-    bmat[3u * i] = vec4<f32>(b[0], select(0.0, 1.0, FREE_SURFACE_SWITCH && det < FREE_SURFACE_DET));
-    bmat[3u * i + 1u] = vec4<f32>(b[1], 0.0);
-    bmat[3u * i + 2u] = vec4<f32>(b[2], 0.0);
+    if STORE_B {
+        // w of the first column: 1 in the free-surface zone (the rates take the standard
+        // forms).
+        bmat[3u * i] = vec4<f32>(b[0], select(0.0, 1.0, FREE_SURFACE_SWITCH && det < FREE_SURFACE_DET));
+        bmat[3u * i + 1u] = vec4<f32>(b[1], 0.0);
+        bmat[3u * i + 2u] = vec4<f32>(b[2], 0.0);
+    }
+    let g = GRAD_STRIDE * i;
     if GRAD_U {
-        grads[6u * i] = vec4<f32>(b * gux, 0.0);
-        grads[6u * i + 1u] = vec4<f32>(b * guy, 0.0);
-        grads[6u * i + 2u] = vec4<f32>(b * guz, 0.0);
+        grads[g + GRAD_SLOT_U] = vec4<f32>(b * gux, 0.0);
+        grads[g + GRAD_SLOT_U + 1u] = vec4<f32>(b * guy, 0.0);
+        grads[g + GRAD_SLOT_U + 2u] = vec4<f32>(b * guz, 0.0);
     }
     if GRAD_P {
-        grads[6u * i + 3u] = vec4<f32>(b * gp, 0.0);
+        grads[g + GRAD_SLOT_P] = vec4<f32>(b * gp, 0.0);
     }
     if GRAD_RHO {
-        grads[6u * i + 5u] = vec4<f32>(b * grho, 0.0);
+        grads[g + GRAD_SLOT_RHO] = vec4<f32>(b * grho, 0.0);
     }
     if SHIFT_SUMS {
         var r_mean = 0.0;
         if count > 0.0 {
             r_mean = r_sum / count;
         }
-        grads[6u * i + 4u] = vec4<f32>(r_mean * r_mean * s, 0.0);
+        grads[g + GRAD_SLOT_S] = vec4<f32>(r_mean * r_mean * s, 0.0);
     }
     atomicMax(&diag[0], bitcast<u32>(length(u_i)));
 }

@@ -3,7 +3,8 @@
 //   δr_i = β ‖u‖max Δt s_i                         (eq. 17; s_i from the gradient pass)
 //   δu_i = ⟨∇u⟩ᶜ_i · δr_i,  δp_i = ⟨∇p⟩ᶜ_i · δr_i   (eq. 18)
 //   δρ_i = (ρ0/ρ_i)^(γ−1) δp_i / c_s²              (eq. 19), then p_i from the EOS.
-// Fluid particles only. Needs: prelude, SPH constants, StepParams, tait_eos (library),
+// Fluid particles only. Needs: prelude, SPH constants, StepParams, the gradient layout
+// (GradientFields::layout_wgsl: shifting reads ∇u, ∇p and s), tait_eos (library),
 // `limit_shift(p_i, δr)`: δr itself without bodies (PLAIN_SHIFT_WGSL in
 // particle_shifting.rs), the surface rule of particle_shifting_surface.wgsl with them.
 
@@ -26,10 +27,12 @@ fn shift(@builtin(workgroup_id) wid: vec3<u32>,
     }
     let u_max = bitcast<f32>(diag[0]);
     // Joubert eq. (17).
-    let dr = limit_shift(pos[i].xyz, SHIFTING_BETA * u_max * params.dt * grads[6u * i + 4u].xyz);
+    let g = GRAD_STRIDE * i;
+    let dr = limit_shift(pos[i].xyz, SHIFTING_BETA * u_max * params.dt * grads[g + GRAD_SLOT_S].xyz);
     // Joubert eq. (18).
-    let du = vec3<f32>(dot(grads[6u * i].xyz, dr), dot(grads[6u * i + 1u].xyz, dr), dot(grads[6u * i + 2u].xyz, dr));
-    let dp = dot(grads[6u * i + 3u].xyz, dr);
+    let gu = GRAD_SLOT_U;
+    let du = vec3<f32>(dot(grads[g + gu].xyz, dr), dot(grads[g + gu + 1u].xyz, dr), dot(grads[g + gu + 2u].xyz, dr));
+    let dp = dot(grads[g + GRAD_SLOT_P].xyz, dr);
     // Joubert eq. (19).
     let r = rho[i];
     let r_new = r + pow(RHO0 / r, GAMMA - 1.0) * dp / (SOUND_SPEED * SOUND_SPEED);

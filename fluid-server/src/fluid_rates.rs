@@ -28,13 +28,14 @@ const BINDINGS: &[(u32, Access)] = &[
     (pb::DVEL, Access::ReadWrite),
 ];
 /// `grad_rho(i)`, `grad_p(i)`: ⟨∇ρ⟩ᶜ_i and ⟨∇p⟩ᶜ_i from the gradient pass, bound only
-/// with density diffusion or the mass correction.
+/// with density diffusion or the mass correction (each read only where the scene has
+/// it: GradientFields::layout_wgsl gives the slots).
 const GRADS_WGSL: &str = "@group(0) @binding(10) var<storage, read> grads: array<vec4<f32>>;
 fn grad_rho(i: u32) -> vec3<f32> {
-    return grads[6u * i + 5u].xyz;
+    return grads[GRAD_STRIDE * i + GRAD_SLOT_RHO].xyz;
 }
 fn grad_p(i: u32) -> vec3<f32> {
-    return grads[6u * i + 3u].xyz;
+    return grads[GRAD_STRIDE * i + GRAD_SLOT_P].xyz;
 }
 ";
 /// Without either no gradient buffer is bound (the terms are compiled out).
@@ -121,7 +122,14 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
     } else {
         NO_B_HAT_WGSL
     };
-    let g = if grads { GRADS_WGSL } else { NO_GRADS_WGSL };
+    let g = if grads {
+        format!(
+            "{}{GRADS_WGSL}",
+            crate::joubert2020_gradients::GradientFields::of(c).layout_wgsl()
+        )
+    } else {
+        NO_GRADS_WGSL.to_owned()
+    };
     let (smoothing, smoothing_binding) = smoothing_wgsl(c);
     bindings.extend(smoothing_binding);
     let (porosity, porosity_binding) = porosity_wgsl(c);
@@ -141,7 +149,7 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             MOMENTUM_WGSL,
             b,
             b_hat,
-            g,
+            &g,
             wall_velocity,
             smoothing,
             porosity,

@@ -111,20 +111,24 @@ fn store_bhat(i: u32, d: vec4<f32>, o: vec4<f32>) {
 const NO_BHAT_WGSL: &str = "fn store_bhat(i: u32, d: vec4<f32>, o: vec4<f32>) {}
 ";
 
-/// Which of the pass's fields a scene reads, so that the pass sums only those (WGSL
-/// constants `GRAD_U`, `GRAD_P`, `GRAD_RHO`, `SHIFT_SUMS`; `B_i`, its fallback count and
-/// the free-surface flag are always written): ⟨∇u⟩ᶜ and s_i by particle shifting (the
-/// Taylor terms and the shift direction of eqs. 17–19), ⟨∇p⟩ᶜ by particle shifting and
-/// the mass correction (eqs. 15–16), ⟨∇ρ⟩ᶜ by Antuono's δ-SPH. A field not summed is
-/// left as it was in the buffer (zero from its allocation). With the gradient
-/// correction alone the pass is M and B only, the pair loop's loads pos, ρ (and
-/// porosity among grains) without vel and p.
+/// Which of the pass's fields a scene reads, so that the pass sums, stores and allocates
+/// only those (WGSL constants `GRAD_U`, `GRAD_P`, `GRAD_RHO`, `SHIFT_SUMS`, `STORE_B`):
+/// ⟨∇u⟩ᶜ and s_i by particle shifting (the Taylor terms and the shift direction of eqs.
+/// 17–19), ⟨∇p⟩ᶜ by particle shifting and the mass correction (eqs. 15–16), ⟨∇ρ⟩ᶜ by
+/// Antuono's δ-SPH, and B_i with its free-surface flag by the rates' corrected forms
+/// (the gradient correction or the corrected Laplacian; the fallback count is always
+/// kept). With the gradient correction alone the pass is M and B only, the pair loop's
+/// loads pos, ρ (and porosity among grains) without vel and p. The gradient buffer holds
+/// [`GradientFields::stride`] vec4 a particle, the fields read in the order ∇u_x, ∇u_y,
+/// ∇u_z, ∇p, s, ∇ρ ([`GradientFields::layout_wgsl`]); at 96 B a particle for all six, it
+/// was allocated whole until 2026-12-05 (ARCHITECTURE.md, "GPU memory per particle").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct GradientFields {
     pub grad_u: bool,
     pub grad_p: bool,
     pub grad_rho: bool,
     pub shift: bool,
+    pub store_b: bool,
 }
 
 impl GradientFields {
@@ -135,21 +139,67 @@ impl GradientFields {
             grad_p: shifting || c.mass_correction > 0.0,
             grad_rho: c.antuono_diffusion(),
             shift: shifting,
+            store_b: c.uses_b_matrix(),
         }
+    }
+
+    /// First vec4 slot of ∇u_x, ∇p, s and ∇ρ in a particle's stretch of the gradient
+    /// buffer, and the stretch's length: the fields read, in that order (a field not read
+    /// takes no slot, and its start is where the next one's is).
+    fn slots(&self) -> ([u32; 4], u32) {
+        let mut next = 0;
+        let mut take = |on: bool, len: u32| {
+            let at = next;
+            next += if on { len } else { 0 };
+            at
+        };
+        let at = [
+            take(self.grad_u, 3),
+            take(self.grad_p, 1),
+            take(self.shift, 1),
+            take(self.grad_rho, 1),
+        ];
+        (at, next)
+    }
+
+    /// vec4 slots a particle takes in the gradient buffer (0 to 6).
+    pub fn stride(&self) -> u32 {
+        self.slots().1
+    }
+
+    /// The slot of field `k` of [`crate::solver::GradientReadback::fields`] (0–2 ∇u,
+    /// 3 ∇p, 4 s, 5 ∇ρ) in a particle's stretch, `None` when the scene does not read it.
+    pub fn slot_of(&self, k: usize) -> Option<u32> {
+        let ([u, p, s, rho], _) = self.slots();
+        match k {
+            0..=2 => self.grad_u.then_some(u + k as u32),
+            3 => self.grad_p.then_some(p),
+            4 => self.shift.then_some(s),
+            5 => self.grad_rho.then_some(rho),
+            _ => None,
+        }
+    }
+
+    /// The WGSL constants of the flags and the layout, for the pass and its readers.
+    pub fn layout_wgsl(&self) -> String {
+        let ([u, p, s, rho], stride) = self.slots();
+        format!(
+            "const GRAD_U: bool = {};\nconst GRAD_P: bool = {};\nconst GRAD_RHO: bool = {};\n\
+             const SHIFT_SUMS: bool = {};\nconst STORE_B: bool = {};\n\
+             const GRAD_STRIDE: u32 = {stride}u;\nconst GRAD_SLOT_U: u32 = {u}u;\n\
+             const GRAD_SLOT_P: u32 = {p}u;\nconst GRAD_SLOT_S: u32 = {s}u;\n\
+             const GRAD_SLOT_RHO: u32 = {rho}u;\n",
+            self.grad_u, self.grad_p, self.grad_rho, self.shift, self.store_b
+        )
     }
 }
 
 pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
     let consts = c.wgsl();
-    let f = GradientFields::of(c);
     let guard = format!(
-        "const B_DET_MIN: f32 = {B_DET_MIN:e};\nconst LAP_PIVOT_MIN: f32 = {LAP_PIVOT_MIN:e};\nconst FREE_SURFACE_DET: f32 = {:e};\n\
-         const GRAD_U: bool = {};\nconst GRAD_P: bool = {};\nconst GRAD_RHO: bool = {};\nconst SHIFT_SUMS: bool = {};\n",
+        "const B_DET_MIN: f32 = {B_DET_MIN:e};\nconst LAP_PIVOT_MIN: f32 = {LAP_PIVOT_MIN:e};\nconst FREE_SURFACE_DET: f32 = {:e};\n{}",
         free_surface_det(c),
-        f.grad_u,
-        f.grad_p,
-        f.grad_rho,
-        f.shift
+        GradientFields::of(c).layout_wgsl()
     );
     let mut particles = vec![
         (pb::POS, Access::Read),

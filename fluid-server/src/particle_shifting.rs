@@ -48,6 +48,7 @@ pub fn kernel(
     grid_layout: Option<&wgpu::BindGroupLayout>,
 ) -> SphKernel {
     let consts = c.wgsl();
+    let layout = crate::joubert2020_gradients::GradientFields::of(c).layout_wgsl();
     let particles: &[(u32, Access)] = &[
         (pb::POS, Access::ReadWrite),
         (pb::VEL, Access::ReadWrite),
@@ -69,6 +70,7 @@ pub fn kernel(
             "sph: particle_shifting",
             &[
                 &consts,
+                &layout,
                 STEP_PARAMS_WGSL,
                 library(TAIT_EOS_WGSL),
                 PLAIN_SHIFT_WGSL,
@@ -83,6 +85,7 @@ pub fn kernel(
             "sph: particle_shifting (surfaces)",
             &[
                 &consts,
+                &layout,
                 STEP_PARAMS_WGSL,
                 GRID_COMMON_WGSL,
                 library(MARKER_UPDATE_WGSL),

@@ -285,15 +285,19 @@ pub struct SphData {
 
 /// Buffers of the gradient pass (not permuted: written after every sort).
 pub struct GradientBuffers {
-    /// Three vec4 columns of B_i per particle.
+    /// Three vec4 columns of B_i per particle, where the rates read B (`fields.store_b`;
+    /// else 16 bytes).
     pub bmat: wgpu::Buffer,
-    /// ⟨∇u_x⟩ᶜ, ⟨∇u_y⟩ᶜ, ⟨∇u_z⟩ᶜ, ⟨∇p⟩ᶜ, s_i, ⟨∇ρ⟩ᶜ: six vec4 per particle.
+    /// Of ⟨∇u_x⟩ᶜ, ⟨∇u_y⟩ᶜ, ⟨∇u_z⟩ᶜ, ⟨∇p⟩ᶜ, s_i, ⟨∇ρ⟩ᶜ those the scene reads: `fields.stride()`
+    /// vec4 per particle (16 bytes when none is).
     pub grads: wgpu::Buffer,
     /// B̂_i of the corrected Laplacian, two vec4 per particle, when it is on.
     pub bhat: Option<wgpu::Buffer>,
     /// [max fluid speed of the step (f32 bits), near-singular particle-steps in the
     /// window, 0, 0].
     pub diag: wgpu::Buffer,
+    /// What the buffers hold.
+    pub fields: crate::joubert2020_gradients::GradientFields,
 }
 
 const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
@@ -336,6 +340,7 @@ fn particle_buffer(
 ) -> Result<wgpu::Buffer, FluidError> {
     let limit = gpu.storage_binding_limit;
     let bytes = n as u64 * stride;
+    // (A stride of 0, a buffer the scene never reads, still binds its 16 bytes.)
     if bytes > limit {
         return Err(FluidError::TooManyParticles {
             n,
@@ -505,19 +510,23 @@ impl SphData {
             grid.register(&r.hi, 16)?;
         }
 
+        let fields = crate::joubert2020_gradients::GradientFields::of(c);
         let gradients = pipelines
             .gradients
             .is_some()
             .then(|| -> Result<_, FluidError> {
+                // Only the fields the scene reads (at most 96 B a particle), and B only
+                // where the rates read it (48 B): a binding of 16 B where none is.
+                let (stride, b) = (16 * u64::from(fields.stride()), fields.store_b);
                 Ok(GradientBuffers {
-                    // The widest first (see the state's check above).
-                    grads: particle_buffer(gpu, "sph: corrected gradients", n, 96)?,
-                    bmat: particle_buffer(gpu, "sph: B matrix", n, 48)?,
+                    grads: particle_buffer(gpu, "sph: corrected gradients", n, stride)?,
+                    bmat: particle_buffer(gpu, "sph: B matrix", n, if b { 48 } else { 0 })?,
                     bhat: c
                         .uses_b_hat()
                         .then(|| particle_buffer(gpu, "sph: Laplacian truncation", n, 32))
                         .transpose()?,
                     diag: storage_init(gpu, "sph: gradient diagnostics", &[0u8; 16])?,
+                    fields,
                 })
             })
             .transpose()?;
@@ -888,28 +897,41 @@ impl SphData {
         ))
     }
 
-    /// Reads the gradient pass's outputs (buffer order): `B_i` as rows, `[∇u_x, ∇u_y,
-    /// ∇u_z, ∇p, s, ∇ρ]`, and the diagnostics word (max speed of the last step, near-singular
-    /// particle-steps of the window). `None` without the pass.
+    /// Reads the gradient pass's outputs: `B_i` as rows, `[∇u_x, ∇u_y, ∇u_z, ∇p, s, ∇ρ]`
+    /// (zero where the scene reads a field not), and the diagnostics word (max
+    /// speed of the last step, near-singular particle-steps of the window). `None` without
+    /// the pass.
     pub fn read_gradients(&self, gpu: &Gpu) -> Result<Option<GradientReadback>, FluidError> {
         let Some(g) = &self.gradients else {
             return Ok(None);
         };
+        let fields = g.fields;
         let n = u64::from(self.n_total);
-        let b: Vec<[f32; 4]> = gpu.read_buffer(&g.bmat, 0, 3 * n)?;
-        let f: Vec<[f32; 4]> = gpu.read_buffer(&g.grads, 0, 6 * n)?;
-        let v3 = |v: [f32; 4]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+        let b: Vec<[f32; 4]> = if fields.store_b {
+            gpu.read_buffer(&g.bmat, 0, 3 * n)?
+        } else {
+            Vec::new()
+        };
+        let stride = u64::from(fields.stride());
+        let f: Vec<[f32; 4]> = gpu.read_buffer(&g.grads, 0, stride * n)?;
+        let field = |i: usize, k: usize| {
+            fields.slot_of(k).map_or([0.0; 3], |at| {
+                let v = f[stride as usize * i + at as usize];
+                [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])]
+            })
+        };
+        let with_b = if b.is_empty() { 0 } else { n as usize };
         Ok(Some(GradientReadback {
             // Columns on the GPU, rows here.
-            b: (0..n as usize)
+            b: (0..with_b)
                 .map(|i| {
                     std::array::from_fn(|r| std::array::from_fn(|c| f64::from(b[3 * i + c][r])))
                 })
                 .collect(),
             fields: (0..n as usize)
-                .map(|i| std::array::from_fn(|k| v3(f[6 * i + k])))
+                .map(|i| std::array::from_fn(|k| field(i, k)))
                 .collect(),
-            near_free_surface: (0..n as usize).map(|i| b[3 * i][3] > 0.5).collect(),
+            near_free_surface: (0..with_b).map(|i| b[3 * i][3] > 0.5).collect(),
             diag: self.read_diag(gpu)?.unwrap_or_default(),
         }))
     }
@@ -950,10 +972,11 @@ impl SphData {
 /// The gradient pass's outputs read back (tests).
 #[derive(Debug, Clone, Default)]
 pub struct GradientReadback {
-    /// `B_i`, row-major.
+    /// `B_i`, row-major; empty where the scene's rates read no B (Antuono's δ-SPH or the
+    /// mass correction without the corrected forms: `GradientFields::store_b`).
     pub b: Vec<[[f64; 3]; 3]>,
     /// In the free-surface zone (`effects.free_surface`, `det M_i` below
-    /// [`crate::joubert2020_gradients::free_surface_det`]).
+    /// [`crate::joubert2020_gradients::free_surface_det`]); empty with `b`.
     pub near_free_surface: Vec<bool>,
     /// `[∇u_x, ∇u_y, ∇u_z, ∇p, s, ∇ρ]` per particle.
     pub fields: Vec<[[f64; 3]; 6]>,

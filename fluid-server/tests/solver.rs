@@ -405,9 +405,11 @@ fn a_restored_solver_continues_bit_for_bit() {
 /// the atomics' order, gather map: 16 B), the reorder's scratch (a slice per gathered
 /// buffer: pos, vel, ρ, p, id = 44 B), the walls' extrapolated velocity (16 B, kept for
 /// every slot) and the window statistics' partials (16 B per workgroup of 128 = 0.125 B):
-/// 160.125 B. The gradient pass (Joubert's correction, or Antuono's δ-SPH, which needs
-/// ∇ρ) adds B (48 B) and the six gradient slots (96 B): 304.125 B; the corrected
-/// Laplacian its B̂ (32 B): 336.125 B.
+/// 160.125 B. The gradient pass stores only what the scene reads (`GradientFields`): with
+/// Joubert's correction alone B (48 B) and no gradient slot, 208.125 B; with Antuono's
+/// δ-SPH alone the ∇ρ slot (16 B) and no B, 176.125 B; the corrected Laplacian adds its
+/// B̂ (32 B), 240.125 B. Until 2026-12-05 every gradient pass kept B and all six slots,
+/// 304.125 B.
 ///
 /// Measured as wgpu-hal's count of live buffer bytes (Gpu::buffer_memory) with the fluid
 /// at two heights in the same box, so that the walls and the grid's cells are the same
@@ -420,11 +422,15 @@ fn buffer_memory_per_particle_matches_the_inventory() {
     let gpu = shared_test_gpu().unwrap();
     for (effects, inventory) in [
         ("", 160.125),
-        ("gradient_correction = true", 304.125),
-        ("density_diffusion = 0.1", 304.125),
+        ("gradient_correction = true", 208.125),
+        ("density_diffusion = 0.1", 176.125),
         (
             "gradient_correction = true\nlaplacian_correction = true",
-            336.125,
+            240.125,
+        ),
+        (
+            "gradient_correction = true\nparticle_shifting = 0.1\ndensity_diffusion = 0.1",
+            304.125,
         ),
     ] {
         let before = gpu.buffer_memory().unwrap();
@@ -469,8 +475,9 @@ fn buffer_memory_per_particle_matches_the_inventory() {
 /// on lavapipe, 1.9 M particles against 128 MiB: "Buffer binding 10 range 182502432
 /// exceeds `max_*_buffer_binding_size`"; on an H200 any corrected scene past 22 M
 /// particles). Now every buffer is checked before it is bound and the scene is refused
-/// with the most particles its effects allow. The binding limit is lowered here so that
-/// a small tank crosses it.
+/// with the most particles its effects allow; with the correction alone the widest
+/// buffer is now B's, 48 B a particle (the gradient slots it does not read are not
+/// kept). The binding limit is lowered here so that a small tank crosses it.
 #[test]
 fn buffers_past_one_binding_are_refused_not_a_panic() {
     let mut gpu = shared_test_gpu().unwrap();
@@ -486,7 +493,7 @@ fn buffers_past_one_binding_are_refused_not_a_panic() {
         let c = FluidSolver::new(&gpu, &standard).unwrap().counts();
         (c.fluid + c.wall) as usize
     };
-    // Room for the state's 16 B a particle, not for the gradients' 96.
+    // Room for the state's 16 B a particle, not for B's 48.
     gpu.storage_binding_limit = n as u64 * 32;
     FluidSolver::new(&gpu, &standard).expect("the standard scheme's widest buffer fits");
     match FluidSolver::new(&gpu, &corrected) {
@@ -497,18 +504,15 @@ fn buffers_past_one_binding_are_refused_not_a_panic() {
             max,
             ..
         }) => {
-            assert_eq!(
-                (got, buffer.as_str(), stride),
-                (n, "sph: corrected gradients", 96)
-            );
+            assert_eq!((got, buffer.as_str(), stride), (n, "sph: B matrix", 48));
             assert_eq!(
                 max,
-                n as u64 / 3,
-                "32 B a particle's room holds a third at 96 B"
+                n as u64 * 2 / 3,
+                "32 B a particle's room holds 2/3 at 48 B"
             );
         }
         Err(e) => panic!("refused for another reason: {e}"),
-        Ok(_) => panic!("{n} particles at 96 B passed a binding of {} B", n * 32),
+        Ok(_) => panic!("{n} particles at 48 B passed a binding of {} B", n * 32),
     }
     // Too small for the state itself (12 B a particle: the grid's cells still fit):
     // refused at its positions, 16 B a particle.
