@@ -407,16 +407,41 @@ impl SphData {
                 expected: n,
             });
         }
-        // The state's vec4 arrays first: with its widest buffer refused, a scene learns
-        // the most particles it may have.
+        // The widest per-particle buffer first, so that a scene too large for one
+        // binding learns the most particles it may have: the state's vec4 arrays, or the
+        // gradient pass's B and packed slots where the scene keeps them (allocated below).
+        let fields = crate::joubert2020_gradients::GradientFields::of(c);
+        let gradient_pass = pipelines.gradients.is_some();
+        let (widest, stride) = [
+            ("sph: pos", 16),
+            (
+                "sph: B matrix",
+                if gradient_pass && fields.store_b {
+                    48
+                } else {
+                    0
+                },
+            ),
+            (
+                "sph: corrected gradients",
+                if gradient_pass {
+                    16 * u64::from(fields.stride())
+                } else {
+                    0
+                },
+            ),
+        ]
+        .into_iter()
+        .reduce(|a, b| if b.1 > a.1 { b } else { a })
+        .unwrap_or(("sph: pos", 16));
         let limit = gpu.storage_binding_limit;
-        if n as u64 * 16 > limit {
+        if n as u64 * stride > limit {
             return Err(FluidError::TooManyParticles {
                 n,
-                buffer: "sph: pos".into(),
-                stride: 16,
+                buffer: widest.into(),
+                stride,
                 limit,
-                max: limit / 16,
+                max: limit / stride,
             });
         }
         let f32s = |v: &[f64]| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
@@ -510,10 +535,7 @@ impl SphData {
             grid.register(&r.hi, 16)?;
         }
 
-        let fields = crate::joubert2020_gradients::GradientFields::of(c);
-        let gradients = pipelines
-            .gradients
-            .is_some()
+        let gradients = gradient_pass
             .then(|| -> Result<_, FluidError> {
                 // Only the fields the scene reads (at most 96 B a particle), and B only
                 // where the rates read it (48 B): a binding of 16 B where none is.

@@ -529,4 +529,25 @@ fn buffers_past_one_binding_are_refused_not_a_panic() {
         Err(e) => panic!("refused for another reason: {e}"),
         Ok(_) => panic!("{n} particles at 16 B passed a binding of {} B", n * 12),
     }
+    // There, a scene keeping every gradient slot (96 B) is told its own cap, not the
+    // state's.
+    let every_slot = tank_with(
+        0.01,
+        0.3,
+        "[effects]\nviscosity = \"none\"\ngradient_correction = true\n\
+         particle_shifting = 0.1\ndensity_diffusion = 0.1",
+    );
+    match FluidSolver::new(&gpu, &every_slot) {
+        Err(FluidError::TooManyParticles {
+            buffer,
+            stride,
+            max,
+            ..
+        }) => assert_eq!(
+            (buffer.as_str(), stride, max),
+            ("sph: corrected gradients", 96, n as u64 * 12 / 96)
+        ),
+        Err(e) => panic!("refused for another reason: {e}"),
+        Ok(_) => panic!("{n} particles at 96 B passed a binding of {} B", n * 12),
+    }
 }
