@@ -31,6 +31,7 @@ use crate::checkpoint::{self, FluidState};
 use crate::constants::{SphConstants, StepParams};
 use crate::gpu::Gpu;
 use crate::joubert2020_boundary_values::BoundaryFrame;
+use crate::joubert2020_gradients::GradientFields;
 use crate::limits::FluidLimits;
 use crate::marker_update::AccelerationEstimate;
 use crate::marker_update::{
@@ -297,12 +298,28 @@ pub struct GradientBuffers {
     /// window, 0, 0].
     pub diag: wgpu::Buffer,
     /// What the buffers hold.
-    pub fields: crate::joubert2020_gradients::GradientFields,
+    pub fields: GradientFields,
 }
 
 const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_SRC)
     .union(wgpu::BufferUsages::COPY_DST);
+
+/// The widest of the solver's per-particle buffers and its bytes a particle: the state's
+/// vec4 arrays, or the gradient pass's B and packed slots where the scene keeps them
+/// (`SphData::new` allocates them). One storage binding must hold it for every particle.
+fn widest_particle_buffer(fields: GradientFields, gradient_pass: bool) -> (&'static str, u64) {
+    let b = gradient_pass && fields.store_b;
+    let slots = if gradient_pass { fields.stride() } else { 0 };
+    [
+        ("sph: pos", 16),
+        ("sph: B matrix", if b { 48 } else { 0 }),
+        ("sph: corrected gradients", 16 * u64::from(slots)),
+    ]
+    .into_iter()
+    .reduce(|a, b| if b.1 > a.1 { b } else { a })
+    .unwrap_or(("sph: pos", 16))
+}
 
 /// A storage buffer holding `bytes`, refused when one binding cannot hold it (every
 /// buffer here is bound whole; wgpu would panic).
@@ -408,32 +425,10 @@ impl SphData {
             });
         }
         // The widest per-particle buffer first, so that a scene too large for one
-        // binding learns the most particles it may have: the state's vec4 arrays, or the
-        // gradient pass's B and packed slots where the scene keeps them (allocated below).
-        let fields = crate::joubert2020_gradients::GradientFields::of(c);
+        // binding learns the most particles it may have.
+        let fields = GradientFields::of(c);
         let gradient_pass = pipelines.gradients.is_some();
-        let (widest, stride) = [
-            ("sph: pos", 16),
-            (
-                "sph: B matrix",
-                if gradient_pass && fields.store_b {
-                    48
-                } else {
-                    0
-                },
-            ),
-            (
-                "sph: corrected gradients",
-                if gradient_pass {
-                    16 * u64::from(fields.stride())
-                } else {
-                    0
-                },
-            ),
-        ]
-        .into_iter()
-        .reduce(|a, b| if b.1 > a.1 { b } else { a })
-        .unwrap_or(("sph: pos", 16));
+        let (widest, stride) = widest_particle_buffer(fields, gradient_pass);
         let limit = gpu.storage_binding_limit;
         if n as u64 * stride > limit {
             return Err(FluidError::TooManyParticles {
@@ -1190,6 +1185,16 @@ impl FluidSolver {
     /// ranges and scan totals and the fluid count of each cell's row window.
     pub fn grid_cell_bytes(&self) -> u64 {
         self.data.grid.cell_bytes() + self.data.row_fluid.size()
+    }
+
+    /// The widest per-particle buffer of this solver and its bytes a particle: one storage
+    /// binding ([`Gpu::storage_binding_limit`]) holds it for at most limit / that many
+    /// particles.
+    pub fn widest_particle_buffer(&self) -> (&'static str, u64) {
+        match &self.data.gradients {
+            Some(g) => widest_particle_buffer(g.fields, true),
+            None => widest_particle_buffer(GradientFields::of(&self.consts), false),
+        }
     }
 
     /// Cells of the neighbour grid.

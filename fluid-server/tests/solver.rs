@@ -495,7 +495,8 @@ fn buffers_past_one_binding_are_refused_not_a_panic() {
     };
     // Room for the state's 16 B a particle, not for B's 48.
     gpu.storage_binding_limit = n as u64 * 32;
-    FluidSolver::new(&gpu, &standard).expect("the standard scheme's widest buffer fits");
+    let fits = FluidSolver::new(&gpu, &standard).expect("the standard scheme's widest buffer fits");
+    assert_eq!(fits.widest_particle_buffer(), ("sph: pos", 16));
     match FluidSolver::new(&gpu, &corrected) {
         Err(FluidError::TooManyParticles {
             n: got,

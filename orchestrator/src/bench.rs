@@ -225,21 +225,23 @@ fn memory_lines(
     const TARGET_DEVICE: f64 = 80e9;
     let per_particle = memory as f64 / particles;
     let particle_part = memory.saturating_sub(cell_bytes) as f64 / particles;
-    // One vec4<f32> array (positions, velocities) per binding: the adapter's largest
-    // storage binding caps the particles of one solver whatever the memory.
+    // Each per-particle buffer is one binding: the adapter's largest storage binding caps
+    // the particles of one solver at its widest, whatever the memory.
     let binding = gpu.storage_binding_limit;
+    let (widest, stride) = solver.widest_particle_buffer();
     format!(
         "GPU buffer memory (wgpu-hal's count of live buffers, after the warm-up): {:.2} MiB, \
          {per_particle:.1} B a particle; of it the neighbour grid's {} cells {:.2} MiB \
          ({:.1} B a cell), the rest {particle_part:.1} B a particle\n\
          at {per_particle:.1} B a particle an 80 GB device holds {:.0} M such particles; \
-         one vec4 array binding ({binding} B at most here) caps a solver at {:.0} M",
+         one binding ({binding} B at most here) holds the widest buffer, `{widest}` at \
+         {stride} B a particle, for {:.2} M",
         memory as f64 / MIB,
         solver.grid_cells(),
         cell_bytes as f64 / MIB,
         cell_bytes as f64 / f64::from(solver.grid_cells().max(1)),
         TARGET_DEVICE / per_particle / 1e6,
-        binding as f64 / 16.0 / 1e6,
+        (binding / stride) as f64 / 1e6,
     )
 }
 
