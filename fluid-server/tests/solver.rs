@@ -416,7 +416,7 @@ fn a_restored_solver_continues_bit_for_bit() {
 /// and only fluid particles differ (64 000 of them): the allocations' alignment moves
 /// the difference by at most a few hundred bytes a buffer, under 0.2 B a particle.
 /// What stays beside n × that is the grid's cells (`grid_cell_bytes`) and a few small
-/// buffers (uniforms, diagnostics): under 1 MiB.
+/// buffers (uniforms, diagnostics): within 1 MiB.
 #[test]
 fn buffer_memory_per_particle_matches_the_inventory() {
     let gpu = shared_test_gpu().unwrap();
@@ -461,9 +461,11 @@ fn buffer_memory_per_particle_matches_the_inventory() {
             (per_particle - inventory).abs() < 0.2,
             "{effects:?}: {per_particle:.3} B a particle, the inventory says {inventory}"
         );
+        // (A buffer of another test that wgpu frees meanwhile moves it by its size: a few
+        // hundred bytes were seen, hence no lower bound at 0.)
         let rest = b0 - inventory * n0 - cells0;
         assert!(
-            (0.0..1024.0 * 1024.0).contains(&rest),
+            rest.abs() < 1024.0 * 1024.0,
             "{effects:?}: {rest} B beside the particles' and the cells'"
         );
     }
