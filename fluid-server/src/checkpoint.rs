@@ -49,6 +49,7 @@ pub fn state_buffers(d: &SphData) -> Vec<(&'static str, &wgpu::Buffer)> {
         ("dvel", &d.dvel),
         ("rho_n", &d.rho_n),
         ("vel_n", &d.vel_n),
+        ("low_words", &d.low_words),
     ];
     if let Some(b) = &d.bodies {
         out.extend([

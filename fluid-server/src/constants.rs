@@ -475,8 +475,10 @@ pub struct StepParams {
     /// Acceleration of one count of the fixed-point grain reaction, m/s²
     /// ([`crate::unresolved_coupling`]); chosen per window so that no sum overflows.
     pub reaction_unit: f32,
-    /// Gravity on the fluid, m/s² (xyz; w unused): [`SphConstants::gravity_fluid`], a
-    /// uniform rather than a WGSL constant so that a live run can change it.
+    /// Gravity on the fluid, m/s² (xyz): [`SphConstants::gravity_fluid`], a uniform
+    /// rather than a WGSL constant so that a live run can change it. w is 1, a factor the
+    /// shader compiler cannot see (`opaque_one()`): multiplied into the integrator's
+    /// compensated sums, it keeps them from being simplified away as (a + b) − a = b.
     pub gravity: [f32; 4],
 }
 
@@ -498,14 +500,16 @@ fn is_fluid(id: u32) -> bool { return id < params.n_fluid; }
 fn is_wall(id: u32) -> bool { return id >= params.n_fluid && id < params.n_fluid + params.n_wall; }
 fn is_marker(id: u32) -> bool { return id >= params.n_fluid + params.n_wall; }
 fn marker_index(id: u32) -> u32 { return id - params.n_fluid - params.n_wall; }
+// 1 at run time, unknown to the compiler (StepParams::gravity_of).
+fn opaque_one() -> f32 { return params.gravity.w; }
 ";
 
 const _: () = assert!(core::mem::size_of::<StepParams>() == 48);
 
 impl StepParams {
-    /// The gravity field in the uniform's layout.
+    /// The gravity field in the uniform's layout (w: the opaque 1).
     pub fn gravity_of(g: [f64; 3]) -> [f32; 4] {
-        [g[0] as f32, g[1] as f32, g[2] as f32, 0.0]
+        [g[0] as f32, g[1] as f32, g[2] as f32, 1.0]
     }
 
     pub fn marker_base(&self) -> u32 {

@@ -22,6 +22,7 @@ const BINDINGS: &[(u32, Access)] = &[
     (pb::DVEL, Access::Read),
     (pb::RHO_N, Access::ReadWrite),
     (pb::VEL_N, Access::ReadWrite),
+    (pb::LOW_WORDS, Access::ReadWrite),
 ];
 
 /// The `predict` kernel (Joubert eq. 20).

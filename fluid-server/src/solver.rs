@@ -240,9 +240,13 @@ pub struct SphData {
     /// du/dt of the last rate evaluation (permuted by the sort only in scenes with
     /// grains, whose sampling reads it after a sort).
     pub dvel: wgpu::Buffer,
-    /// ρⁿ and uⁿ during a step (written by `predict`, not permuted).
+    /// ρⁿ and uⁿ during a step (written by `predict`, not permuted); `vel_n.w` holds
+    /// Δt dρⁿ/dt for `correct`.
     pub rho_n: wgpu::Buffer,
     pub vel_n: wgpu::Buffer,
+    /// The low words of the fluid's positions (xyz) and densities (w): what f32 rounded
+    /// off, carried into the next step (`integrate.wgsl`; permuted by the sort).
+    pub low_words: wgpu::Buffer,
     pub params: wgpu::Buffer,
     pub status: wgpu::Buffer,
     pub bad_values: wgpu::Buffer,
@@ -453,6 +457,7 @@ impl SphData {
         let dvel = particle_buffer(gpu, "sph: dvel", n, 16)?;
         let rho_n = particle_buffer(gpu, "sph: rho_n", n, 4)?;
         let vel_n = particle_buffer(gpu, "sph: vel_n", n, 16)?;
+        let low_words = particle_buffer(gpu, "sph: position and density low words", n, 16)?;
         let step_params = StepParams {
             n_total: n as u32,
             n_fluid: set.kinds.n_fluid as u32,
@@ -494,6 +499,7 @@ impl SphData {
         grid.register(&rho, 4)?;
         grid.register(&press, 4)?;
         grid.register_ids(&id)?;
+        grid.register(&low_words, 16)?;
         let row_fluid = storage_init(
             gpu,
             "sph: fluid per row window",
@@ -599,6 +605,7 @@ impl SphData {
                     pb::DVEL => &dvel,
                     pb::RHO_N => &rho_n,
                     pb::VEL_N => &vel_n,
+                    pb::LOW_WORDS => &low_words,
                     pb::BMAT => &gradients.as_ref()?.bmat,
                     pb::GRADS => &gradients.as_ref()?.grads,
                     pb::WALL_VEL => wall_vel.as_ref()?,
@@ -766,6 +773,7 @@ impl SphData {
             dvel,
             rho_n,
             vel_n,
+            low_words,
             params,
             status,
             bad_values,

@@ -70,6 +70,10 @@ pub mod particle_binding {
     /// The fluid particles in each neighbour-grid cell's row window (one u32 per cell,
     /// not per particle), written after every sort ([`crate::fluid_rows`]).
     pub const ROW_FLUID: u32 = 19;
+    /// What f32 rounds off a fluid particle's position (xyz) and density (w) each step,
+    /// carried into the next (compensated summation, `integrate.wgsl`), one vec4 per
+    /// particle, permuted by the sort.
+    pub const LOW_WORDS: u32 = 20;
 }
 
 /// Bodies and markers, group 2.

@@ -401,15 +401,17 @@ fn a_restored_solver_continues_bit_for_bit() {
 /// Bytes of GPU buffer a particle costs, against the inventory of every per-particle
 /// buffer the solver allocates (ARCHITECTURE.md, "GPU memory per particle"). Standard
 /// scheme, closed tank with Adami's no-slip walls: the state (pos 16, vel 16, ρ 4, p 4,
-/// id 4, dρ/dt 4, du/dt 16, ρ_n 4, u_n 16 = 84 B), the grid's sort (cell, rank, slot in
-/// the atomics' order, gather map: 16 B), the reorder's scratch (a slice per gathered
-/// buffer: pos, vel, ρ, p, id = 44 B), the walls' extrapolated velocity (16 B, kept for
-/// every slot) and the window statistics' partials (16 B per workgroup of 128 = 0.125 B):
-/// 160.125 B. The gradient pass stores only what the scene reads (`GradientFields`): with
-/// Joubert's correction alone B (48 B) and no gradient slot, 208.125 B; with Antuono's
-/// δ-SPH alone the ∇ρ slot (16 B) and no B, 176.125 B; the corrected Laplacian adds its
-/// B̂ (32 B), 240.125 B. Until 2026-12-05 every gradient pass kept B and all six slots,
-/// 304.125 B.
+/// id 4, dρ/dt 4, du/dt 16, ρ_n 4, u_n 16, the low words of position and density 16 =
+/// 100 B), the grid's sort (cell, rank, slot in the atomics' order, gather map: 16 B),
+/// the reorder's scratch (a slice per gathered buffer: pos, vel, ρ, p, id, low words =
+/// 60 B), the walls' extrapolated velocity (16 B, kept for every slot) and the window
+/// statistics' partials (16 B per workgroup of 128 = 0.125 B): 192.125 B. The gradient
+/// pass stores only what the scene reads (`GradientFields`): with Joubert's correction
+/// alone B (48 B) and no gradient slot, 240.125 B; with Antuono's δ-SPH alone the ∇ρ
+/// slot (16 B) and no B, 208.125 B; the corrected Laplacian adds its B̂ (32 B), 272.125
+/// B; with shifting and δ-SPH every slot, 336.125 B. Until 2026-12-05 every gradient pass
+/// kept B and all six slots (144 B), and there were no low words (32 B with their
+/// scratch).
 ///
 /// Measured as wgpu-hal's count of live buffer bytes (Gpu::buffer_memory) with the fluid
 /// at two heights in the same box, so that the walls and the grid's cells are the same
@@ -421,16 +423,16 @@ fn a_restored_solver_continues_bit_for_bit() {
 fn buffer_memory_per_particle_matches_the_inventory() {
     let gpu = shared_test_gpu().unwrap();
     for (effects, inventory) in [
-        ("", 160.125),
-        ("gradient_correction = true", 208.125),
-        ("density_diffusion = 0.1", 176.125),
+        ("", 192.125),
+        ("gradient_correction = true", 240.125),
+        ("density_diffusion = 0.1", 208.125),
         (
             "gradient_correction = true\nlaplacian_correction = true",
-            240.125,
+            272.125,
         ),
         (
             "gradient_correction = true\nparticle_shifting = 0.1\ndensity_diffusion = 0.1",
-            304.125,
+            336.125,
         ),
     ] {
         let before = gpu.buffer_memory().unwrap();
@@ -553,4 +555,57 @@ fn buffers_past_one_binding_are_refused_not_a_panic() {
         Err(e) => panic!("refused for another reason: {e}"),
         Ok(_) => panic!("{n} particles at 96 B passed a binding of {} B", n * 12),
     }
+}
+
+/// Regression (2026-12-05), the water–glycerol CPB's slow swing: increments below half
+/// an f32 unit in the last place were rounded away every step. There u ~ 1e-4 m/s and
+/// Δt ~ 2.5 μs move a particle 2.5e-10 m a step against the 4.7e-10 m ulp of a position
+/// 5 mm up, and dρ/dt Δt fell below the 1.2e-4 ulp of ρ = 1150: the fluid near the floor
+/// did not move at all while its velocity said 5e-5 m/s, and its pressure stood still
+/// for milliseconds. Now `correct` sums positions and densities with compensation
+/// (`integrate.wgsl`, the low words). Here every fluid particle of the tank moves
+/// 1e-8 m a step (half an ulp is 1.49e-8 m above y = 0.25 m, 7.5e-9 m above 0.125 m:
+/// rounded, it stood still or moved 1.49e-8) and its density grows 2e-5 a step (half
+/// an ulp of 1000 is 3.05e-5) over 100 steps of predict and correct with imposed rates;
+/// position (f32 word + low word) and density must be the exact sums to 1e-3 of the
+/// increment's total. Reference: x⁰ + 100 U Δt and ρ⁰ + 100 Δt dρ/dt in f64.
+#[test]
+fn positions_and_densities_keep_increments_below_half_an_ulp() {
+    let gpu = shared_test_gpu().unwrap();
+    let scene = tank_with(0.01, 0.3, "[effects]\nviscosity = \"none\"");
+    let mut solver = FluidSolver::new(&gpu, &scene).unwrap();
+    let (dt, u, drho, steps) = (1e-6f64, 0.01f64, 20.0f64, 100);
+    let before = solver.data().read(&gpu).unwrap();
+    let n = before.len();
+    let d = solver.data();
+    let vel: Vec<[f32; 4]> = vec![[0.0, u as f32, 0.0, 0.0]; n];
+    gpu.queue.write_buffer(&d.vel, 0, bytemuck::cast_slice(&vel));
+    gpu.queue.write_buffer(&d.dvel, 0, &vec![0u8; n * 16]);
+    gpu.queue
+        .write_buffer(&d.drho, 0, bytemuck::cast_slice(&vec![drho as f32; n]));
+    for _ in 0..steps {
+        solver
+            .run_ops(&gpu, &[Op::Predict, Op::Correct], dt, 1.0)
+            .unwrap();
+    }
+    let after = solver.data().read(&gpu).unwrap();
+    let low: Vec<[f32; 4]> = gpu
+        .read_buffer(&solver.data().low_words, 0, n as u64)
+        .unwrap();
+    let (dy, dr) = (steps as f64 * u * dt, steps as f64 * drho * dt);
+    let (mut worst_y, mut worst_rho, mut fluid) = (0.0f64, 0.0f64, 0);
+    for i in 0..n {
+        if before.kinds.kind(before.id[i]) != couplet_fluid::particles::Kind::Fluid {
+            continue;
+        }
+        assert_eq!(before.id[i], after.id[i], "no sort ran");
+        fluid += 1;
+        let y = after.pos[i][1] + f64::from(low[i][1]);
+        worst_y = worst_y.max((y - before.pos[i][1] - dy).abs());
+        let rho = after.rho[i] + f64::from(low[i][3]);
+        worst_rho = worst_rho.max((rho - before.rho[i] - dr).abs());
+    }
+    assert!(fluid > 10_000);
+    assert!(worst_y < 1e-3 * dy, "position off by {worst_y:e} m of {dy:e}");
+    assert!(worst_rho < 1e-3 * dr, "density off by {worst_rho:e} of {dr:e}");
 }
