@@ -579,7 +579,8 @@ fn positions_and_densities_keep_increments_below_half_an_ulp() {
     let n = before.len();
     let d = solver.data();
     let vel: Vec<[f32; 4]> = vec![[0.0, u as f32, 0.0, 0.0]; n];
-    gpu.queue.write_buffer(&d.vel, 0, bytemuck::cast_slice(&vel));
+    gpu.queue
+        .write_buffer(&d.vel, 0, bytemuck::cast_slice(&vel));
     gpu.queue.write_buffer(&d.dvel, 0, &vec![0u8; n * 16]);
     gpu.queue
         .write_buffer(&d.drho, 0, bytemuck::cast_slice(&vec![drho as f32; n]));
@@ -606,6 +607,12 @@ fn positions_and_densities_keep_increments_below_half_an_ulp() {
         worst_rho = worst_rho.max((rho - before.rho[i] - dr).abs());
     }
     assert!(fluid > 10_000);
-    assert!(worst_y < 1e-3 * dy, "position off by {worst_y:e} m of {dy:e}");
-    assert!(worst_rho < 1e-3 * dr, "density off by {worst_rho:e} of {dr:e}");
+    assert!(
+        worst_y < 1e-3 * dy,
+        "position off by {worst_y:e} m of {dy:e}"
+    );
+    assert!(
+        worst_rho < 1e-3 * dr,
+        "density off by {worst_rho:e} of {dr:e}"
+    );
 }
