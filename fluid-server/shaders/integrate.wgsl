@@ -57,13 +57,13 @@ fn predict(@builtin(workgroup_id) wid: vec3<u32>,
     let dt = params.dt;
     let r0 = rho[i];
     let u0 = vel[i];
+    // Joubert eq. (20); vel_n.w keeps Δt dρⁿ/dt for correct.
+    let d_rho = dt * drho[i];
     rho_n[i] = r0;
-    vel_n[i] = u0;
-    // Joubert eq. (20).
-    let r_star = r0 + dt * drho[i];
+    vel_n[i] = vec4<f32>(u0.xyz, d_rho);
+    let r_star = r0 + d_rho;
     rho[i] = r_star;
     vel[i] = vec4<f32>(u0.xyz + dt * dvel[i].xyz, 0.0);
-    vel_n[i] = vec4<f32>(u0.xyz, dt * drho[i]);
     press[i] = tait_pressure(r_star / porosity(i));
 }
 

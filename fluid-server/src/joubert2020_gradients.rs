@@ -167,6 +167,17 @@ impl GradientFields {
         self.slots().1
     }
 
+    /// Bytes a particle takes in the gradient buffer (16 a slot).
+    pub fn slot_bytes(&self) -> u64 {
+        16 * u64::from(self.stride())
+    }
+
+    /// Bytes a particle takes in B's buffer: its three vec4 columns where the rates read
+    /// B, else none.
+    pub fn b_bytes(&self) -> u64 {
+        if self.store_b { 48 } else { 0 }
+    }
+
     /// The slot of field `k` of [`crate::solver::GradientReadback::fields`] (0–2 ∇u,
     /// 3 ∇p, 4 s, 5 ∇ρ) in a particle's stretch, `None` when the scene does not read it.
     pub fn slot_of(&self, k: usize) -> Option<u32> {

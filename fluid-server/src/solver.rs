@@ -313,12 +313,11 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
 /// vec4 arrays, or the gradient pass's B and packed slots where the scene keeps them
 /// (`SphData::new` allocates them). One storage binding must hold it for every particle.
 fn widest_particle_buffer(fields: GradientFields, gradient_pass: bool) -> (&'static str, u64) {
-    let b = gradient_pass && fields.store_b;
-    let slots = if gradient_pass { fields.stride() } else { 0 };
+    let pass = |bytes: u64| if gradient_pass { bytes } else { 0 };
     [
         ("sph: pos", 16),
-        ("sph: B matrix", if b { 48 } else { 0 }),
-        ("sph: corrected gradients", 16 * u64::from(slots)),
+        ("sph: B matrix", pass(fields.b_bytes())),
+        ("sph: corrected gradients", pass(fields.slot_bytes())),
     ]
     .into_iter()
     .reduce(|a, b| if b.1 > a.1 { b } else { a })
@@ -540,10 +539,10 @@ impl SphData {
             .then(|| -> Result<_, FluidError> {
                 // Only the fields the scene reads (at most 96 B a particle), and B only
                 // where the rates read it (48 B): a binding of 16 B where none is.
-                let (stride, b) = (16 * u64::from(fields.stride()), fields.store_b);
+                let (slots, b) = (fields.slot_bytes(), fields.b_bytes());
                 Ok(GradientBuffers {
-                    grads: particle_buffer(gpu, "sph: corrected gradients", n, stride)?,
-                    bmat: particle_buffer(gpu, "sph: B matrix", n, if b { 48 } else { 0 })?,
+                    grads: particle_buffer(gpu, "sph: corrected gradients", n, slots)?,
+                    bmat: particle_buffer(gpu, "sph: B matrix", n, b)?,
                     bhat: c
                         .uses_b_hat()
                         .then(|| particle_buffer(gpu, "sph: Laplacian truncation", n, 32))
