@@ -2,8 +2,8 @@
 //! (rapier's soft TGS solver), bodies and domain walls as rapier colliders.
 
 use crate::engine::{
-    ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, decode_state,
-    encode_state, gravity_scale, not_kinematic,
+    ContactModel, DemEngine, DemError, GravityScales, Kinematic, check_in_domain, check_loads,
+    decode_state, encode_state, not_kinematic,
 };
 use crate::geometry::BodyGeometry;
 use couplet_protocol::vec3::sub;
@@ -78,6 +78,11 @@ pub struct RapierEngine {
     max_dt: f64,
     time: f64,
     steps: u64,
+    /// Each dynamic body's gravity scale over time (Joubert eq. 28, the scene's
+    /// excess-weight ramp), and the fraction of the excess weight the bodies' rapier
+    /// scales now carry (NaN after a restore: the next step sets them).
+    gravity_scales: GravityScales,
+    weight_set: f64,
 }
 
 impl RapierEngine {
@@ -130,6 +135,8 @@ impl RapierEngine {
         // run must not be silently clamped (DESIGN.md failure model).
         p.normalized_max_linear_velocity = Real::MAX;
 
+        let gravity_scales = GravityScales::new(scene);
+        let weight_set = gravity_scales.fraction(0.0);
         let mut bodies = Vec::with_capacity(scene.bodies.len());
         let mut index_of = HashMap::with_capacity(scene.bodies.len());
         for (i, (spec, geometry)) in scene.bodies.iter().zip(&geometries).enumerate() {
@@ -151,7 +158,7 @@ impl RapierEngine {
                     .angvel(vec3(spec.angular_velocity));
             }
             if spec.motion == Motion::Dynamic {
-                builder = builder.gravity_scale(gravity_scale(scene, i) as Real);
+                builder = builder.gravity_scale(gravity_scales.at(i, weight_set) as Real);
             }
             let handle = world.insert_body(builder);
             let len = |x: f64| (x * scale) as Real;
@@ -226,6 +233,8 @@ impl RapierEngine {
             max_dt: scene.dem.max_dt,
             time: 0.0,
             steps: 0,
+            gravity_scales,
+            weight_set,
         })
     }
 
@@ -385,6 +394,17 @@ impl DemEngine for RapierEngine {
                 max_dt: self.max_dt,
             });
         }
+        // The excess weight at the step's middle (rapier applies gravity once a step).
+        let weight = self.gravity_scales.fraction(self.time + 0.5 * dt);
+        if weight != self.weight_set {
+            for (i, b) in self.bodies.iter().enumerate() {
+                if let (Motion::Dynamic, Some(rb)) = (b.motion, self.world.bodies.get_mut(b.handle))
+                {
+                    rb.set_gravity_scale(self.gravity_scales.at(i, weight) as Real, false);
+                }
+            }
+            self.weight_set = weight;
+        }
         self.world.integration_parameters.dt = dt as Real;
         self.world.step();
         self.steps += 1;
@@ -520,6 +540,7 @@ impl DemEngine for RapierEngine {
             b.kinematic = k;
         }
         (self.time, self.steps) = (s.time, s.steps);
+        self.weight_set = f64::NAN;
         Ok(())
     }
 }

@@ -37,8 +37,8 @@
 
 use crate::contact_cells::ContactCells;
 use crate::engine::{
-    ContactModel, DemEngine, DemError, Kinematic, check_in_domain, check_loads, decode_state,
-    encode_state, gravity_scale, not_kinematic,
+    ContactModel, DemEngine, DemError, GravityScales, Kinematic, check_in_domain, check_loads,
+    decode_state, encode_state, not_kinematic,
 };
 use crate::geometry::BodyGeometry;
 use couplet_protocol::cell_hash::CellHash;
@@ -314,7 +314,9 @@ pub struct SoftSphereEngine {
     inv_mass: Vec<f64>,
     /// 1/(2/5 m r²), 0 for fixed and kinematic bodies.
     inv_inertia: Vec<f64>,
-    gravity_scale: Vec<f64>,
+    /// Gravity on each body as a multiple of `gravity` (buoyancy of Joubert eq. 28, the
+    /// scene's excess-weight ramp).
+    gravity_scales: GravityScales,
     friction: Vec<f64>,
     /// Index into `damping` of the body's restitution (its rank among the scene's
     /// distinct restitutions).
@@ -488,7 +490,7 @@ impl SoftSphereEngine {
             volume: Vec::with_capacity(n),
             inv_mass: Vec::with_capacity(n),
             inv_inertia: Vec::with_capacity(n),
-            gravity_scale: (0..n).map(|i| gravity_scale(scene, i)).collect(),
+            gravity_scales: GravityScales::new(scene),
             friction: scene.bodies.iter().map(|b| b.friction).collect(),
             restitution_class,
             damping,
@@ -975,13 +977,15 @@ impl SoftSphereEngine {
     }
 
     fn kick_into(&self, v: &mut [[f64; 3]], w: &mut [[f64; 3]], half_dt: f64) {
+        let weight = self.gravity_scales.fraction(self.time);
+        let scale = |i: usize| self.gravity_scales.at(i, weight);
         // A translation group: Σ F / Σ m for every member, no rotation.
         for members in &self.groups {
             let (mut f, mut m) = ([0.0; 3], 0.0);
             for &i in members {
-                let force = add(self.contact_force[i], self.fluid_force[i]);
+                let (force, s) = (add(self.contact_force[i], self.fluid_force[i]), scale(i));
                 for k in 0..3 {
-                    f[k] += force[k] + self.mass[i] * self.gravity[k] * self.gravity_scale[i];
+                    f[k] += force[k] + self.mass[i] * self.gravity[k] * s;
                 }
                 m += self.mass[i];
             }
@@ -998,8 +1002,9 @@ impl SoftSphereEngine {
             }
             let force = add(self.contact_force[i], self.fluid_force[i]);
             let torque = add(self.contact_torque[i], self.fluid_torque[i]);
+            let s = scale(i);
             for k in 0..3 {
-                let a = force[k] * im + self.gravity[k] * self.gravity_scale[i];
+                let a = force[k] * im + self.gravity[k] * s;
                 v[i][k] += a * half_dt;
                 w[i][k] += torque[k] * ii * half_dt;
             }

@@ -686,6 +686,61 @@ pub fn checkpoint_restores_exactly(allow: Allowance) {
     assert!(matches!(e, DemError::State { .. }), "{e}");
 }
 
+/// `gravity.excess_weight_ramp = T`: a body the fluid sees carries, beyond the part of
+/// its weight that the fluid balances (b = ρ_f/ρ_s with gravity on the fluid, 0 under
+/// eq. 28), the fraction r(t/T) = 10x³ − 15x⁴ + 6x⁵ of the rest. With no fluid loads its
+/// fall is closed-form: ∫₀ᵀ r = T/2 and ∫₀ᵀ∫₀ᵗ r = T²/7, so at T the speed is
+/// g_s (b T + (1 − b) T/2) and the drop g_s (b T²/2 + (1 − b) T²/7), g_s its full
+/// gravity; then it falls freely. A body the fluid does not see falls at g throughout.
+/// Tolerance rel 1e-3 after 0.1 s (T = 0.05 s), as `free_fall`; a checkpoint taken
+/// during the ramp continues bit for bit, as `checkpoint_restores_exactly`.
+pub fn excess_weight_ramp(allow: Allowance) {
+    let (ramp, t) = (0.05, 0.1);
+    let bodies = sphere("wet", 0.05, 1250.0, [0.3, 0.8, 0.5], "")
+        + &sphere("dry", 0.05, 1250.0, [0.7, 0.8, 0.5], "coupling = \"none\"");
+    for (on_fluid, g_s, b) in [(true, G, 0.8), (false, 0.2 * G, 0.0)] {
+        let scene = format!(
+            "{WATER}\n[gravity]\non_fluid = {on_fluid}\nexcess_weight_ramp = {ramp}\n{bodies}"
+        );
+        let mut e = engine(allow, &scene);
+        let y0: Vec<f64> = states(&*e).iter().map(|s| s.position[1]).collect();
+        run(&mut *e, 0.02, 0.01, &[]);
+        let saved = e.save_state().unwrap();
+        run(&mut *e, t - 0.02, 0.01, &[]);
+        let s = states(&*e);
+        let v_ramp = g_s * (b * ramp + (1.0 - b) * ramp / 2.0);
+        let drop_ramp = g_s * (b * ramp * ramp / 2.0 + (1.0 - b) * ramp * ramp / 7.0);
+        let rest = t - ramp;
+        let (v, drop) = (
+            v_ramp + g_s * rest,
+            drop_ramp + v_ramp * rest + 0.5 * g_s * rest * rest,
+        );
+        assert!(
+            rel(-s[0].linear_velocity[1], v) < 1e-3,
+            "on_fluid = {on_fluid}: v {:?} vs {v}",
+            s[0].linear_velocity
+        );
+        assert!(
+            rel(y0[0] - s[0].position[1], drop) < 1e-3,
+            "on_fluid = {on_fluid}: drop {} vs {drop}",
+            y0[0] - s[0].position[1]
+        );
+        assert!(
+            rel(y0[1] - s[1].position[1], 0.5 * G * t * t) < 1e-3,
+            "on_fluid = {on_fluid}: uncoupled drop {}",
+            y0[1] - s[1].position[1]
+        );
+        let mut restored = engine(allow, &scene);
+        restored.restore_state(&saved).unwrap();
+        run(&mut *restored, t - 0.02, 0.01, &[]);
+        assert_eq!(
+            s,
+            states(&*restored),
+            "on_fluid = {on_fluid}: restored run differs"
+        );
+    }
+}
+
 /// Generates one `#[test]` per conformance case for each `module: allowance` pair.
 macro_rules! conformance {
     ($($module:ident: $allow:expr),* $(,)?) => {$(
@@ -709,6 +764,7 @@ macro_rules! conformance {
             #[test] fn gravity_changes_between_windows() { super::gravity_changes_between_windows(ALLOW) }
             #[test] fn kinematic_velocity_changes_live() { super::kinematic_velocity_changes_live(ALLOW) }
             #[test] fn checkpoint_restores_exactly() { super::checkpoint_restores_exactly(ALLOW) }
+            #[test] fn excess_weight_ramp() { super::excess_weight_ramp(ALLOW) }
         }
     )*};
 }
