@@ -421,7 +421,9 @@ pub enum WallModel {
     /// The time step (Joubert eq. 24) takes δ/2, the layer's distance from the fluid.
     /// Eq. (25)'s viscous term is not included yet (exact for fluid at rest and channel
     /// flows), and nothing but compression stops fluid crossing the one layer: a driven
-    /// cavity blows up near its lid corners (ARCHITECTURE.md). Not for a free surface:
+    /// cavity blows up near its lid corners (ARCHITECTURE.md). Even at rest in a closed
+    /// box a mode grows at the one layer at about c/(2δ) unless δ-SPH of at least
+    /// [`JOUBERT_WALL_DENSITY_DIFFUSION`] damps it (the scene warns). Not for a free surface:
     /// every open tank and dam break tried blew up within 0.06 s, and the scene warns
     /// (`Scene::may_hold_a_free_surface`).
     Joubert,
@@ -430,6 +432,11 @@ pub enum WallModel {
 fn default_walls() -> WallKind {
     WallKind::NoSlip
 }
+
+/// The δ-SPH coefficient under which Joubert's one-layer walls are warned of: the
+/// closed hydrostatic tank's quick grew a wall mode from round-off with 0.1 and damped it
+/// with 0.2 (2026-12-05; ARCHITECTURE.md, "Joubert's one-layer walls grow a mode").
+pub const JOUBERT_WALL_DENSITY_DIFFUSION: f64 = 0.2;
 
 /// `[gravity]`.
 #[derive(Debug, Clone, Deserialize)]
@@ -1374,6 +1381,19 @@ impl Scene {
                     .into(),
             );
         }
+        if self.domain.wall_model == WallModel::Joubert
+            && self.effects.density_diffusion < JOUBERT_WALL_DENSITY_DIFFUSION
+        {
+            w.push(format!(
+                "domain.wall_model = \"joubert\" with effects.density_diffusion = {} (under {}): \
+                 a mode grows at the one-layer walls at about c/(2δ), from round-off (the closed \
+                 hydrostatic tank's quick: ×10 every 5 ms, blown up at 0.07 s; ×2 every 10 ms \
+                 with δ-SPH 0.1; damped with 0.2). It is the truncated support's, not the time \
+                 step's (the same at a quarter of it) nor eq. (25)'s (ARCHITECTURE.md, \"Joubert's \
+                 one-layer walls grow a mode\")",
+                self.effects.density_diffusion, JOUBERT_WALL_DENSITY_DIFFUSION
+            ));
+        }
         let weighs = self.gravity.on_fluid && self.gravity.vector.iter().any(|g| *g != 0.0);
         if weighs && self.has_resolved_bodies() && !self.effects.gradient_correction {
             w.push(
@@ -2169,7 +2189,7 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
                 + "[effects]\ngradient_correction = true\n";
             (Scene::parse(&text, Path::new("t.toml")).unwrap().warnings())
                 .iter()
-                .any(|w| w.contains("joubert"))
+                .any(|w| w.contains("joubert") && w.contains("free surface"))
         };
         assert!(warned("", "1"), "open top");
         assert!(warned("closed_top = true", "0.5"), "closed, half filled");
@@ -2177,6 +2197,23 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
             !warned("closed_top = true", "1"),
             "closed, filled to the lid"
         );
+        // Every Joubert-walled scene below δ-SPH 0.2 is warned of the wall mode.
+        let mode = |effects: &str| {
+            let text = MINIMAL
+                .replace(
+                    "max = [1, 1, 1]\n",
+                    "max = [1, 1, 1]\nwall_model = \"joubert\"\nclosed_top = true\n",
+                )
+                .replace("max = [1, 0.5, 1]", "max = [1, 1, 1]")
+                + "[effects]\ngradient_correction = true\n"
+                + effects;
+            (Scene::parse(&text, Path::new("t.toml")).unwrap().warnings())
+                .iter()
+                .any(|w| w.contains("joubert") && w.contains("c/(2δ)"))
+        };
+        assert!(mode(""), "no δ-SPH");
+        assert!(mode("density_diffusion = 0.1"), "δ-SPH 0.1");
+        assert!(!mode("density_diffusion = 0.2"), "δ-SPH 0.2");
     }
 
     /// `[output]` defaults to no VTK and a body CSV; `--set output.vtk=true` creates the

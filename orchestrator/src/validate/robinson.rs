@@ -189,6 +189,18 @@ pub(super) fn sedimentation_regimes(
     Ok(())
 }
 
+/// The water–glycerol blocks take their excess weight over 8 ms (`gravity.excess_weight_ramp`):
+/// their grains hand it to the fluid within t_d = 0.16 ms (Table 1), short against the
+/// column's quarter-wave acoustic period 4H/c = 2.3–2.4 ms at c = 10, and released at
+/// once the block rang the column at ±158 % of eq. (35) at ε = 0.8 and ±1100 % at
+/// ε = 0.6, hardly damped (results/2026-12-01-lavapipe-cpb/comparison.md). 8 ms is 3.3
+/// periods: the quintic ramp leaves 0.4 % of that ring. In water t_d = 1.56 ms, of
+/// the order of the period, and the ring is under ±9 %: its blocks fall from t = 0.
+pub(super) const WG_RAMP: &str = "gravity.excess_weight_ramp=0.008";
+/// The water–glycerol quicks run to 16 ms, so that their judged second half starts at
+/// the end of [`WG_RAMP`].
+pub(super) const WG_QUICK_END: &str = "time.end=0.016";
+
 /// Robinson §6 (Fig. 9): the block at ε = 0.6 … 0.9 in water and water–glycerol (Table 1),
 /// h = 2d in Robinson's h = 1.5 δ (eq. 19). The lattice spacing Δr = (V/(1 − ε))^(1/3)
 /// changes with ε, so each column is a whole number of lattice spacings across (the
@@ -252,6 +264,7 @@ pub(super) const CPB_VARIANTS: &[Variant] = &[
             "grain_lattices.0.porosity=0.6",
             "fluid.density=1150.0",
             "fluid.kinematic_viscosity=7.7391e-6",
+            WG_RAMP,
         ],
     ),
     (
@@ -264,6 +277,7 @@ pub(super) const CPB_VARIANTS: &[Variant] = &[
             "grain_lattices.0.porosity=0.7",
             "fluid.density=1150.0",
             "fluid.kinematic_viscosity=7.7391e-6",
+            WG_RAMP,
         ],
     ),
     (
@@ -276,6 +290,7 @@ pub(super) const CPB_VARIANTS: &[Variant] = &[
             "grain_lattices.0.porosity=0.8",
             "fluid.density=1150.0",
             "fluid.kinematic_viscosity=7.7391e-6",
+            WG_RAMP,
         ],
     ),
     (
@@ -288,6 +303,7 @@ pub(super) const CPB_VARIANTS: &[Variant] = &[
             "grain_lattices.0.porosity=0.9",
             "fluid.density=1150.0",
             "fluid.kinematic_viscosity=7.7391e-6",
+            WG_RAMP,
         ],
     ),
 ];
@@ -348,6 +364,8 @@ pub(super) const CPB_QUICK_VARIANTS: &[Variant] = &[
             "grain_lattices.0.porosity=0.6",
             "fluid.density=1150.0",
             "fluid.kinematic_viscosity=7.7391e-6",
+            WG_RAMP,
+            WG_QUICK_END,
         ],
     ),
     (
@@ -360,6 +378,8 @@ pub(super) const CPB_QUICK_VARIANTS: &[Variant] = &[
             "grain_lattices.0.porosity=0.7",
             "fluid.density=1150.0",
             "fluid.kinematic_viscosity=7.7391e-6",
+            WG_RAMP,
+            WG_QUICK_END,
         ],
     ),
     (
@@ -372,6 +392,8 @@ pub(super) const CPB_QUICK_VARIANTS: &[Variant] = &[
             "grain_lattices.0.porosity=0.8",
             "fluid.density=1150.0",
             "fluid.kinematic_viscosity=7.7391e-6",
+            WG_RAMP,
+            WG_QUICK_END,
         ],
     ),
     (
@@ -384,6 +406,8 @@ pub(super) const CPB_QUICK_VARIANTS: &[Variant] = &[
             "grain_lattices.0.porosity=0.9",
             "fluid.density=1150.0",
             "fluid.kinematic_viscosity=7.7391e-6",
+            WG_RAMP,
+            WG_QUICK_END,
         ],
     ),
 ];
@@ -749,6 +773,24 @@ pub(super) fn constant_porosity_block(
             100.0 * (records / settled - 1.0)
         ),
         format!("{settled:.4e} m/s (the fall over the time)"),
+        "reported".into(),
+        None,
+    );
+    // Robinson's error bars (Figs. 8–9): one standard deviation of the block's speed
+    // over his 0.34 s; here over the judged stretch's records. A ring of amplitude A
+    // gives A/√2.
+    let spread = ((judged.iter())
+        .map(|b| (-b.velocity[1] - records).powi(2))
+        .sum::<f64>()
+        / n as f64)
+        .sqrt();
+    report.judge(
+        "standard deviation of those velocities (Robinson Figs. 8–9's error bars)",
+        format!(
+            "{spread:.4e} m/s ({:.2} % of eq. 35)",
+            100.0 * spread / printed
+        ),
+        "one standard deviation over 0.34 s in Robinson".into(),
         "reported".into(),
         None,
     );

@@ -56,25 +56,23 @@ fn hydrostatic_tank_quick_validation_passes() {
 /// free surface, so the correction acts everywhere, beside the one-layer walls too (an
 /// open top would switch it off there, ARCHITECTURE.md "The free-surface switch"). The
 /// case then holds the corrected scheme to 1 %. Regression: with eq. (24)'s δ rather than
-/// its smallest spacing δ/2 this run blew up at t = 0.08 s. Measured 2026-11-23: 0.48 %
-/// (the same as Adami's walls with the correction).
+/// its smallest spacing δ/2 this run blew up at t = 0.08 s.
 ///
-/// Ignored since 2026-12-05: with the densities summed with compensation
-/// (ARCHITECTURE.md, "Positions and densities are summed with compensation") this tank
-/// grows a disturbance at the one-layer walls from the start, its kinetic energy ×10
-/// every 5 ms from 1e-10 J at 10 ms, and blows up at t = 0.07 s
-/// (`examples/window_trace` on the case's scene). With f32 density sums, which drop
-/// every increment under half an ulp of ρ (3e-5 kg/m³ here), it held: the rounding
-/// hid the growth, so the pass measured above was an artefact. Positions compensated
-/// alone hold too. Run it with `--ignored` once the walls are mended.
+/// With δ-SPH 0.2 (`JOUBERT_WALL_DENSITY_DIFFUSION`): since the densities are summed with
+/// compensation (2026-12-05) a mode grows at the one-layer walls from round-off at about
+/// c/(2δ), kinetic energy ×10 every 5 ms, blown up at t = 0.07 s without δ-SPH, ×2 every
+/// 10 ms with 0.1; f32 sums had dropped its increments under half an ulp and hidden it,
+/// so the 0.48 % measured without δ-SPH on 2026-11-23 was an artefact (ARCHITECTURE.md,
+/// "Joubert's one-layer walls grow a mode"). Measured 2026-12-05 with 0.2: 0.51 %, the
+/// kinetic energy at round-off (1.2e-11 J) to t = 1 s (`examples/window_trace`).
 #[test]
-#[ignore = "unstable with compensated density sums (2026-12-05): the f32 rounding had hidden a growing wall mode"]
 fn closed_tank_with_joubert_walls_quick_validation_passes() {
     quick_tank_pressure_passes(&[
         "effects.gradient_correction=true",
         "domain.closed_top=true",
         "fluid.blocks.0.max=[0.2, 0.4, 0.2]",
         "domain.wall_model=\"joubert\"",
+        "effects.density_diffusion=0.2",
     ]);
 }
 
