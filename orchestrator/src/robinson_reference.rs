@@ -117,6 +117,34 @@ pub fn cpb_terminal_velocity_mixture_buoyancy(
     solve_terminal_velocity(porosity, d, rho_f, rho_p, mu, g, 1.0)
 }
 
+/// Robinson eq. (35) for a rigid block whose grains see porosities ε_a of their own
+/// (Robinson eq. 9 at each grain: the kernel smooths the porosity across the block's
+/// faces, Robinson §6). With the fluid's momentum as in eq. (5), `−dP/dz = ρ g +
+/// n_a f_a/ε_a`, and one superficial slip at every height (the flux through a level of
+/// a column closed below is zero, so `ε_a (u_f − v_p) = −v_p` everywhere), the block's
+/// balance `Σ_a (f_a − V dP/dz|_a) = N ρ_p V g` becomes `Σ_a f_a/ε_a = N V (ρ_p − ρ) g`
+/// with Di Felice's `f_a ∝ ε_a^-ξ C_d Re²`: `C_d Re² = (4/3) Ar / ⟨ε_a^-(1+ξ)⟩`. Equal
+/// to [`cpb_terminal_velocity_mixture_buoyancy`] when every ε_a is the same; faster
+/// where the faces' grains see more fluid. Same refusals, and an empty list is refused.
+pub fn cpb_terminal_velocity_of_porosities(
+    porosities: &[f64],
+    d: f64,
+    rho_f: f64,
+    rho_p: f64,
+    mu: f64,
+    g: f64,
+) -> Result<f64, String> {
+    if porosities.is_empty() {
+        return Err("no grains".into());
+    }
+    if let Some(e) = porosities.iter().find(|e| !(**e > 0.0 && **e <= 1.0)) {
+        return Err(format!("porosity must lie in (0, 1], got {e}"));
+    }
+    let n = porosities.len() as f64;
+    let factor = |xi: f64| n / porosities.iter().map(|e| e.powf(-1.0 - xi)).sum::<f64>();
+    solve_for(factor, d, rho_f, rho_p, mu, g)
+}
+
 /// Solves `C_d Re² = (4/3) Ar ε^(extra + ξ(Re))` for Re and returns `Re μ/(ρ d)`.
 fn solve_terminal_velocity(
     porosity: f64,
@@ -130,6 +158,19 @@ fn solve_terminal_velocity(
     if !(porosity > 0.0 && porosity <= 1.0) {
         return Err(format!("porosity must lie in (0, 1], got {porosity}"));
     }
+    solve_for(|xi| porosity.powf(extra + xi), d, rho_f, rho_p, mu, g)
+}
+
+/// Solves `C_d Re² = (4/3) Ar factor(ξ(Re))` for Re and returns `Re μ/(ρ d)`; `factor`
+/// must not increase with ξ (a porosity power, ε ≤ 1).
+fn solve_for(
+    factor: impl Fn(f64) -> f64,
+    d: f64,
+    rho_f: f64,
+    rho_p: f64,
+    mu: f64,
+    g: f64,
+) -> Result<f64, String> {
     check_positive("grain diameter d", d)?;
     check_positive("fluid density rho_f", rho_f)?;
     check_positive("grain density rho_p", rho_p)?;
@@ -142,17 +183,18 @@ fn solve_terminal_velocity(
         ));
     }
     let ar = archimedes(d, rho_f, rho_p, mu, g);
-    let rhs = |re: f64| 4.0 / 3.0 * ar * porosity.powf(extra + di_felice_xi(re));
+    let rhs = |re: f64| 4.0 / 3.0 * ar * factor(di_felice_xi(re));
     let residual = |re: f64| dallavalle_cd_re2(re) - rhs(re);
     // ξ ∈ [3.05, 3.7] and ε ≤ 1, so the right-hand side lies between its values at
     // ξ = 3.7 and ξ = 3.05. Inverting the monotone left-hand side at those two values
     // brackets the root: residual(lo) ≤ 0 ≤ residual(hi).
-    let mut lo = invert_dallavalle(4.0 / 3.0 * ar * porosity.powf(extra + XI_MAX));
-    let mut hi = invert_dallavalle(4.0 / 3.0 * ar * porosity.powf(extra + XI_MIN));
+    let mut lo = invert_dallavalle(4.0 / 3.0 * ar * factor(XI_MAX));
+    let mut hi = invert_dallavalle(4.0 / 3.0 * ar * factor(XI_MIN));
     if !(lo.is_finite() && hi.is_finite() && hi > 0.0) {
         return Err(format!(
             "terminal Reynolds number out of floating-point range (Ar = {ar:e}, \
-             porosity = {porosity})"
+             porosity factor = {})",
+            factor(XI_MAX)
         ));
     }
     // Bisection: ξ(Re) is continuous, so the bracket always holds a root.
@@ -561,6 +603,33 @@ mod tests {
                 assert!((lhs - rhs).abs() <= 1e-12 * rhs, "ε={eps}: {lhs} vs {rhs}");
             }
         }
+    }
+
+    /// The block of grains with porosities of their own: with every ε_a equal it is
+    /// eq. (35) as printed (to the bisection's 1e-14); in creeping flow (ξ = 3.7) the
+    /// speed is linear in 1/⟨ε_a^-4.7⟩, so half the grains at 0.6 and half at 0.8 settle
+    /// at 2 / (0.6^-4.7 + 0.8^-4.7) of the ε = 1 speed; and bad lists are refused.
+    #[test]
+    fn block_of_own_porosities_reduces_to_eq35_and_weights_by_eps_power() {
+        for f in [WATER, GLYCEROL, AIR] {
+            let uniform =
+                cpb_terminal_velocity_mixture_buoyancy(0.7, D, f.0, RHO_P, f.1, G).unwrap();
+            let own =
+                cpb_terminal_velocity_of_porosities(&[0.7; 5], D, f.0, RHO_P, f.1, G).unwrap();
+            assert_close("uniform ε = 0.7", own, uniform, 1e-12 * uniform);
+        }
+        let viscous = (1150.0, 1.0);
+        let one =
+            cpb_terminal_velocity_of_porosities(&[1.0], D, viscous.0, RHO_P, viscous.1, G).unwrap();
+        let mixed =
+            cpb_terminal_velocity_of_porosities(&[0.6, 0.8], D, viscous.0, RHO_P, viscous.1, G)
+                .unwrap();
+        let want = 2.0 / (0.6f64.powf(-4.7) + 0.8f64.powf(-4.7));
+        assert_close("creeping mixed", mixed / one, want, 1e-3 * want);
+        assert!(cpb_terminal_velocity_of_porosities(&[], D, 1000.0, RHO_P, 8.9e-4, G).is_err());
+        assert!(
+            cpb_terminal_velocity_of_porosities(&[0.8, 1.2], D, 1000.0, RHO_P, 8.9e-4, G).is_err()
+        );
     }
 
     #[test]
