@@ -57,6 +57,14 @@ pub fn plan(scene_path: &Path, overrides: &[(String, String)]) -> Result<String,
             scene.dem.engine,
             movers.len()
         );
+        let ramp = scene.gravity.excess_weight_ramp;
+        if ramp > 0.0 {
+            let _ = writeln!(
+                w,
+                "                the bodies the fluid sees take their weight beyond buoyancy over {ramp} s \
+                 (gravity.excess_weight_ramp, quintic)"
+            );
+        }
     } else {
         let _ = writeln!(w, "  dem-server:   no — no body moves or needs markers");
     }

@@ -445,6 +445,12 @@ fn sweep_point_out_of_range_is_refused() {
 fn cpb_variants_tile_their_periods() {
     let case = find("constant-porosity-block").unwrap();
     let path = scene_path(case, None).unwrap();
+    // `couplet plan` says that the block takes its weight over a ramp.
+    let plan = crate::plan::plan(&path, &[]).unwrap();
+    assert!(
+        plan.contains("over 0.008 s (gravity.excess_weight_ramp"),
+        "{plan}"
+    );
     let labels = |v: &[Variant]| v.iter().map(|(l, _)| *l).collect::<Vec<_>>();
     assert_eq!(labels(case.variants), labels(case.quick_variants));
     assert_eq!(case.variants.len(), 8);
