@@ -370,36 +370,31 @@ pub(crate) fn gravity_scale(scene: &Scene, i: usize) -> f64 {
 }
 
 /// Every body's gravity scale over time: [`gravity_scale`] once the scene's
-/// `gravity.excess_weight_ramp` is over; during it, for a dynamic body the fluid sees,
-/// the part the fluid's pressure balances (`ρ_f/ρ_s` with gravity on the fluid, else 0)
-/// plus the rest times the ramp's fraction (`GravitySpec::excess_weight_fraction`).
+/// `gravity.excess_weight_ramp` is over; during it a dynamic body the fluid sees lacks
+/// its excess-weight scale `1 − ρ_f/ρ_s` (the weight beyond the buoyancy that the
+/// fluid's pressure or eq. 28 accounts for) times one minus the ramp's fraction
+/// (`GravitySpec::excess_weight_fraction`).
 #[derive(Debug, Clone)]
 pub(crate) struct GravityScales {
     full: Vec<f64>,
-    balanced: Vec<f64>,
+    excess: Vec<f64>,
     gravity: couplet_protocol::GravitySpec,
 }
 
 impl GravityScales {
     pub(crate) fn new(scene: &Scene) -> Self {
-        let balanced = (0..scene.bodies.len())
-            .map(|i| {
-                let b = &scene.bodies[i];
-                match &scene.fluid {
-                    Some(f) if b.coupling != CouplingMode::None && scene.gravity.on_fluid => {
-                        f.density / b.density
-                    }
-                    Some(_) if b.coupling != CouplingMode::None => 0.0,
-                    // The fluid does not see it: its weight is no load on the fluid.
-                    _ => gravity_scale(scene, i),
-                }
+        let excess = (scene.bodies.iter())
+            .map(|b| match &scene.fluid {
+                Some(f) if b.coupling != CouplingMode::None => 1.0 - f.density / b.density,
+                // The fluid does not see it: its weight is no load on the fluid.
+                _ => 0.0,
             })
             .collect();
         Self {
             full: (0..scene.bodies.len())
                 .map(|i| gravity_scale(scene, i))
                 .collect(),
-            balanced,
+            excess,
             gravity: scene.gravity.clone(),
         }
     }
@@ -411,12 +406,7 @@ impl GravityScales {
 
     /// Body i's scale when the bodies carry `fraction` of their excess weight.
     pub(crate) fn at(&self, i: usize, fraction: f64) -> f64 {
-        let (full, balanced) = (self.full[i], self.balanced[i]);
-        if fraction == 1.0 {
-            full
-        } else {
-            balanced + (full - balanced) * fraction
-        }
+        self.full[i] - self.excess[i] * (1.0 - fraction)
     }
 }
 

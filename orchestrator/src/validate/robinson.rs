@@ -2,6 +2,7 @@
 //! porosity block and Rayleigh–Taylor column, and DEMocritus's sedimentation regimes.
 
 use super::*;
+use couplet_fluid::porosity::{PorosityField, Solid};
 
 /// DEMocritus §4.2's Newton-regime setup (μ = 0.01 Pa·s), and the same grain where
 /// μ puts it in the Allen (μ = 1, Re ≈ 170) and Stokes (μ = 100, Re ≈ 0.1) regimes of
@@ -133,14 +134,11 @@ pub(super) fn sedimentation_regimes(
     );
     // Robinson eq. (9) at the grain, the grain its only neighbour, by the fluid server's
     // own field (the sum it gives the drag each window).
-    use couplet_fluid::porosity::{PorosityField, Solid};
-    let consts =
-        couplet_fluid::constants::SphConstants::from_scene(scene).map_err(|e| e.to_string())?;
     let grain = Solid {
         position: body.position,
         volume: std::f64::consts::PI * d.powi(3) / 6.0,
     };
-    let eps0 = PorosityField::of_scene(&consts, scene).porosity(&[grain.position], &[grain])[0];
+    let eps0 = porosity_field(scene)?.porosity(&[grain.position], &[grain])[0];
     report.judge(
         "porosity the lone grain sees (Robinson eq. 9 at its centre, itself its only neighbour)",
         format!("{eps0:.4}"),
@@ -744,9 +742,6 @@ pub(super) fn constant_porosity_block(
     // fluid, and the block falls faster than eq. (35) at ε by what the model itself
     // predicts (Robinson §6's explanation of his blocks' few per cent).
     {
-        use couplet_fluid::porosity::{PorosityField, Solid};
-        let consts =
-            couplet_fluid::constants::SphConstants::from_scene(scene).map_err(|e| e.to_string())?;
         let volume = std::f64::consts::PI * d.powi(3) / 6.0;
         let grains: Vec<Solid> = (scene.bodies.iter())
             .filter(|b| b.translation_group.as_deref() == Some(lattice.name.as_str()))
@@ -756,7 +751,7 @@ pub(super) fn constant_porosity_block(
             })
             .collect();
         let points: Vec<[f64; 3]> = grains.iter().map(|g| g.position).collect();
-        let own = PorosityField::of_scene(&consts, scene).porosity(&points, &grains);
+        let own = porosity_field(scene)?.porosity(&points, &grains);
         let mean = own.iter().sum::<f64>() / own.len() as f64;
         let v_own = crate::robinson_reference::cpb_terminal_velocity_of_porosities(
             &own,
@@ -1266,6 +1261,14 @@ pub(super) fn fluid_velocity_profile(
 }
 
 /// |g| of the scene's gravity vector, m/s².
+/// The fluid server's porosity field of the scene (Robinson eq. 9: its kernel, its
+/// coupling length, the domain's periods).
+fn porosity_field(scene: &Scene) -> Result<PorosityField, String> {
+    let consts =
+        couplet_fluid::constants::SphConstants::from_scene(scene).map_err(|e| e.to_string())?;
+    Ok(PorosityField::of_scene(&consts, scene))
+}
+
 pub(super) fn gravity_magnitude(scene: &Scene) -> f64 {
     scene
         .gravity

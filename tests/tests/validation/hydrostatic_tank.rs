@@ -64,7 +64,8 @@ fn hydrostatic_tank_quick_validation_passes() {
 /// 10 ms with 0.1; f32 sums had dropped its increments under half an ulp and hidden it,
 /// so the 0.48 % measured without δ-SPH on 2026-11-23 was an artefact (ARCHITECTURE.md,
 /// "Joubert's one-layer walls grow a mode"). Measured 2026-12-05 with 0.2: 0.51 %, the
-/// kinetic energy at round-off (1.2e-11 J) to t = 1 s (`examples/window_trace`).
+/// kinetic energy decaying from 6.8e-9 J at 0.1 s to 3.5e-10 J at 0.3 s
+/// (`examples/window_trace`); δ-SPH 0.1 with α = 0.5 instead: 0.49 %, 1.2e-11 J to 1 s.
 #[test]
 fn closed_tank_with_joubert_walls_quick_validation_passes() {
     quick_tank_pressure_passes(&[
