@@ -25,7 +25,8 @@
 //!
 //! GPU memory: 16 B per particle (cell, rank, unordered and stable gather map) + a
 //! scratch slice as large as each registered buffer (16 or 4 B per particle each) + 4 B
-//! per cell.
+//! per cell, less what a pass gathers into a buffer the caller lends
+//! ([`NeighbourGrid::lend_scratch`]: one whose contents no reader needs across a sort).
 
 use std::num::NonZeroU64;
 
@@ -414,13 +415,20 @@ pub const GATHER_BUFFERS_PER_PASS: usize = crate::gpu::MIN_STORAGE_BUFFERS_PER_S
 
 /// One `grid: reorder` pass: `members` (indices into the registered buffers, all of one
 /// element size) gathered into consecutive slices of `scratch`, slice k at k ×
-/// `slice_bytes`.
+/// `slice_bytes`. `scratch` is the grid's own, or a lent buffer when `lent`.
 struct GatherPass {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     scratch: wgpu::Buffer,
+    lent: bool,
     members: Vec<usize>,
     slice_bytes: u64,
+}
+
+/// A buffer lent to the reorder as scratch ([`NeighbourGrid::lend_scratch`]).
+struct Lent {
+    buffer: wgpu::Buffer,
+    bytes_per_particle: u64,
 }
 
 /// The grid's buffers, pipelines and registered particle arrays.
@@ -458,8 +466,10 @@ pub struct NeighbourGrid {
     reach: u32,
 
     registered: Vec<Registered>,
+    /// Buffers the caller lends the reorder as scratch, in the order lent.
+    lent: Vec<Lent>,
     /// The reorder's passes over `registered`, built by the first sort after a
-    /// registration ([`NeighbourGrid::reorder_passes`]).
+    /// registration or a loan ([`NeighbourGrid::reorder_passes`]).
     gather_passes: std::sync::OnceLock<Vec<GatherPass>>,
 }
 
@@ -735,6 +745,7 @@ impl NeighbourGrid {
             order,
             reach,
             registered: Vec::new(),
+            lent: Vec::new(),
             gather_passes: std::sync::OnceLock::new(),
         })
     }
@@ -796,6 +807,11 @@ impl NeighbourGrid {
                 self.params.n_particles
             )));
         }
+        if self.lent.iter().any(|l| l.buffer == *buffer) {
+            return Err(bad(
+                "it is lent to the reorder as scratch, so a sort overwrites it".into(),
+            ));
+        }
         self.registered.push(Registered {
             buffer: buffer.clone(),
             wide: elem_bytes == 16,
@@ -810,6 +826,61 @@ impl NeighbourGrid {
         self.register(ids, 4)?;
         self.ids = Some(ids.clone());
         Ok(())
+    }
+
+    /// Lends the reorder a per-particle buffer (`STORAGE | COPY_SRC` usage, at least n ×
+    /// `bytes_per_particle` bytes) to gather into instead of scratch of its own: a
+    /// reorder pass whose slices fit in it (its buffers' element size × their count ≤
+    /// `bytes_per_particle`) uses it, the pass needing the most first, each lent buffer
+    /// for one pass. The caller promises that no reader needs the buffer's contents
+    /// across a sort: every sort leaves other buffers' data in it, and whatever reads it
+    /// after a sort must have written it since. A registered buffer cannot be lent.
+    pub fn lend_scratch(
+        &mut self,
+        buffer: &wgpu::Buffer,
+        bytes_per_particle: u32,
+    ) -> Result<(), GridError> {
+        let bad = |reason: String| GridError::BadBuffer {
+            buffer: format!("{buffer:?}"),
+            reason,
+        };
+        let needs = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        if !buffer.usage().contains(needs) {
+            return Err(bad(format!(
+                "usage {:?} lacks STORAGE | COPY_SRC for reorder scratch",
+                buffer.usage()
+            )));
+        }
+        let bytes = u64::from(self.params.n_particles) * u64::from(bytes_per_particle);
+        if bytes_per_particle == 0 || buffer.size() < bytes {
+            return Err(bad(format!(
+                "{} bytes lent as {bytes_per_particle} bytes a particle for {} particles",
+                buffer.size(),
+                self.params.n_particles
+            )));
+        }
+        if self.registered.iter().any(|r| r.buffer == *buffer) {
+            return Err(bad(
+                "it is registered to be sorted, so it cannot be reorder scratch".into(),
+            ));
+        }
+        self.lent.push(Lent {
+            buffer: buffer.clone(),
+            bytes_per_particle: u64::from(bytes_per_particle),
+        });
+        self.gather_passes = std::sync::OnceLock::new();
+        Ok(())
+    }
+
+    /// Bytes of scratch the reorder's passes hold of their own (not lent), once a sort
+    /// has built them (`None` before the first sort after a registration or a loan).
+    pub fn reorder_scratch_bytes(&self) -> Option<u64> {
+        (self.gather_passes.get()).map(|passes| {
+            (passes.iter())
+                .filter(|g| !g.lent)
+                .map(|g| g.slice_bytes * g.members.len() as u64)
+                .sum()
+        })
     }
 
     /// Records the sort (see the module doc): five labelled compute passes, timed when
@@ -886,7 +957,7 @@ impl NeighbourGrid {
 
     /// The element sizes (16 or 4 bytes) and buffer counts of the reorder's passes, in
     /// order, once a sort has built them (`None` before the first sort after a
-    /// registration).
+    /// registration or a loan).
     pub fn reorder_passes(&self) -> Option<Vec<(u32, usize)>> {
         let n = u64::from(self.params.n_particles);
         (self.gather_passes.get()).map(|passes| {
@@ -899,32 +970,57 @@ impl NeighbourGrid {
     /// The reorder's passes: the 16-byte buffers, then the 4-byte ones, each in
     /// registration order and in passes of up to [`GATHER_BUFFERS_PER_PASS`], fewer where
     /// their slices would pass the adapter's largest storage binding (at least one:
-    /// [`NeighbourGrid::new`] checked that a 16-byte slice fits).
+    /// [`NeighbourGrid::new`] checked that a 16-byte slice fits). Each pass gathers into
+    /// the smallest lent buffer it fits, the passes needing the most choosing first, or
+    /// into scratch of its own.
     fn build_gather_passes(&self, gpu: &Gpu) -> Vec<GatherPass> {
         let n = u64::from(self.params.n_particles);
         let max_binding = gpu.storage_binding_limit;
-        let mut passes = Vec::new();
+        let mut plan: Vec<(bool, Vec<usize>)> = Vec::new();
         for wide in [true, false] {
             let slice_bytes = n * if wide { 16 } else { 4 };
             let per_pass = GATHER_BUFFERS_PER_PASS.min((max_binding / slice_bytes).max(1) as usize);
             let members: Vec<usize> = (0..self.registered.len())
                 .filter(|&r| self.registered[r].wide == wide)
                 .collect();
-            for chunk in members.chunks(per_pass) {
-                passes.push(self.gather_pass(gpu, wide, chunk.to_vec(), slice_bytes));
+            plan.extend(members.chunks(per_pass).map(|c| (wide, c.to_vec())));
+        }
+        let per_particle = |(wide, members): &(bool, Vec<usize>)| {
+            members.len() as u64 * if *wide { 16 } else { 4 }
+        };
+        let mut by_need: Vec<usize> = (0..plan.len()).collect();
+        by_need.sort_by_key(|&k| std::cmp::Reverse(per_particle(&plan[k])));
+        let mut free: Vec<usize> = (0..self.lent.len()).collect();
+        free.sort_by_key(|&l| self.lent[l].bytes_per_particle);
+        let mut scratch_of: Vec<Option<usize>> = vec![None; plan.len()];
+        for k in by_need {
+            let need = per_particle(&plan[k]);
+            if let Some(at) = free
+                .iter()
+                .position(|&l| self.lent[l].bytes_per_particle >= need)
+            {
+                scratch_of[k] = Some(free.remove(at));
             }
         }
-        passes
+        (plan.into_iter().zip(scratch_of))
+            .map(|((wide, members), lent)| {
+                let slice_bytes = n * if wide { 16 } else { 4 };
+                let lent = lent.map(|l| &self.lent[l].buffer);
+                self.gather_pass(gpu, wide, members, slice_bytes, lent)
+            })
+            .collect()
     }
 
     /// One reorder pass over `members` (all of one element size): its WGSL (reorder.wgsl
-    /// with a binding and a line per member), pipeline, scratch and bind group.
+    /// with a binding and a line per member), pipeline, scratch (`lent`, or its own) and
+    /// bind group.
     fn gather_pass(
         &self,
         gpu: &Gpu,
         wide: bool,
         members: Vec<usize>,
         slice_bytes: u64,
+        lent: Option<&wgpu::Buffer>,
     ) -> GatherPass {
         let elem = if wide { "vec4<u32>" } else { "u32" };
         let mut inputs = format!("alias Elem = {elem};\n");
@@ -968,7 +1064,10 @@ impl NeighbourGrid {
             &[Some(&layout), Some(&self.params_layout)],
         );
         let scratch_bytes = slice_bytes * members.len() as u64;
-        let scratch = storage_buffer(gpu, "grid: reorder scratch", scratch_bytes);
+        let scratch = match lent {
+            Some(b) => b.clone(),
+            None => storage_buffer(gpu, "grid: reorder scratch", scratch_bytes),
+        };
         let map_bytes = u64::from(self.params.n_particles) * 4;
         let bindings: Vec<(u32, wgpu::BindingResource<'_>)> = [
             (0, sized(&self.src_of, map_bytes)),
@@ -985,6 +1084,7 @@ impl NeighbourGrid {
             pipeline,
             bind_group,
             scratch,
+            lent: lent.is_some(),
             members,
             slice_bytes,
         }

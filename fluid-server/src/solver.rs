@@ -499,6 +499,10 @@ impl SphData {
         grid.register(&press, 4)?;
         grid.register_ids(&id)?;
         grid.register(&low_words, 16)?;
+        // uⁿ is written by `predict` before `correct` reads it, every step after the
+        // sort, so the reorder may gather into it (the 4-byte buffers, 12 or 16 B a
+        // particle, need no scratch of their own).
+        grid.lend_scratch(&vel_n, 16)?;
         let row_fluid = storage_init(
             gpu,
             "sph: fluid per row window",
@@ -552,6 +556,12 @@ impl SphData {
                 })
             })
             .transpose()?;
+        if let Some(g) = gradients.as_ref().filter(|g| g.fields.store_b) {
+            // B is written by the gradient pass after every sort, before anything reads
+            // it: the reorder's 16-byte buffers (48 B a particle in the standard
+            // scheme's three) may gather into it.
+            grid.lend_scratch(&g.bmat, 48)?;
+        }
         let smoothing = c
             .variable_h
             .is_some()

@@ -653,6 +653,83 @@ fn grid_reorder_gathers_many_buffers_a_pass_alike() {
     assert_eq!(last.iter().map(|p| p.1).sum::<usize>(), 2 * per_size + 1);
 }
 
+/// Buffers lent to the reorder as scratch: a pass gathers into the smallest lent buffer
+/// it fits (pos and vel, 32 B a particle, into the 32-byte loan rather than the 48-byte
+/// one; ρ and id, 8 B, into the 16-byte one), the grid then holds no scratch of its own,
+/// and the registered buffers are permuted as the ids are, bit for bit, as without a
+/// loan. A registered buffer cannot be lent, nor a lent one registered, nor one too
+/// small. Reference: the arrays before upload.
+#[test]
+fn grid_reorder_gathers_into_lent_buffers() {
+    let gpu = shared_test_gpu().unwrap();
+    let n = 5_000;
+    let (parts, mut grid, b) = scene_in_box(&gpu, n, 13);
+    sort(&gpu, &grid, &b);
+    assert_eq!(
+        grid.reorder_scratch_bytes(),
+        Some(n as u64 * (32 + 8)),
+        "without a loan: scratch for pos, vel (16 B each), ρ and id (4 B each)"
+    );
+    let lend = |label: &str, bytes: usize| buffer_init(&gpu, label, &vec![7u8; n * bytes]);
+    let (wide48, wide32, narrow16) = (lend("48", 48), lend("32", 32), lend("16", 16));
+    grid.lend_scratch(&wide48, 48).unwrap();
+    grid.lend_scratch(&narrow16, 16).unwrap();
+    grid.lend_scratch(&wide32, 32).unwrap();
+    assert_eq!(grid.reorder_passes(), None, "a loan drops the old passes");
+    // Shuffle the (sorted) arrays again so that this sort moves every particle.
+    let mut order: Vec<usize> = (0..n).collect();
+    order.shuffle(&mut ChaCha8Rng::seed_from_u64(5));
+    let shuffled = |v: &[[f32; 4]]| order.iter().map(|&k| v[k]).collect::<Vec<_>>();
+    let pos_now: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
+    let vel_now: Vec<[f32; 4]> = gpu.read_buffer(&b.vel, 0, n as u64).unwrap();
+    let rho_now: Vec<f32> = gpu.read_buffer(&b.rho, 0, n as u64).unwrap();
+    let id_now: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+    let write = |buf: &wgpu::Buffer, bytes: &[u8]| gpu.queue.write_buffer(buf, 0, bytes);
+    write(&b.pos, bytemuck::cast_slice(&shuffled(&pos_now)));
+    write(&b.vel, bytemuck::cast_slice(&shuffled(&vel_now)));
+    let rho_s: Vec<f32> = order.iter().map(|&k| rho_now[k]).collect();
+    let id_s: Vec<u32> = order.iter().map(|&k| id_now[k]).collect();
+    write(&b.rho, bytemuck::cast_slice(&rho_s));
+    write(&b.id, bytemuck::cast_slice(&id_s));
+    sort(&gpu, &grid, &b);
+    grid.check(&gpu).unwrap();
+    assert_eq!(grid.reorder_passes(), Some(vec![(16, 2), (4, 2)]));
+    assert_eq!(
+        grid.reorder_scratch_bytes(),
+        Some(0),
+        "every pass in a loan"
+    );
+
+    let pos: Vec<[f32; 4]> = gpu.read_buffer(&b.pos, 0, n as u64).unwrap();
+    let vel: Vec<[f32; 4]> = gpu.read_buffer(&b.vel, 0, n as u64).unwrap();
+    let rho: Vec<f32> = gpu.read_buffer(&b.rho, 0, n as u64).unwrap();
+    let ids: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+    let mut seen = vec![false; n];
+    for (j, &id) in ids.iter().enumerate() {
+        let k = id as usize;
+        assert!(!seen[k], "id {id} twice");
+        seen[k] = true;
+        let bits = |v: [f32; 4]| bytemuck::cast::<_, [u32; 4]>(v);
+        assert_eq!(bits(pos[j]), bits(parts.pos[k]), "pos at slot {j}");
+        assert_eq!(bits(vel[j]), bits(parts.vel[k]), "vel at slot {j}");
+        assert_eq!(rho[j].to_bits(), parts.rho[k].to_bits(), "ρ at slot {j}");
+    }
+    // The 48-byte loan was left alone: the 32-byte one fitted pos and vel.
+    let untouched: Vec<u8> = gpu.read_buffer(&wide48, 0, 48 * n as u64).unwrap();
+    assert!(
+        untouched.iter().all(|&x| x == 7),
+        "the 48-byte loan was written"
+    );
+
+    let refused = |r: Result<(), GridError>, what: &str| match r {
+        Err(GridError::BadBuffer { reason, .. }) => assert!(reason.contains(what), "{reason}"),
+        other => panic!("expected BadBuffer ({what}), got {other:?}"),
+    };
+    refused(grid.lend_scratch(&b.vel, 16), "registered");
+    refused(grid.register(&narrow16, 4), "lent");
+    refused(grid.lend_scratch(&lend("small", 8), 16), "bytes lent");
+}
+
 /// A particle beyond the padded box is reported by id and position, never clamped
 /// silently; so is a NaN position. A particle in the padding is fine. Reference: the
 /// positions placed by the test.

@@ -403,15 +403,16 @@ fn a_restored_solver_continues_bit_for_bit() {
 /// scheme, closed tank with Adami's no-slip walls: the state (pos 16, vel 16, ρ 4, p 4,
 /// id 4, dρ/dt 4, du/dt 16, ρ_n 4, u_n 16, the low words of position and density 16 =
 /// 100 B), the grid's sort (cell, rank, slot in the atomics' order, gather map: 16 B),
-/// the reorder's scratch (a slice per gathered buffer: pos, vel, ρ, p, id, low words =
-/// 60 B), the walls' extrapolated velocity (16 B, kept for every slot) and the window
-/// statistics' partials (16 B per workgroup of 128 = 0.125 B): 192.125 B. The gradient
-/// pass stores only what the scene reads (`GradientFields`): with Joubert's correction
-/// alone B (48 B) and no gradient slot, 240.125 B; with Antuono's δ-SPH alone the ∇ρ
-/// slot (16 B) and no B, 208.125 B; the corrected Laplacian adds its B̂ (32 B), 272.125
-/// B; with shifting and δ-SPH every slot, 336.125 B. Until 2026-12-05 every gradient pass
-/// kept B and all six slots (144 B), and there were no low words (32 B with their
-/// scratch).
+/// the reorder's scratch for pos, vel and the low words (48 B; ρ, p and id are gathered
+/// into u_n, lent), the walls' extrapolated velocity (16 B, kept for every slot) and the
+/// window statistics' partials (16 B per workgroup of 128 = 0.125 B): 180.125 B. The
+/// gradient pass stores only what the scene reads (`GradientFields`): with Joubert's
+/// correction alone B (48 B), lent to the reorder for pos, vel and the low words, and no
+/// gradient slot, 180.125 B; with Antuono's δ-SPH alone the ∇ρ slot (16 B) and no B,
+/// 196.125 B; the corrected Laplacian adds its B̂ (32 B), 212.125 B; with shifting and
+/// δ-SPH every slot, 276.125 B. Until 2026-12-05 every gradient pass kept B and all six
+/// slots (144 B), there were no low words (32 B with their scratch), and the reorder's
+/// scratch was all its own (60 B).
 ///
 /// Measured as wgpu-hal's count of live buffer bytes (Gpu::buffer_memory) with the fluid
 /// at two heights in the same box, so that the walls and the grid's cells are the same
@@ -423,16 +424,16 @@ fn a_restored_solver_continues_bit_for_bit() {
 fn buffer_memory_per_particle_matches_the_inventory() {
     let gpu = shared_test_gpu().unwrap();
     for (effects, inventory) in [
-        ("", 192.125),
-        ("gradient_correction = true", 240.125),
-        ("density_diffusion = 0.1", 208.125),
+        ("", 180.125),
+        ("gradient_correction = true", 180.125),
+        ("density_diffusion = 0.1", 196.125),
         (
             "gradient_correction = true\nlaplacian_correction = true",
-            272.125,
+            212.125,
         ),
         (
             "gradient_correction = true\nparticle_shifting = 0.1\ndensity_diffusion = 0.1",
-            336.125,
+            276.125,
         ),
     ] {
         let before = gpu.buffer_memory().unwrap();
@@ -555,6 +556,112 @@ fn buffers_past_one_binding_are_refused_not_a_panic() {
         Err(e) => panic!("refused for another reason: {e}"),
         Ok(_) => panic!("{n} particles at 96 B passed a binding of {} B", n * 12),
     }
+}
+
+/// `predict` and `correct` (integrate.wgsl) against their CPU twin
+/// (`predictor_corrector_cpu`, f64), particle by particle: seeded velocities (±0.5 m/s),
+/// and rates imposed before each pass, different ones for the corrector (dρ/dt ±200 /s,
+/// du/dt ±20 m/s² a component), over one step of Δt = 1e-4 s. After `predict`, ρ*, u*
+/// and p* = EOS(ρ*) (Joubert eq. 20) with the positions unmoved; after `correct`,
+/// ρ^{n+1} and u^{n+1} (eqs. 21–22), the positions moved by Δt u^{n+1} (eq. 23) and
+/// p^{n+1}. Walls keep their state. Tolerances: f32 round-off of the stored words (with
+/// the low words for positions and densities; without them a position 0.3 m up is off
+/// by up to 1.5e-8 m): 2e-7 m/s, 1e-9 m, 1e-4 kg/m³, 0.05 Pa (dp/dρ = c² = 306 Pa
+/// m³/kg), against steps of 2e-3 m/s, 5e-5 m, 0.02 kg/m³; measured 3.6e-8 m/s, 6.0e-12
+/// m, 3.0e-5 kg/m³, 0.010 Pa (lavapipe, 2026-12-05).
+#[test]
+fn predict_and_correct_match_their_cpu_twin() {
+    use couplet_fluid::integrate::{FluidState, predictor_corrector_cpu};
+    use couplet_fluid::particles::Kind;
+    use rand::{Rng, SeedableRng};
+    let gpu = shared_test_gpu().unwrap();
+    let scene = tank_with(0.02, 0.3, "[effects]\nviscosity = \"none\"");
+    let mut solver = FluidSolver::new(&gpu, &scene).unwrap();
+    let c = solver.constants().clone();
+    let before = solver.data().read(&gpu).unwrap();
+    let n = before.len();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    let mut vec4s = |scale: f32| -> Vec<[f32; 4]> {
+        (0..n)
+            .map(|_| {
+                let mut v = [0.0f32; 4];
+                v[..3]
+                    .iter_mut()
+                    .for_each(|x| *x = scale * rng.random_range(-1.0..1.0));
+                v
+            })
+            .collect()
+    };
+    let (vel, dvel_n, dvel_s) = (vec4s(0.5), vec4s(20.0), vec4s(20.0));
+    let drho_n: Vec<f32> = (0..n).map(|_| rng.random_range(-200.0..200.0)).collect();
+    let drho_s: Vec<f32> = (0..n).map(|_| rng.random_range(-200.0..200.0)).collect();
+    let dt = 1e-4;
+    let d = solver.data();
+    let write = |buf: &wgpu::Buffer, bytes: &[u8]| gpu.queue.write_buffer(buf, 0, bytes);
+    write(&d.vel, bytemuck::cast_slice(&vel));
+    write(&d.dvel, bytemuck::cast_slice(&dvel_n));
+    write(&d.drho, bytemuck::cast_slice(&drho_n));
+    solver.run_ops(&gpu, &[Op::Predict], dt, 1.0).unwrap();
+    let star = solver.data().read(&gpu).unwrap();
+    let d = solver.data();
+    write(&d.dvel, bytemuck::cast_slice(&dvel_s));
+    write(&d.drho, bytemuck::cast_slice(&drho_s));
+    solver.run_ops(&gpu, &[Op::Correct], dt, 1.0).unwrap();
+    let after = solver.data().read(&gpu).unwrap();
+    let low: Vec<[f32; 4]> = gpu
+        .read_buffer(&solver.data().low_words, 0, n as u64)
+        .unwrap();
+
+    let f64s = |v: [f32; 4]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+    let mut worst = [0.0f64; 4]; // velocity, position, density, pressure
+    let mut fluid = 0;
+    let mut note = |k: usize, err: f64| worst[k] = worst[k].max(err);
+    let dist = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max);
+    for i in 0..n {
+        assert_eq!(before.id[i], after.id[i], "no sort ran");
+        if before.kinds.kind(before.id[i]) != Kind::Fluid {
+            assert_eq!(after.pos[i], before.pos[i], "a wall moved");
+            assert_eq!(after.rho[i], before.rho[i], "a wall's density changed");
+            continue;
+        }
+        fluid += 1;
+        let start = FluidState {
+            pos: before.pos[i],
+            vel: f64s(vel[i]),
+            rho: before.rho[i],
+        };
+        // The rates' first evaluation sees fⁿ, the second f*.
+        let (mut calls, mut twin_star) = (0, start);
+        let twin = predictor_corrector_cpu(start, dt, |s| {
+            calls += 1;
+            if calls == 1 {
+                (f64::from(drho_n[i]), f64s(dvel_n[i]))
+            } else {
+                twin_star = *s;
+                (f64::from(drho_s[i]), f64s(dvel_s[i]))
+            }
+        });
+        assert_eq!(calls, 2, "the twin evaluates the rates twice");
+        let ts = twin_star;
+        // After predict.
+        assert_eq!(star.pos[i], before.pos[i], "predict moved particle {i}");
+        note(0, dist(star.vel[i], ts.vel));
+        note(2, (star.rho[i] - ts.rho).abs());
+        note(3, (star.press[i] - c.pressure(ts.rho)).abs());
+        // After correct.
+        let pos: [f64; 3] = std::array::from_fn(|k| after.pos[i][k] + f64::from(low[i][k]));
+        note(0, dist(after.vel[i], twin.vel));
+        note(1, dist(pos, twin.pos));
+        note(2, (after.rho[i] + f64::from(low[i][3]) - twin.rho).abs());
+        note(3, (after.press[i] - c.pressure(twin.rho)).abs());
+    }
+    assert!(fluid > 1000, "{fluid} fluid particles");
+    let [du, dx, drho, dp] = worst;
+    println!("worst: u {du:e} m/s, x {dx:e} m, ρ {drho:e}, p {dp:e} Pa over {fluid} particles");
+    assert!(du < 2e-7, "velocity off by {du:e} m/s");
+    assert!(dx < 1e-9, "position off by {dx:e} m");
+    assert!(drho < 1e-4, "density off by {drho:e} kg/m³");
+    assert!(dp < 0.05, "pressure off by {dp:e} Pa");
 }
 
 /// Regression (2026-12-05), the water–glycerol CPB's slow swing: increments below half
