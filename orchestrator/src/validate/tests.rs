@@ -502,11 +502,14 @@ fn cpb_variants_tile_their_periods() {
                 "{label}: ramp {ramp} s, period {period} s"
             );
             assert!(ramp <= 0.5 * scene.time.end, "{label}: ramp {ramp} s");
-            let top = l.centres().iter().map(|c| c[1]).fold(f64::MIN, f64::max);
-            assert!(
-                h - top > f.support * f.spacing,
-                "{label}: top grains near the lid"
-            );
+            // The block fills the column's upper half (Robinson §4): its lower face at
+            // H/2, its top layer's cells reaching to within one Δr of the surface.
+            let dr = l.spacing();
+            let ys = l.centres().iter().map(|c| c[1]).collect::<Vec<_>>();
+            let low = ys.iter().copied().fold(f64::MAX, f64::min) - dr / 2.0;
+            let top = ys.iter().copied().fold(f64::MIN, f64::max) + dr / 2.0;
+            assert!((low - h / 2.0).abs() < 1e-9, "{label}: lower face {low} m");
+            assert!(top <= h && h - top < dr, "{label}: top {top} m of {h}");
         }
     }
 }
