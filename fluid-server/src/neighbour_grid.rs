@@ -484,6 +484,13 @@ fn storage_buffer(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
     })
 }
 
+fn bad_buffer(buffer: &wgpu::Buffer, reason: String) -> GridError {
+    GridError::BadBuffer {
+        buffer: format!("{buffer:?}"),
+        reason,
+    }
+}
+
 fn sized(buffer: &wgpu::Buffer, bytes: u64) -> wgpu::BindingResource<'_> {
     wgpu::BindingResource::Buffer(wgpu::BufferBinding {
         buffer,
@@ -783,40 +790,57 @@ impl NeighbourGrid {
     /// After `queue_sort` the caller's buffer holds the sorted data. `pos` must be
     /// registered too.
     pub fn register(&mut self, buffer: &wgpu::Buffer, elem_bytes: u32) -> Result<(), GridError> {
-        let bad = |reason: String| GridError::BadBuffer {
-            buffer: format!("{buffer:?}"),
-            reason,
-        };
         if elem_bytes != 16 && elem_bytes != 4 {
-            return Err(bad(format!(
-                "element size {elem_bytes} bytes; valid: 16 (vec4) or 4 (f32/u32)"
-            )));
-        }
-        let needs = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        if !buffer.usage().contains(needs) {
-            return Err(bad(format!(
-                "usage {:?} lacks STORAGE | COPY_DST",
-                buffer.usage()
-            )));
-        }
-        let bytes = u64::from(self.params.n_particles) * u64::from(elem_bytes);
-        if buffer.size() < bytes {
-            return Err(bad(format!(
-                "{} bytes, but {} particles × {elem_bytes} bytes need {bytes}",
-                buffer.size(),
-                self.params.n_particles
-            )));
-        }
-        if self.lent.iter().any(|l| l.buffer == *buffer) {
-            return Err(bad(
-                "it is lent to the reorder as scratch, so a sort overwrites it".into(),
+            return Err(bad_buffer(
+                buffer,
+                format!("element size {elem_bytes} bytes; valid: 16 (vec4) or 4 (f32/u32)"),
             ));
         }
+        self.check_particle_buffer(buffer, wgpu::BufferUsages::COPY_DST, elem_bytes)?;
         self.registered.push(Registered {
             buffer: buffer.clone(),
             wide: elem_bytes == 16,
         });
         self.gather_passes = std::sync::OnceLock::new();
+        Ok(())
+    }
+
+    /// Checks a buffer offered to [`NeighbourGrid::register`] or
+    /// [`NeighbourGrid::lend_scratch`]: `STORAGE` and `copy` usage, room for n ×
+    /// `bytes_per_particle` bytes, and neither registered nor lent already.
+    fn check_particle_buffer(
+        &self,
+        buffer: &wgpu::Buffer,
+        copy: wgpu::BufferUsages,
+        bytes_per_particle: u32,
+    ) -> Result<(), GridError> {
+        let needs = wgpu::BufferUsages::STORAGE | copy;
+        if !buffer.usage().contains(needs) {
+            return Err(bad_buffer(
+                buffer,
+                format!("usage {:?} lacks {needs:?}", buffer.usage()),
+            ));
+        }
+        let n = self.params.n_particles;
+        let bytes = u64::from(n) * u64::from(bytes_per_particle);
+        if bytes_per_particle == 0 || buffer.size() < bytes {
+            return Err(bad_buffer(
+                buffer,
+                format!(
+                    "{} bytes, but {n} particles × {bytes_per_particle} bytes need {bytes}",
+                    buffer.size()
+                ),
+            ));
+        }
+        if self.registered.iter().any(|r| r.buffer == *buffer) {
+            return Err(bad_buffer(buffer, "it is registered already".into()));
+        }
+        if self.lent.iter().any(|l| l.buffer == *buffer) {
+            return Err(bad_buffer(
+                buffer,
+                "it is lent to the reorder as scratch, which a sort overwrites".into(),
+            ));
+        }
         Ok(())
     }
 
@@ -840,30 +864,7 @@ impl NeighbourGrid {
         buffer: &wgpu::Buffer,
         bytes_per_particle: u32,
     ) -> Result<(), GridError> {
-        let bad = |reason: String| GridError::BadBuffer {
-            buffer: format!("{buffer:?}"),
-            reason,
-        };
-        let needs = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-        if !buffer.usage().contains(needs) {
-            return Err(bad(format!(
-                "usage {:?} lacks STORAGE | COPY_SRC for reorder scratch",
-                buffer.usage()
-            )));
-        }
-        let bytes = u64::from(self.params.n_particles) * u64::from(bytes_per_particle);
-        if bytes_per_particle == 0 || buffer.size() < bytes {
-            return Err(bad(format!(
-                "{} bytes lent as {bytes_per_particle} bytes a particle for {} particles",
-                buffer.size(),
-                self.params.n_particles
-            )));
-        }
-        if self.registered.iter().any(|r| r.buffer == *buffer) {
-            return Err(bad(
-                "it is registered to be sorted, so it cannot be reorder scratch".into(),
-            ));
-        }
+        self.check_particle_buffer(buffer, wgpu::BufferUsages::COPY_SRC, bytes_per_particle)?;
         self.lent.push(Lent {
             buffer: buffer.clone(),
             bytes_per_particle: u64::from(bytes_per_particle),

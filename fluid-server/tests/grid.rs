@@ -727,7 +727,7 @@ fn grid_reorder_gathers_into_lent_buffers() {
     };
     refused(grid.lend_scratch(&b.vel, 16), "registered");
     refused(grid.register(&narrow16, 4), "lent");
-    refused(grid.lend_scratch(&lend("small", 8), 16), "bytes lent");
+    refused(grid.lend_scratch(&lend("small", 8), 16), "bytes need");
 }
 
 /// A particle beyond the padded box is reported by id and position, never clamped
