@@ -14,9 +14,11 @@
 //! face's instability fails (ARCHITECTURE.md, "Among grains the pressure terms can be
 //! the energy-conserving pair").
 //!
-//! Measured 2026-12-05: 2.9846e-3 m/s against 2.9573e-3 (+0.92 %; −1.06 % off eq. 35
-//! over the grains' own porosities), standard deviation 0.38 %, the speed moving 0.87 %
-//! across 8–16 ms, the fluid's largest speed 0.44 of the block's. Released at once and
+//! Measured 2026-12-05 with the block in the column's upper half (Robinson §4; 21
+//! layers, 2100 grains): 2.9712e-3 m/s against 2.9573e-3 (+0.47 %; −1.00 % off eq. 35
+//! over the grains' own porosities), standard deviation 0.43 %, the speed moving 1.07 %
+//! across 8–16 ms, the fluid's largest speed 0.40 of the block's. With the 2.4 mm block
+//! of before (17 layers): +0.92 %, standard deviation 0.38 %, moving 0.87 %. Released at once and
 //! cut to 6 ms, as until that day (130 s on lavapipe, 2026-11-29): +1.84 %, the speed
 //! moving 2.39 % across 3–6 ms.
 //! Closed at the lid and without δ-SPH, as until that day: 2.8920e-3 m/s (−2.21 %,
