@@ -556,11 +556,17 @@ impl SphData {
                 })
             })
             .transpose()?;
-        if let Some(g) = gradients.as_ref().filter(|g| g.fields.store_b) {
-            // B is written by the gradient pass after every sort, before anything reads
-            // it: the reorder's 16-byte buffers (48 B a particle in the standard
-            // scheme's three) may gather into it.
-            grid.lend_scratch(&g.bmat, 48)?;
+        if let Some(g) = &gradients {
+            // B and the gradient slots are written by the gradient pass after every
+            // sort, for every fluid particle, before anything reads them (the rates read
+            // a neighbour's slots only where it is fluid): the reorder's 16-byte buffers
+            // (48 B a particle in the standard scheme's three) may gather into either.
+            if g.fields.store_b {
+                grid.lend_scratch(&g.bmat, 48)?;
+            }
+            if g.fields.slot_bytes() > 0 {
+                grid.lend_scratch(&g.grads, g.fields.slot_bytes() as u32)?;
+            }
         }
         let smoothing = c
             .variable_h
