@@ -977,37 +977,36 @@ impl NeighbourGrid {
     fn build_gather_passes(&self, gpu: &Gpu) -> Vec<GatherPass> {
         let n = u64::from(self.params.n_particles);
         let max_binding = gpu.storage_binding_limit;
+        let elem_bytes = |wide: bool| if wide { 16 } else { 4 };
         let mut plan: Vec<(bool, Vec<usize>)> = Vec::new();
         for wide in [true, false] {
-            let slice_bytes = n * if wide { 16 } else { 4 };
+            let slice_bytes = n * elem_bytes(wide);
             let per_pass = GATHER_BUFFERS_PER_PASS.min((max_binding / slice_bytes).max(1) as usize);
             let members: Vec<usize> = (0..self.registered.len())
                 .filter(|&r| self.registered[r].wide == wide)
                 .collect();
             plan.extend(members.chunks(per_pass).map(|c| (wide, c.to_vec())));
         }
-        let per_particle = |(wide, members): &(bool, Vec<usize>)| {
-            members.len() as u64 * if *wide { 16 } else { 4 }
-        };
+        // Bytes a particle of each pass's scratch.
+        let need: Vec<u64> = (plan.iter())
+            .map(|(wide, members)| members.len() as u64 * elem_bytes(*wide))
+            .collect();
         let mut by_need: Vec<usize> = (0..plan.len()).collect();
-        by_need.sort_by_key(|&k| std::cmp::Reverse(per_particle(&plan[k])));
+        by_need.sort_by_key(|&k| std::cmp::Reverse(need[k]));
         let mut free: Vec<usize> = (0..self.lent.len()).collect();
         free.sort_by_key(|&l| self.lent[l].bytes_per_particle);
         let mut scratch_of: Vec<Option<usize>> = vec![None; plan.len()];
         for k in by_need {
-            let need = per_particle(&plan[k]);
-            if let Some(at) = free
-                .iter()
-                .position(|&l| self.lent[l].bytes_per_particle >= need)
+            if let Some(at) =
+                (free.iter()).position(|&l| self.lent[l].bytes_per_particle >= need[k])
             {
                 scratch_of[k] = Some(free.remove(at));
             }
         }
         (plan.into_iter().zip(scratch_of))
             .map(|((wide, members), lent)| {
-                let slice_bytes = n * if wide { 16 } else { 4 };
                 let lent = lent.map(|l| &self.lent[l].buffer);
-                self.gather_pass(gpu, wide, members, slice_bytes, lent)
+                self.gather_pass(gpu, wide, members, n * elem_bytes(wide), lent)
             })
             .collect()
     }

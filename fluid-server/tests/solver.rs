@@ -561,6 +561,70 @@ fn buffers_past_one_binding_are_refused_not_a_panic() {
     }
 }
 
+/// The reorder gathers into uⁿ, B and the gradient slots (`NeighbourGrid::lend_scratch`,
+/// ARCHITECTURE.md "The reorder gathers into buffers that are dead at a sort"), which is
+/// sound only if nothing reads them after a sort before writing them. Here all three are
+/// filled with NaN right after each sort, and the rest of the step (Joubert's correction,
+/// shifting and δ-SPH, so that every loan is taken) must come out the same bit for bit
+/// over three steps. Reference: the same steps on an identical solver without the
+/// poison. The comparison does see a read: the low words, which carry state across the
+/// sort, poisoned alike change the result.
+#[test]
+fn buffers_lent_to_the_reorder_are_dead_after_a_sort() {
+    let gpu = shared_test_gpu().unwrap();
+    let scene = tank_with(
+        0.02,
+        0.3,
+        "[effects]\ngradient_correction = true\nparticle_shifting = 0.1\ndensity_diffusion = 0.1",
+    );
+    let rest = [
+        Op::Gradients,
+        Op::BoundaryPressure,
+        Op::FluidRates,
+        Op::Predict,
+        Op::BoundaryPressure,
+        Op::FluidRates,
+        Op::Correct,
+        Op::Shift,
+    ];
+    let nan = |buf: &wgpu::Buffer| {
+        gpu.queue
+            .write_buffer(buf, 0, &vec![0xFFu8; buf.size() as usize])
+    };
+    let run = |poison: &dyn Fn(&couplet_fluid::solver::SphData)| {
+        let mut solver = FluidSolver::new(&gpu, &scene).unwrap();
+        let dt = solver.limits().dt;
+        for _ in 0..3 {
+            solver.run_ops(&gpu, &[Op::Sort], dt, 1.0).unwrap();
+            poison(solver.data());
+            solver.run_ops(&gpu, &rest, dt, 1.0).unwrap();
+        }
+        let s = solver.data().read(&gpu).unwrap();
+        let bits = |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let scalars = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        (
+            bits(&s.pos),
+            bits(&s.vel),
+            scalars(&s.rho),
+            scalars(&s.press),
+        )
+    };
+    let plain = run(&|_| {});
+    let lent = run(&|d| {
+        let g = d.gradients.as_ref().expect("the gradient pass");
+        assert!(g.fields.store_b && g.fields.slot_bytes() > 0);
+        nan(&d.vel_n);
+        nan(&g.bmat);
+        nan(&g.grads);
+    });
+    assert!(
+        plain == lent,
+        "a buffer lent to the reorder was read after a sort before being written"
+    );
+    let live = run(&|d| nan(&d.low_words));
+    assert!(plain != live, "poisoning a live buffer went unseen");
+}
+
 /// `predict` and `correct` (integrate.wgsl) against their CPU twin
 /// (`predictor_corrector_cpu`, f64), particle by particle: seeded velocities (±0.5 m/s),
 /// and rates imposed before each pass, different ones for the corrector (dρ/dt ±200 /s,
