@@ -124,13 +124,18 @@ impl GrainLattice {
         (v / (1.0 - self.porosity)).cbrt()
     }
 
-    /// Grain centres, x fastest, moved down by the perturbation where there is one.
-    pub fn centres(&self) -> Vec<[f64; 3]> {
+    /// Grains along x, y and z: a grain fits when its lattice cell does, up to round-off
+    /// in the span.
+    pub fn counts(&self) -> [usize; 3] {
         let dr = self.spacing();
-        // A grain fits when its lattice cell does, up to round-off in the span.
-        let n: [usize; 3] = std::array::from_fn(|k| {
-            ((self.max[k] - self.min[k]) / dr * (1.0 + 1e-9)).floor() as usize
-        });
+        std::array::from_fn(|k| ((self.max[k] - self.min[k]) / dr * (1.0 + 1e-9)).floor() as usize)
+    }
+
+    /// Grain centres, x fastest (grain i is at lattice cell (i mod n_x, (i / n_x) mod n_y,
+    /// i / (n_x n_y)) of [`counts`](Self::counts)), moved down by the perturbation where
+    /// there is one.
+    pub fn centres(&self) -> Vec<[f64; 3]> {
+        let (dr, n) = (self.spacing(), self.counts());
         let mut out = Vec::with_capacity(n[0] * n[1] * n[2]);
         for z in 0..n[2] {
             for y in 0..n[1] {

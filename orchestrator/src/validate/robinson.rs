@@ -1148,15 +1148,7 @@ pub(super) fn rayleigh_taylor(
             Some(false),
         );
     } else {
-        let m = stretch.len() as f64;
-        let (st, sl) = stretch
-            .iter()
-            .fold((0.0, 0.0), |(a, b), &(t, x)| (a + t, b + x.ln()));
-        let (tm, lm) = (st / m, sl / m);
-        let (num, den) = stretch.iter().fold((0.0, 0.0), |(n, dn), &(t, x)| {
-            (n + (t - tm) * (x.ln() - lm), dn + (t - tm) * (t - tm))
-        });
-        let n = num / den;
+        let n = exponential_rate(stretch).ok_or("the stretch's depths are not all positive")?;
         let inside = lower <= n && n <= upper;
         let off = if inside {
             0.0
@@ -1189,6 +1181,55 @@ pub(super) fn rayleigh_taylor(
         "reported".into(),
         None,
     );
+    // The same growth read from the whole lowest layer instead of one grain.
+    let t_stop = track.get(stop).map_or(f64::INFINITY, |p| p.0);
+    let modes = lowest_layer_modes(scene, lattice, k, rec);
+    if modes.len() >= 2 {
+        for (name, pick, wave) in [
+            ("cos kx cos kz", 2, "√2 · 2π/λ, the judged bounds'"),
+            ("cos kx + cos kz", 1, "2π/λ, the single-axis rates'"),
+        ] {
+            let amp: Vec<(f64, f64)> = (modes.iter()).map(|m| (m.0, m.1[pick])).collect();
+            let b0 = amp[0].1;
+            let grow: Vec<(f64, f64)> = (amp.iter().copied())
+                .skip_while(|&(_, b)| b < 2.0 * b0)
+                .take_while(|&(t, _)| t < t_stop)
+                .collect();
+            let last = amp[amp.len() - 1];
+            let measured = match exponential_rate(&grow) {
+                Some(n) if grow.len() >= 5 && b0 > 0.0 => format!(
+                    "{n:.3} 1/s over t = {:.3e}–{:.3e} s ({} samples, {:.2} to {:.2} of its start)",
+                    grow[0].0,
+                    grow[grow.len() - 1].0,
+                    grow.len(),
+                    grow[0].1 / b0,
+                    grow[grow.len() - 1].1 / b0
+                ),
+                _ => format!(
+                    "did not double and keep growing for 5 samples: {:.3e} m at the start, {:.3e} m at t = {:.3e} s",
+                    b0, last.1, last.0
+                ),
+            };
+            report.judge(
+                format!(
+                    "growth rate of the lowest layer's mode {name} (least squares of its grains' heights; wave number {wave}; not judged)"
+                ),
+                measured,
+                format!("{:.4e} m at the start (A, eq. 39)", p.amplitude),
+                "reported".into(),
+                None,
+            );
+        }
+        report.series.push(Series {
+            name: "lowest-layer-mode-vs-upper-bound".into(),
+            x_label: "t (s)".into(),
+            y_label: "amplitude of the lowest layer's mode cos kx cos kz (m)".into(),
+            points: modes.iter().map(|m| (m.0, m.1[2])).collect(),
+            reference: (modes.iter())
+                .map(|m| (m.0, modes[0].1[2] * (upper * (m.0 - modes[0].0)).exp()))
+                .collect(),
+        });
+    }
     for (name, bound) in [("upper", upper), ("lower", lower)] {
         report.series.push(Series {
             name: format!("lowest-grain-depth-vs-{name}-bound"),
@@ -1202,6 +1243,85 @@ pub(super) fn rayleigh_taylor(
         });
     }
     Ok(())
+}
+
+/// The lowest lattice layer's heights at each recorded time, fitted by least squares as
+/// y = c₀ + c₁ (cos kx + cos kz) + c₂ cos kx cos kz over its grains' present positions:
+/// (t, [c₀, c₁, −c₂]). Robinson eq. (39) starts the layer at c₁ = A, −c₂ = A; the mode
+/// cos kx cos kz has wave number √2 k, the one the judged bounds are for, and
+/// cos kx + cos kz the single-axis k. Times with fewer than 4 of the layer's grains
+/// recorded, or a singular fit, are left out.
+pub(super) fn lowest_layer_modes(
+    scene: &Scene,
+    lattice: &couplet_protocol::scene::GrainLattice,
+    k: f64,
+    rec: &Recording,
+) -> Vec<(f64, [f64; 3])> {
+    let n = lattice.counts();
+    let prefix = format!("{}[", lattice.name);
+    // Grain i of the lattice is in layer (i / n_x) mod n_y (`GrainLattice::centres`).
+    let lowest: Vec<bool> = (scene.bodies.iter())
+        .map(|b| {
+            (b.name.strip_prefix(&prefix))
+                .and_then(|r| r.strip_suffix(']'))
+                .and_then(|i| i.parse::<usize>().ok())
+                .is_some_and(|i| n[0] > 0 && n[1] > 0 && (i / n[0]) % n[1] == 0)
+        })
+        .collect();
+    let mut at: std::collections::BTreeMap<u64, (f64, [[f64; 3]; 3], [f64; 3], usize)> =
+        Default::default();
+    for b in (rec.bodies.iter()).filter(|b| lowest.get(b.body) == Some(&true)) {
+        let (cx, cz) = ((k * b.position[0]).cos(), (k * b.position[2]).cos());
+        let f = [1.0, cx + cz, cx * cz];
+        let e = (at.entry(b.time.to_bits())).or_insert((b.time, [[0.0; 3]; 3], [0.0; 3], 0));
+        for r in 0..3 {
+            for c in 0..3 {
+                e.1[r][c] += f[r] * f[c];
+            }
+            e.2[r] += f[r] * b.position[1];
+        }
+        e.3 += 1;
+    }
+    (at.into_values())
+        .filter(|e| e.3 >= 4)
+        .filter_map(|(t, m, v, _)| solve3(m, v).map(|c| (t, [c[0], c[1], -c[2]])))
+        .collect()
+}
+
+/// The solution of the 3 × 3 system m x = v by Cramer's rule; None when m is singular
+/// to round-off.
+fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |a: [[f64; 3]; 3]| {
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    };
+    let d = det(m);
+    let scale = m.iter().flatten().map(|x| x.abs()).fold(0.0, f64::max);
+    if !(d.abs() > 1e-12 * scale.powi(3)) {
+        return None;
+    }
+    Some(std::array::from_fn(|c| {
+        let mut a = m;
+        for r in 0..3 {
+            a[r][c] = v[r];
+        }
+        det(a) / d
+    }))
+}
+
+/// The rate n of a(t) ∝ e^(n t): least squares of ln a against t; None with fewer than
+/// two points, a non-positive amplitude or one time only.
+fn exponential_rate(points: &[(f64, f64)]) -> Option<f64> {
+    if points.len() < 2 || points.iter().any(|p| !(p.1 > 0.0)) {
+        return None;
+    }
+    let m = points.len() as f64;
+    let (tm, lm) = (points.iter()).fold((0.0, 0.0), |(a, b), &(t, x)| (a + t / m, b + x.ln() / m));
+    let (num, den) = (points.iter()).fold((0.0, 0.0), |(n, d), &(t, x)| {
+        (n + (t - tm) * (x.ln() - lm), d + (t - tm) * (t - tm))
+    });
+    (den > 0.0).then(|| num / den)
 }
 
 /// Robinson Fig. 9 across the CPB's variants: per fluid, the settling speed over one
