@@ -1038,7 +1038,11 @@ pub(super) fn constant_porosity_block(
 /// a = 2 a(0) and tends to n, so the fit reads a few per cent low. It is judged between
 /// the two-fluid model's rates, Robinson eq. (37) with Krieger's μ_d (eq. 38) at
 /// ε = 0.93 (lower bound, the porosity his front reached) and at the block's ε (upper),
-/// for eq. (39)'s wave number |k| = √2 · 2π/λ (k_x = k_z = 2π/λ).
+/// for eq. (39)'s wave number |k| = √2 · 2π/λ (k_x = k_z = 2π/λ). Reported beside it,
+/// not judged: the same fit of the lowest layer's two modes (`lowest_layer_modes`), a
+/// reading of the interface that one grain's jumps do not move (in the quick, 2026-12-05,
+/// the lowest grain's depth stalled and jumped by tens of µm while the layer's modes
+/// grew and levelled off).
 pub(super) fn rayleigh_taylor(
     scene: &Scene,
     rec: &Recording,
