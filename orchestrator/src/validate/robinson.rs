@@ -1165,12 +1165,8 @@ pub(super) fn rayleigh_taylor(
             .extend([("growth", n), ("lower", lower), ("upper", upper)]);
         report.judge(
             format!(
-                "growth rate of the lowest grain's depth, fit over t = {:.3e}–{:.3e} s ({} samples, a from {:.2} to {:.2} a(0))",
-                stretch[0].0,
-                stretch[stretch.len() - 1].0,
-                stretch.len(),
-                stretch[0].1 / a0,
-                stretch[stretch.len() - 1].1 / a0
+                "growth rate of the lowest grain's depth, fit over {}",
+                fit_stretch(stretch, a0)
             ),
             format!("{n:.3} 1/s"),
             format!("{lower:.3} … {upper:.3} 1/s"),
@@ -1201,14 +1197,9 @@ pub(super) fn rayleigh_taylor(
                 .collect();
             let last = amp[amp.len() - 1];
             let measured = match exponential_rate(&grow) {
-                Some(n) if grow.len() >= 5 && b0 > 0.0 => format!(
-                    "{n:.3} 1/s over t = {:.3e}–{:.3e} s ({} samples, {:.2} to {:.2} of its start)",
-                    grow[0].0,
-                    grow[grow.len() - 1].0,
-                    grow.len(),
-                    grow[0].1 / b0,
-                    grow[grow.len() - 1].1 / b0
-                ),
+                Some(n) if grow.len() >= 5 && b0 > 0.0 => {
+                    format!("{n:.3} 1/s over {}", fit_stretch(&grow, b0))
+                }
                 _ => format!(
                     "did not double and keep growing for 5 samples: {:.3e} m at the start, {:.3e} m at t = {:.3e} s",
                     b0, last.1, last.0
@@ -1312,6 +1303,19 @@ fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
         }
         det(a) / d
     }))
+}
+
+/// "t = t₀–t₁ s (N samples, a from a₀/a(0) to a₁/a(0) a(0))" of a fitted stretch.
+fn fit_stretch(stretch: &[(f64, f64)], a0: f64) -> String {
+    let (first, last) = (stretch[0], stretch[stretch.len() - 1]);
+    format!(
+        "t = {:.3e}–{:.3e} s ({} samples, a from {:.2} to {:.2} a(0))",
+        first.0,
+        last.0,
+        stretch.len(),
+        first.1 / a0,
+        last.1 / a0
+    )
 }
 
 /// The rate n of a(t) ∝ e^(n t): least squares of ln a against t; None with fewer than
