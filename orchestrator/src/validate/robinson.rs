@@ -426,25 +426,31 @@ pub(super) const RTI_VARIANTS: &[Variant] = &[
     ),
 ];
 
-/// The RTI's quick column: 8 lattice spacings Δr = 0.13782337 mm across (1.1025869870e-3
-/// m), the disturbance's wavelength the new width, with 9 fluid spacings across it and
-/// 48 δ high (5.88 mm; the full column is 43 of its δ, 5.74 mm). Not 8 fluid spacings: with
-/// the fluid's lattice on the grains' the porosity's lattice ripple moves every fluid row
-/// alike (ARCHITECTURE.md, "The fluid's lattice must not be the grains'").
+/// The RTI's quick column: 16 lattice spacings Δr = 0.13782337 mm across (2.2051739740e-3
+/// m), the disturbance's wavelength the new width, with 18 fluid spacings across it and
+/// 48 δ high (5.88 mm; the full column is 43 of its δ, 5.74 mm). Not 16 fluid spacings:
+/// with the fluid's lattice on the grains' the porosity's lattice ripple moves every fluid
+/// row alike (ARCHITECTURE.md, "The fluid's lattice must not be the grains'"). Not
+/// narrower: until 2026-12-05 it was 8 lattice and 9 fluid spacings (1.1 mm), where the
+/// interface, the porosity smoothed over a support of 3δ = 0.37 mm, spans a third of the
+/// wavelength (k L = 3.0 at √2 k), and the lowest layer's mode burst to about 0.1 mm and
+/// levelled off instead of growing as e^(n t) (ARCHITECTURE.md, "The narrow RTI quick is no
+/// proxy"); at 2.2 mm (k L = 1.5) it grew through the bounds' rates to the end.
 pub(super) const RTI_QUICK: &[&str] = &[
     "fluid.spacing=1.2250966522e-04",
-    "domain.max=[1.1025869870e-03, 5.8804639306e-03, 1.1025869870e-03]",
-    "fluid.blocks.0.max=[1.1025869870e-03, 5.8804639306e-03, 1.1025869870e-03]",
-    "grain_lattices.0.max=[1.1025869870e-03, 5.4e-3, 1.1025869870e-03]",
-    "grain_lattices.0.perturbation.wavelength=1.1025869870e-03",
+    "domain.max=[2.2051739740e-03, 5.8804639306e-03, 2.2051739740e-03]",
+    "fluid.blocks.0.max=[2.2051739740e-03, 5.8804639306e-03, 2.2051739740e-03]",
+    "grain_lattices.0.max=[2.2051739740e-03, 5.4e-3, 2.2051739740e-03]",
+    "grain_lattices.0.perturbation.wavelength=2.2051739740e-03",
     "time.output_interval=0.005",
     "time.body_output_interval=1e-3",
 ];
 
 /// The quick version runs water only (see `quick_why`), to 0.06 s: from rest the depth
-/// grows as about cosh(n t), 2.4–9-fold by then at the bounds' n = 25–49 1/s. It keeps the
-/// scene's α = 0.1: without it this narrow column blew up at t = 17.8 ms (a fluid particle
-/// inside the block at 13 m/s, step 7100), where Robinson (§7) needed none at his width.
+/// grows as about cosh(n t), 2.9–10-fold by then at the bounds' n = 28–50 1/s. It keeps the
+/// scene's α = 0.1: without it the 1.1 mm column of before blew up at t = 17.8 ms (a fluid
+/// particle inside the block at 13 m/s, step 7100), where Robinson (§7) needed none at his
+/// width; the 2.2 mm column has not been run at α = 0.
 pub(super) const RTI_QUICK_VARIANTS: &[Variant] = &[(
     "water, α = 0.1",
     &[
