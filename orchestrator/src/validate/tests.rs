@@ -849,12 +849,12 @@ fn rti_growth_rate_is_judged_between_the_bounds() {
     }
 }
 
-/// The lowest layer's modes on a synthetic layer of the quick scene's 64 lowest grains
-/// (their lattice x and z, eq. 39's start A = 25 µm on both modes): heights y = y₀ − A +
-/// a₁(t) (cos kx + cos kz) − a₂(t) cos kx cos kz with a₁ = A e^(20 t), a₂ = A e^(35 t)
-/// are read back by the least squares to 1e-9 of A at every time, each mode apart, and
-/// the report's rows give 20 and 35 1/s (to their printed 1e-3). Grains of other layers
-/// in the recording do not enter the fit.
+/// The lowest layer's modes on a synthetic layer of the quick scene's lowest grains (256
+/// in its 2.2 mm column, at their lattice x and z; eq. 39's start A = 25 µm on both
+/// modes): heights y = y₀ − A + a₁(t) (cos kx + cos kz) − a₂(t) cos kx cos kz with
+/// a₁ = A e^(20 t), a₂ = A e^(35 t) are read back by the least squares to 1e-9 of A at
+/// every time, each mode apart, and the report's rows give 20 and 35 1/s (to their
+/// printed 1e-3). Grains of other layers in the recording do not enter the fit.
 #[test]
 fn rti_lowest_layer_modes_are_read_apart() {
     let case = find("rayleigh-taylor").unwrap();
