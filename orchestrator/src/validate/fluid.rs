@@ -265,26 +265,16 @@ pub(super) fn dam_break(scene: &Scene, rec: &Recording, report: &mut Report) -> 
         "reported".into(),
         None,
     );
-    let slope = |pts: &[(f64, f64)]| -> Option<f64> {
-        let n = pts.len() as f64;
-        if n < 2.0 {
-            return None;
-        }
-        let (mt, mz) = (
-            pts.iter().map(|p| p.0).sum::<f64>() / n,
-            pts.iter().map(|p| p.1).sum::<f64>() / n,
-        );
-        let sxx: f64 = pts.iter().map(|p| (p.0 - mt).powi(2)).sum();
-        let sxz: f64 = pts.iter().map(|p| (p.0 - mt) * (p.1 - mz)).sum();
-        (sxx > 0.0).then(|| sxz / sxx)
-    };
     let running = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
         pts.iter()
             .copied()
             .filter(|(t, _)| (2.0..=t_max).contains(t))
             .collect()
     };
-    if let (Some(sim), Some(mm)) = (slope(&running(&front)), slope(&running(&MARTIN_MOYCE))) {
+    if let (Some(sim), Some(mm)) = (
+        least_squares_slope(&running(&front)),
+        least_squares_slope(&running(&MARTIN_MOYCE)),
+    ) {
         report.judge(
             format!("surge-front speed dZ/dT, least squares over 2 ≤ T ≤ {t_max:.2}"),
             format!("{sim:.3} ({:+.1} %)", 100.0 * (sim - mm) / mm),
@@ -382,21 +372,9 @@ pub(super) fn probe_xy(snap: &[Particle], x: f64, y: f64, r: f64, k: usize) -> O
             }
         }
     }
-    // Cramer's rule for the constant term.
-    let det3 = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let det = det3(&m);
-    if !(det > 1e-12 * m[0][0].powi(3)) {
-        return None;
-    }
-    let mut m0 = m;
-    for (row, v) in m0.iter_mut().zip(rhs) {
-        row[0] = v;
-    }
-    Some(det3(&m0) / det)
+    // The constant term; m[0][0] = Σw is the largest entry (|dx|, |dy| < 1), the scale
+    // solve3 measures singularity by.
+    solve3(m, rhs).map(|c| c[0])
 }
 
 /// Lid-driven cavity (Joubert §3.1): u on x = L/2 and v on y = H/2 at Ghia's points,
@@ -734,18 +712,12 @@ pub(super) fn taylor_green(
     let fit: Vec<(f64, f64)> = energy
         .iter()
         .filter(|(t, e)| *t >= 0.05 * t_end && *e > 0.0)
-        .map(|(t, e)| (*t, e.ln()))
+        .copied()
         .collect();
     if fit.len() < 3 {
         return Err(format!("only {} snapshots to fit the decay", fit.len()));
     }
-    let n = fit.len() as f64;
-    let (st, sy) = fit.iter().fold((0.0, 0.0), |(a, c), (t, y)| (a + t, c + y));
-    let (mt, my) = (st / n, sy / n);
-    let (sxy, sxx) = fit.iter().fold((0.0, 0.0), |(a, c), (t, y)| {
-        (a + (t - mt) * (y - my), c + (t - mt) * (t - mt))
-    });
-    let rate = sxy / sxx;
+    let rate = exponential_rate(&fit).ok_or("the decay's snapshots share one time")?;
     let error = (rate - 2.0 * b).abs() / (2.0 * b).abs();
     let finite = energy.iter().all(|(_, e)| e.is_finite());
     report.judge(

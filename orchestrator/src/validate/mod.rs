@@ -1185,6 +1185,54 @@ fn pct(x: f64) -> String {
     }
 }
 
+/// The solution of the 3 × 3 system m x = v by Cramer's rule; None when m is singular
+/// to round-off.
+pub(super) fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |a: [[f64; 3]; 3]| {
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    };
+    let d = det(m);
+    let scale = m.iter().flatten().map(|x| x.abs()).fold(0.0, f64::max);
+    if !(d.abs() > 1e-12 * scale.powi(3)) {
+        return None;
+    }
+    Some(std::array::from_fn(|c| {
+        let mut a = m;
+        for r in 0..3 {
+            a[r][c] = v[r];
+        }
+        det(a) / d
+    }))
+}
+
+/// The least-squares slope of y against x through `points`; None with fewer than two
+/// points or one x only.
+pub(super) fn least_squares_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let n = points.len() as f64;
+    if n < 2.0 {
+        return None;
+    }
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// The rate n of a(t) ∝ e^(n t): the least-squares slope of ln a against t; None with a
+/// non-positive amplitude, fewer than two points or one time only.
+pub(super) fn exponential_rate(points: &[(f64, f64)]) -> Option<f64> {
+    if points.iter().any(|p| !(p.1 > 0.0)) {
+        return None;
+    }
+    let logs: Vec<(f64, f64)> = points.iter().map(|&(t, a)| (t, a.ln())).collect();
+    least_squares_slope(&logs)
+}
+
 /// Each fluid particle averaged over the snapshots of the last `span` seconds.
 fn time_average(rec: &Recording, span: f64) -> Result<Vec<Particle>, String> {
     let (t_last, _) = rec.snapshots.last().ok_or("no particle snapshots")?;

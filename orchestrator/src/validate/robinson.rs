@@ -1290,28 +1290,6 @@ pub(super) fn lowest_layer_modes(
         .collect()
 }
 
-/// The solution of the 3 × 3 system m x = v by Cramer's rule; None when m is singular
-/// to round-off.
-fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
-    let det = |a: [[f64; 3]; 3]| {
-        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
-    };
-    let d = det(m);
-    let scale = m.iter().flatten().map(|x| x.abs()).fold(0.0, f64::max);
-    if !(d.abs() > 1e-12 * scale.powi(3)) {
-        return None;
-    }
-    Some(std::array::from_fn(|c| {
-        let mut a = m;
-        for r in 0..3 {
-            a[r][c] = v[r];
-        }
-        det(a) / d
-    }))
-}
-
 /// "t = t₀–t₁ s (N samples, a from a₀/a(0) to a₁/a(0) a(0))" of a fitted stretch.
 fn fit_stretch(stretch: &[(f64, f64)], a0: f64) -> String {
     let (first, last) = (stretch[0], stretch[stretch.len() - 1]);
@@ -1323,20 +1301,6 @@ fn fit_stretch(stretch: &[(f64, f64)], a0: f64) -> String {
         first.1 / a0,
         last.1 / a0
     )
-}
-
-/// The rate n of a(t) ∝ e^(n t): least squares of ln a against t; None with fewer than
-/// two points, a non-positive amplitude or one time only.
-fn exponential_rate(points: &[(f64, f64)]) -> Option<f64> {
-    if points.len() < 2 || points.iter().any(|p| !(p.1 > 0.0)) {
-        return None;
-    }
-    let m = points.len() as f64;
-    let (tm, lm) = (points.iter()).fold((0.0, 0.0), |(a, b), &(t, x)| (a + t / m, b + x.ln() / m));
-    let (num, den) = (points.iter()).fold((0.0, 0.0), |(n, d), &(t, x)| {
-        (n + (t - tm) * (x.ln() - lm), d + (t - tm) * (t - tm))
-    });
-    (den > 0.0).then(|| num / den)
 }
 
 /// Robinson Fig. 9 across the CPB's variants: per fluid, the settling speed over one

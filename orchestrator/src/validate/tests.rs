@@ -790,6 +790,16 @@ fn sedimentation_regimes_judges_a_one_way_grain_at_the_porosity_it_sees() {
     assert_eq!(coupling.pass, Some(true), "{coupling:?}");
 }
 
+/// The Rayleigh–Taylor quick's scene (its column and its one variant, water).
+fn rti_quick_scene() -> Scene {
+    let case = find("rayleigh-taylor").unwrap();
+    let mut o = pairs(case.quick);
+    o.extend(pairs(case.quick_variants[0].1));
+    resolve_scene(&scene_path(case, None).unwrap(), &o)
+        .unwrap()
+        .0
+}
+
 /// The RTI judge on synthetic tracks of the quick scene (water, λ = 2.2052 mm:
 /// bounds 28.47 and 50.28 1/s from eq. 37; an independent Python bisection of the
 /// same relation, written for session 68, gives 28.467 and 50.279): a lowest grain whose
@@ -801,10 +811,7 @@ fn sedimentation_regimes_judges_a_one_way_grain_at_the_porosity_it_sees() {
 #[test]
 fn rti_growth_rate_is_judged_between_the_bounds() {
     use crate::robinson_reference::cpb_terminal_velocity_mixture_buoyancy;
-    let case = find("rayleigh-taylor").unwrap();
-    let mut o = pairs(case.quick);
-    o.extend(pairs(case.quick_variants[0].1));
-    let (scene, _) = resolve_scene(&scene_path(case, None).unwrap(), &o).unwrap();
+    let scene = rti_quick_scene();
     let l = &scene.grain_lattices[0];
     let k = 2.0 * std::f64::consts::PI / l.perturbation.unwrap().wavelength;
     let kl = 2f64.sqrt() * k * scene.fluid.as_ref().unwrap().support_radius();
@@ -857,10 +864,7 @@ fn rti_growth_rate_is_judged_between_the_bounds() {
 /// printed 1e-3). Grains of other layers in the recording do not enter the fit.
 #[test]
 fn rti_lowest_layer_modes_are_read_apart() {
-    let case = find("rayleigh-taylor").unwrap();
-    let mut o = pairs(case.quick);
-    o.extend(pairs(case.quick_variants[0].1));
-    let (scene, _) = resolve_scene(&scene_path(case, None).unwrap(), &o).unwrap();
+    let scene = rti_quick_scene();
     let l = &scene.grain_lattices[0];
     let p = l.perturbation.unwrap();
     let (a, k) = (p.amplitude, 2.0 * std::f64::consts::PI / p.wavelength);
