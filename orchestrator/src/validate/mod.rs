@@ -178,6 +178,10 @@ pub struct Report {
     pub particles: usize,
     /// Named results a `compare` step reads across variants (e.g. "cd", "cd_paper").
     pub values: Vec<(&'static str, f64)>,
+    /// The command line's `--set`s (path, value), applied after the case's, the
+    /// version's and each variant's own: a variant's label names the case's settings
+    /// ("water, α = 0.1"), which one of these may have changed.
+    pub command_line: Vec<(String, String)>,
 }
 
 impl Report {
@@ -222,6 +226,19 @@ impl Report {
                 self.case, self.wall_s
             )
         };
+        if !self.command_line.is_empty() {
+            let sets: Vec<String> = self
+                .command_line
+                .iter()
+                .map(|(k, v)| format!("`{k}={v}`"))
+                .collect();
+            let _ = writeln!(
+                t,
+                "Set on the command line, over the case's and its variants' settings (which \
+                 the labels name): {}\n",
+                sets.join(", ")
+            );
+        }
         t.push_str(
             "| quantity | measured | reference | tolerance | result |\n|---|---|---|---|---|\n",
         );
@@ -942,6 +959,7 @@ fn run_case(
     if variants.is_empty() {
         let mut report = run_one(case, quick, with(&[]), out, scenes_dir, how)?;
         report.sweep_point = sweep_point;
+        report.command_line = extra.to_vec();
         write_outputs(&report)?;
         return Ok(report);
     }
@@ -964,6 +982,7 @@ fn run_case(
             Ok(mut r) => {
                 r.case = format!("{} ({label})", case.name);
                 r.sweep_point = sweep_point;
+                r.command_line = extra.to_vec();
                 write_outputs(&r)?;
                 r
             }
@@ -975,6 +994,7 @@ fn run_case(
                     quick,
                     sweep_point,
                     wall_s: t0.elapsed().as_secs_f64(),
+                    command_line: extra.to_vec(),
                     ..Default::default()
                 };
                 r.judge(
@@ -996,6 +1016,7 @@ fn run_case(
         wall_s: parts.iter().map(|r| r.wall_s).sum(),
         out: out.clone(),
         particles: parts.iter().map(|r| r.particles).max().unwrap_or(0),
+        command_line: extra.to_vec(),
         ..Default::default()
     };
     for ((label, _), r) in variants.iter().zip(&parts) {

@@ -977,6 +977,46 @@ fn markdown_rows_keep_their_columns_with_a_pipe_in_a_cell() {
     );
 }
 
+/// Regression (variant_label_under_a_set, 2026-12-05): `couplet validate
+/// rayleigh-taylor --quick --set effects.artificial_viscosity=0.0` reported its run as
+/// "water, α = 0.1", the variant's label, with nothing saying α had been set to 0. The
+/// combined report and each variant's name the command line's sets under the title.
+/// Run here with a spacing the scene check refuses, so that the variant fails at once
+/// and is still reported (a run that fails is a row) in the written report.
+#[test]
+fn a_command_line_set_is_named_beside_the_variant_labels() {
+    let out = std::env::temp_dir().join(format!("couplet-set-named-{}", std::process::id()));
+    let extra = vec![("fluid.spacing".to_owned(), "-1.0".to_owned())];
+    let how = HowToRun::default();
+    let r = validate(
+        "rayleigh-taylor",
+        true,
+        &[],
+        Some(out.clone()),
+        &extra,
+        None,
+        &how,
+    )
+    .unwrap();
+    let line = "Set on the command line, over the case's and its variants' settings (which \
+                the labels name): `fluid.spacing=-1.0`";
+    assert!(
+        r.markdown().contains(line) && r.rows[0].quantity.starts_with("water, α = 0.1: run"),
+        "{}",
+        r.markdown()
+    );
+    assert_eq!(r.rows[0].pass, Some(false), "{:?}", r.rows);
+    let written = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(written.contains(line), "{written}");
+    // Without sets there is no such line.
+    assert!(
+        !Report::default()
+            .markdown()
+            .contains("Set on the command line")
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
 /// `--variant` picks by label or folder name, from the quick list under `--quick`,
 /// and refuses a name no variant has, listing the ones there are.
 /// `sphere-density-sweep` runs Joubert's Fig. 21 at his δ in full (three densities at
