@@ -21,7 +21,9 @@ pub struct WindowPlan {
 /// limit) times `coupling.window_substeps`; without fluid, the DEM step; without a DEM
 /// server, the output interval (nothing to exchange). Then no longer than a twentieth
 /// of the fastest unresolved grain's drag relaxation time ([`grain_relaxation`]), than
-/// `time.max_window` or the output interval (so snapshots fall on windows), and shrunk
+/// the time sound takes to cross the coupling length where grains move freely
+/// ([`grain_sound_crossing`]), than `time.max_window` or the output interval (so
+/// snapshots fall on windows), and shrunk
 /// so that a whole number of windows reaches `time.end` exactly.
 pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) -> WindowPlan {
     let mut candidates: Vec<(f64, String)> = Vec::new();
@@ -41,6 +43,15 @@ pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) 
         candidates.push((
             t_d / 20.0,
             format!("unresolved grains' drag relaxation t_d = {t_d:.3e} s / 20 (Robinson eq. 36)"),
+        ));
+    }
+    if let Some(t_a) = grain_sound_crossing(scene) {
+        candidates.push((
+            t_a,
+            format!(
+                "free unresolved grains: sound crosses the coupling length h in \
+                 h/c_s = {t_a:.3e} s"
+            ),
         ));
     }
     if let Some(w) = scene.time.max_window {
@@ -90,6 +101,34 @@ pub fn grain_relaxation(scene: &Scene) -> Option<f64> {
             Some(m / (3.0 * std::f64::consts::PI * mu * 2.0 * radius))
         })
         .min_by(f64::total_cmp)
+}
+
+/// `h / c_s`, the time a pressure signal takes to cross the coupling length h (the
+/// fluid's smoothing length, Robinson's h_c, eq. 9), where unresolved grains move freely
+/// (dynamic, not in a translation group). Within a window the fluid sees the grains at their
+/// window-start velocities and the grains take the window's mean force, so their motion,
+/// and through the porosity the fluid's pressure (eq. 15 on ρ/ε), lags the fluid by
+/// about a window. A sound wave whose period is near that lag is then fed instead of
+/// damped: the RTI's 1.1 mm quick at α = 0 (water, windows of 20 fluid steps, 44.5 μs
+/// = 2.4 h/c_s) grew a standing wave through its block, layers of fluid and grains
+/// moving up and down in turn 4 grain layers apart (0.55 mm, a sound period of 55 μs),
+/// ×2 a millisecond from 12 ms, and blew up at 17.8 ms; with 10, 5 or 2 steps (1.2,
+/// 0.6, 0.24 h/c_s) no such wave grew to 17 ms, the fluid's largest speed 4.2 mm/s
+/// against 88 mm/s (ARCHITECTURE.md, "A window longer than the sound's crossing of h
+/// feeds a sound wave"). Robinson steps the SPH and the DEM together (§3.2), a window of
+/// one step. A rigid block (a translation group) cannot compress, so it is exempt: the
+/// constant-porosity block keeps its 20 steps. `None` without free grains.
+pub fn grain_sound_crossing(scene: &Scene) -> Option<f64> {
+    let f = scene.fluid.as_ref()?;
+    scene
+        .bodies
+        .iter()
+        .any(|b| {
+            scene.is_grain(b)
+                && b.motion == couplet_protocol::scene::Motion::Dynamic
+                && b.translation_group.is_none()
+        })
+        .then(|| f.smoothing_length() / f.sound_speed)
 }
 
 #[cfg(test)]
@@ -149,5 +188,38 @@ mod tests {
             "{p:?}"
         );
         assert!(p.reason.contains("Robinson eq. 36"), "{}", p.reason);
+    }
+
+    /// Regression (rti_alpha_0_window_lag, 2026-12-05): the RTI in water at α = 0 ran
+    /// windows of 20 fluid steps (2.4 h/c_s) and grew a sound wave through its block
+    /// until it blew up (`grain_sound_crossing`). A free grain bounds the window by h/c_s,
+    /// here the RTI's water: h = 1.5 δ = 1.8375e-4 m, c_s = 10 m/s, 18.4 μs, 9 of its
+    /// 2.23 μs fluid steps where 20 were asked for (t_d/20 = 78 μs does not bind); a grain
+    /// in a translation group (the constant-porosity block) keeps the 20.
+    #[test]
+    fn free_grains_bound_the_window_by_the_sound_crossing_of_h() {
+        let grain = |group: &str| {
+            scene(&format!(
+                "[fluid]\ndensity = 1000.0\nkinematic_viscosity = 8.9e-7\nsound_speed = 10.0\n\
+                 spacing = 1.225e-4\nsupport = 3.0\nkernel = \"wendland-c2\"\n\
+                 blocks = [{{ min = [0, 0, 0], max = [1, 0.5, 1] }}]\n\
+                 [coupling]\nwindow_substeps = 20\n[dem]\nengine = \"soft-sphere\"\n\
+                 [dem.soft_sphere]\ncontact = \"linear\"\nstiffness = 1e-4\n\
+                 [[bodies]]\nname = \"grain\"\nshape.sphere.radius = 5e-5\ndensity = 2500.0\n\
+                 position = [0.5, 0.25, 0.5]\ncoupling = \"unresolved\"\n{group}"
+            ))
+        };
+        let dt = 2.23e-6;
+        let free = grain("");
+        let t_a = grain_sound_crossing(&free).unwrap();
+        assert!((t_a - 1.8375e-5).abs() < 1e-12, "h/c = {t_a}");
+        let p = choose_window(&free, Some(dt), Some(1e-3));
+        assert!(p.window <= t_a && p.window > 0.999 * t_a, "{p:?}");
+        assert_eq!(p.fluid_substeps, 9, "{p:?}");
+        assert!(p.reason.contains("sound crosses"), "{}", p.reason);
+        let rigid = grain("translation_group = \"block\"");
+        assert_eq!(grain_sound_crossing(&rigid), None);
+        let p = choose_window(&rigid, Some(dt), Some(1e-3));
+        assert_eq!(p.fluid_substeps, 20, "{p:?}");
     }
 }
