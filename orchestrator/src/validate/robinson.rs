@@ -448,10 +448,12 @@ pub(super) const RTI_QUICK: &[&str] = &[
 
 /// The quick version runs water only (see `quick_why`), to 0.06 s: from rest the depth
 /// grows as about cosh(n t), 2.9–10-fold by then at the bounds' n = 28–50 1/s. It keeps the
-/// scene's α = 0.1: without it the 1.1 mm column of before blew up at t = 17.8 ms (a fluid
-/// particle inside the block at 13 m/s, step 7100), where Robinson (§7) needed none at his
-/// width; so did the 2.2 mm column, at t = 16.7 ms (a fluid particle at 13.1 m/s inside the
-/// block, 2026-12-05).
+/// scene's α = 0.1, where Robinson (§7) needed none at his width. Without it the 1.1 mm
+/// column of before blew up at t = 17.8 ms and the 2.2 mm one at 16.7 ms, a sound wave
+/// through the block fed by windows of 20 fluid steps; with windows of at most h/c_s
+/// (`grain_sound_crossing`, 2026-12-05) the 2.2 mm column ran to 37.3 ms, and then blew
+/// up from its upper face, the fluid under the lid and odd-even rows in the block, all
+/// growing from 20 ms (ARCHITECTURE.md, "A window longer than the sound's crossing of h").
 pub(super) const RTI_QUICK_VARIANTS: &[Variant] = &[(
     "water, α = 0.1",
     &[
