@@ -23,8 +23,8 @@ pub struct WindowPlan {
 /// of the fastest unresolved grain's drag relaxation time ([`grain_relaxation`]), than
 /// the time sound takes to cross the coupling length where grains move freely
 /// ([`grain_sound_crossing`]), than `time.max_window` or the output interval (so
-/// snapshots fall on windows), and shrunk
-/// so that a whole number of windows reaches `time.end` exactly.
+/// snapshots fall on windows), and shrunk so that a whole number of windows reaches
+/// `time.end` exactly.
 pub fn choose_window(scene: &Scene, fluid_dt: Option<f64>, dem_dt: Option<f64>) -> WindowPlan {
     let mut candidates: Vec<(f64, String)> = Vec::new();
     if dem_dt.is_none() {
@@ -105,10 +105,10 @@ pub fn grain_relaxation(scene: &Scene) -> Option<f64> {
 
 /// `h / c_s`, the time a pressure signal takes to cross the coupling length h (the
 /// fluid's smoothing length, Robinson's h_c, eq. 9), where unresolved grains move freely
-/// (dynamic, not in a translation group). Within a window the fluid sees the grains at their
-/// window-start velocities and the grains take the window's mean force, so their motion,
-/// and through the porosity the fluid's pressure (eq. 15 on ρ/ε), lags the fluid by
-/// about a window. A sound wave whose period is near that lag is then fed instead of
+/// (dynamic, not in a translation group). Within a window the grains' forces are sampled
+/// at its start and held, and the fluid sees the grains moving at their window-start
+/// velocities, so their motion, and through the porosity the fluid's pressure (eq. 15 on
+/// ρ/ε), lags the fluid by about a window. A sound wave whose period is near that lag is then fed instead of
 /// damped: the RTI's 1.1 mm quick at α = 0 (water, windows of 20 fluid steps, 44.5 μs
 /// = 2.4 h/c_s) grew a standing wave through its block, layers of fluid and grains
 /// moving up and down in turn 4 grain layers apart (0.55 mm, a sound period of 55 μs),
