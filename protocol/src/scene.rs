@@ -926,7 +926,10 @@ pub struct CouplingSpec {
     pub scheme: CouplingScheme,
     /// Fluid steps per coupling window. Default 1: each fluid step sees the bodies
     /// where they are; raise it to trade accuracy of the body motion inside the
-    /// window for fewer exchanges.
+    /// window for fewer exchanges. Unresolved grains bound the window further (a
+    /// twentieth of their drag relaxation time, Robinson eq. 36, and where they move
+    /// freely the time sound takes to cross h, h/c_s): `couplet plan` names the limit
+    /// that binds.
     #[serde(default = "default_window_substeps")]
     pub window_substeps: u32,
     /// Drag law on unresolved grains (`coupling = "unresolved"`): `"stokes"` (Robinson
