@@ -412,8 +412,8 @@ pub(super) const CPB_QUICK_VARIANTS: &[Variant] = &[
 /// δ-SPH 0.1 on ρ/ε: without it the quick's column blew up at α = 0 from its faces and
 /// odd-even rows in the block (`RTI_QUICK_VARIANTS`), which δ-SPH holds, as it does the
 /// constant-porosity block's. Water–glycerol at α = 0 is Robinson's scheme as he ran it:
-/// the 1.1 mm column so run (windows of t_d/20 = 7.8 μs) stayed quiet to 30 ms, its
-/// fluid's largest speed 0.86–1.06 mm/s over 6–30 ms where water's faces grew ×2 a
+/// the 1.1 mm column so run (windows of t_d/20 = 7.8 μs) stayed quiet to 60 ms, its
+/// fluid's largest speed 0.86–1.33 mm/s over 6–60 ms where water's faces grew ×2 a
 /// millisecond from 20 ms (results/2026-12-05-lavapipe-rti-window/wg-a0).
 pub(super) const RTI_VARIANTS: &[Variant] = &[
     ("water-glycerol, α = 0.1", &[]),
