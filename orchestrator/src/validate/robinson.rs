@@ -463,10 +463,13 @@ pub(super) const RTI_QUICK: &[&str] = &[
 /// of at most h/c_s (`grain_sound_crossing`, 2026-12-05) the 2.2 mm column ran to
 /// 37.3 ms, and then blew up from its upper face, the fluid under the lid and odd-even
 /// rows in the block, all growing from 20 ms (ARCHITECTURE.md, "A window longer than the
-/// sound's crossing of h"). With δ-SPH it ran quiet to 0.06 s (2026-12-05). The scene's
-/// α = 0.1 without δ-SPH also passes here (38.904 1/s), where Robinson's water growth
-/// with it fell below both bounds: `--set effects.artificial_viscosity=0.1 --set
-/// effects.density_diffusion=0.0`.
+/// sound's crossing of h"). With δ-SPH it ran quiet to 0.06 s (2026-12-05). With δ-SPH
+/// and α = 0.1 (`--set effects.artificial_viscosity=0.1`) the growth falls below both
+/// bounds, 18.062 1/s, as Robinson's water growth with α = 0.1 did (2026-12-06). The
+/// scene's α = 0.1 without δ-SPH (`--set effects.artificial_viscosity=0.1 --set
+/// effects.density_diffusion=0.0`) grew as slowly until its fluid turned noisy at 35 ms,
+/// and its fit read the burst after: 38.904 1/s
+/// (results/2026-12-06-lavapipe-rti-alpha/comparison.md).
 pub(super) const RTI_QUICK_VARIANTS: &[Variant] = &[(
     "water, α = 0, δ-SPH 0.1",
     &[
