@@ -841,9 +841,55 @@ fn rti_growth_rate_is_judged_between_the_bounds() {
     }
 }
 
+/// The RTI report gives the lowest grain's growth rate over each half of the fitted
+/// stretch, so that a fit across a change of rate shows (the water quick at α = 0.1
+/// without δ-SPH grew about 20 1/s until its fluid turned noisy, then 51: its fit read
+/// 38.904 1/s, results/2026-12-06-lavapipe-rti-alpha). Synthetic: a depth of
+/// 0.1 mm · e^(20 t) to 68 ms and 30 1/s after, fitted from a = 2 a(0) at 35 ms to the
+/// record's end at 0.1 s (66 samples, halves 35–68 and 68–100 ms), must read 20 and
+/// 30 1/s to the printed 1e-3; a single exponential, 35 1/s, the same in both halves.
+#[test]
+fn rti_reports_the_growth_rate_over_each_half_of_the_fitted_stretch() {
+    let scene = rti_quick_scene();
+    let halves = |bodies: Vec<BodySample>| {
+        let rec = Recording {
+            has_summary: true,
+            bodies,
+            ..Default::default()
+        };
+        let mut r = Report::default();
+        rayleigh_taylor(&scene, &rec, &mut r).unwrap();
+        let row = (r.rows.iter())
+            .find(|r| {
+                r.quantity
+                    .starts_with("the lowest grain's growth rate over each half")
+            })
+            .unwrap_or_else(|| panic!("{:?}", r.rows));
+        assert_eq!(row.pass, None, "{row:?}");
+        row.measured.clone()
+    };
+    let tb = 0.068;
+    let two_rates = rti_lowest_grain(&scene, |t| {
+        1e-4 * (20.0 * t.min(tb) + 30.0 * (t - tb).max(0.0)).exp()
+    });
+    assert_eq!(
+        halves(two_rates),
+        "20.000 1/s over t = 3.500e-2–6.800e-2 s; 30.000 1/s over t = 6.800e-2–1.000e-1 s"
+    );
+    let one = halves(rti_lowest_grain_growing(&scene, 35.0));
+    let rates: Vec<&str> = one.split("; ").map(|h| &h[..6]).collect();
+    assert_eq!(rates, ["35.000", "35.000"], "{one}");
+}
+
 /// A lowest grain (body 0) whose depth below the quick scene's settling face grows as
 /// a(0) e^(n t), a(0) = 0.1 mm, recorded every millisecond to 0.1 s.
 fn rti_lowest_grain_growing(scene: &Scene, n: f64) -> Vec<BodySample> {
+    rti_lowest_grain(scene, |t| 1e-4 * (n * t).exp())
+}
+
+/// A lowest grain (body 0) at the depth `depth(t)` below the quick scene's settling
+/// face, recorded every millisecond to 0.1 s.
+fn rti_lowest_grain(scene: &Scene, depth: impl Fn(f64) -> f64) -> Vec<BodySample> {
     use crate::robinson_reference::cpb_terminal_velocity_mixture_buoyancy;
     let l = &scene.grain_lattices[0];
     let face = l.min[1] + 0.5 * l.spacing();
@@ -855,7 +901,7 @@ fn rti_lowest_grain_growing(scene: &Scene, n: f64) -> Vec<BodySample> {
             BodySample {
                 time: t,
                 body: 0,
-                position: [5e-4, face - v35 * t - 1e-4 * (n * t).exp(), 5e-4],
+                position: [5e-4, face - v35 * t - depth(t), 5e-4],
                 orientation: [0.0, 0.0, 0.0, 1.0],
                 velocity: [0.0; 3],
             }
