@@ -2,6 +2,13 @@ use super::*;
 use crate::record::LoadSample;
 use couplet_protocol::scene::KernelKind;
 
+/// The report's row whose quantity starts with `start`; panics listing the rows.
+fn row_starting<'a>(r: &'a Report, start: &str) -> &'a Row {
+    (r.rows.iter())
+        .find(|x| x.quantity.starts_with(start))
+        .unwrap_or_else(|| panic!("no row {start:?}: {:?}", r.rows))
+}
+
 /// The release delay shifts the measured clock: a front that is another one started
 /// ΔT later compares with ΔT = 0 as the first does with ΔT; and the worst deviation is
 /// the largest of |Z(T − ΔT) − Z_MM|/Z_MM over the points, here for a straight front
@@ -558,11 +565,7 @@ fn sps_reports_the_max_and_robinson_fig_5s_mean_deviation() {
     single_particle_sedimentation(&scene, &rec, &mut report).unwrap();
     let (_, worst) = report.headline.clone().unwrap();
     assert!((worst - 0.015).abs() < 1e-9, "max deviation {worst}");
-    let row = report
-        .rows
-        .iter()
-        .find(|r| r.quantity.starts_with("mean deviation"))
-        .unwrap();
+    let row = row_starting(&report, "mean deviation");
     assert_eq!(row.measured, "+1.00 % ± 0.50 %");
 }
 
@@ -578,12 +581,7 @@ fn cpb_return_flow_reads_snapshots_off_the_body_times() {
     let (scene, rec) = cpb_synthetic_fall(|_| u);
     let mut r = Report::default();
     constant_porosity_block(&scene, &rec, &mut r).unwrap();
-    let row = (r.rows.iter())
-        .find(|r| {
-            r.quantity
-                .starts_with("fluid velocity in the block's middle half")
-        })
-        .unwrap_or_else(|| panic!("no return-flow row: {:?}", r.rows));
+    let row = row_starting(&r, "fluid velocity in the block's middle half");
     assert!(row.quantity.contains("over 7 snapshots"), "{row:?}");
     let measured: f64 = row.measured.split(' ').next().unwrap().parse().unwrap();
     assert!((measured - u).abs() < 1e-9, "{row:?}");
@@ -607,9 +605,7 @@ fn cpb_settling_speed_is_the_time_average_of_the_fall() {
     let mut r = Report::default();
     constant_porosity_block(&scene, &rec, &mut r).unwrap();
     let measured = |start: &str| -> f64 {
-        let row = (r.rows.iter())
-            .find(|r| r.quantity.starts_with(start))
-            .unwrap_or_else(|| panic!("no row {start:?}: {:?}", r.rows));
+        let row = row_starting(&r, start);
         row.measured.split(' ').next().unwrap().parse().unwrap()
     };
     let fall = (r.values.iter()).find(|(k, _)| *k == "speed").unwrap().1;
@@ -677,12 +673,7 @@ fn cpb_fails_a_fluid_speed_that_grows_or_outruns_the_block() {
         let (scene, rec) = cpb_synthetic_fall(u);
         let mut r = Report::default();
         constant_porosity_block(&scene, &rec, &mut r).unwrap();
-        let row = |start: &str| {
-            (r.rows.iter())
-                .find(|r| r.quantity.starts_with(start))
-                .unwrap_or_else(|| panic!("no row {start:?}: {:?}", r.rows))
-                .clone()
-        };
+        let row = |start: &str| row_starting(&r, start).clone();
         (
             row("growth of the fluid's largest speed"),
             row("the fluid's largest speed over the judged stretch"),
@@ -744,11 +735,7 @@ fn sedimentation_regimes_judges_a_one_way_grain_at_the_porosity_it_sees() {
         };
         let mut r = Report::default();
         sedimentation_regimes(scene, &rec, &mut r).unwrap();
-        let row = |q: &str| {
-            (r.rows.iter().find(|r| r.quantity.starts_with(q)))
-                .unwrap_or_else(|| panic!("{q}: {:?}", r.rows))
-                .clone()
-        };
+        let row = |q: &str| row_starting(&r, q).clone();
         (
             row("porosity the lone grain sees"),
             row("terminal velocity (Re"),
@@ -823,9 +810,7 @@ fn rti_growth_rate_is_judged_between_the_bounds() {
         };
         let mut r = Report::default();
         rayleigh_taylor(&scene, &rec, &mut r).unwrap();
-        let row = (r.rows.iter())
-            .find(|r| r.quantity.starts_with("growth rate of the lowest grain"))
-            .unwrap_or_else(|| panic!("n = {n}: {:?}", r.rows));
+        let row = row_starting(&r, "growth rate of the lowest grain");
         assert_eq!(row.pass, Some(pass), "n = {n}: {row:?}");
         assert!((r.value("growth").unwrap() - n).abs() < 1e-9 * n, "{row:?}");
         let (lo, hi) = (r.value("lower").unwrap(), r.value("upper").unwrap());
@@ -859,12 +844,7 @@ fn rti_reports_the_growth_rate_over_each_half_of_the_fitted_stretch() {
         };
         let mut r = Report::default();
         rayleigh_taylor(&scene, &rec, &mut r).unwrap();
-        let row = (r.rows.iter())
-            .find(|r| {
-                r.quantity
-                    .starts_with("the lowest grain's growth rate over each half")
-            })
-            .unwrap_or_else(|| panic!("{:?}", r.rows));
+        let row = row_starting(&r, "the lowest grain's growth rate over each half");
         assert_eq!(row.pass, None, "{row:?}");
         row.measured.clone()
     };
@@ -940,9 +920,7 @@ fn rti_reports_the_fluids_largest_speed_over_the_fitted_stretch() {
     };
     let mut r = Report::default();
     rayleigh_taylor(&scene, &rec, &mut r).unwrap();
-    let row = (r.rows.iter())
-        .find(|r| r.quantity.starts_with("the fluid's largest speed"))
-        .unwrap_or_else(|| panic!("{:?}", r.rows));
+    let row = row_starting(&r, "the fluid's largest speed");
     assert_eq!(
         (row.quantity.as_str(), row.measured.as_str(), row.pass),
         (
@@ -1358,11 +1336,7 @@ fn cylinder_re_is_judged_against_table_2_at_its_spacing() {
         let mut rep = Report::default();
         let rec = fall_recording(&scene, r, factor * u, submerged_weight(&scene));
         settling_cylinder(&scene, &rec, &mut rep).unwrap();
-        let row = rep
-            .rows
-            .iter()
-            .find(|x| x.quantity.starts_with("Re = U d/ν"))
-            .unwrap();
+        let row = row_starting(&rep, "Re = U d/ν");
         assert_eq!(row.pass, pass, "δ {spacing}, ×{factor}: {}", rep.markdown());
         // The lattice Boltzmann reference is reported beside it for this body and
         // channel, whatever the spacing: the plateau is 17.03 × factor.
@@ -1409,11 +1383,7 @@ fn a_fall_cut_before_the_floor_is_measured_and_fails() {
     settling_cylinder(&scene, &rec, &mut rep).unwrap();
     let (_, err) = rep.headline.clone().unwrap();
     assert!(err < 1e-6, "Re {} off: {}", pct(err), rep.markdown());
-    let cut = rep
-        .rows
-        .iter()
-        .find(|x| x.quantity.starts_with("the fall reaches the floor"))
-        .unwrap();
+    let cut = row_starting(&rep, "the fall reaches the floor");
     assert_eq!(cut.pass, Some(false), "{}", rep.markdown());
     assert!(cut.measured.contains("t = 0.3000 s"), "{}", cut.measured);
     assert!(!rep.passed());
@@ -1456,11 +1426,7 @@ fn shape_drag_judges_re_and_cd_ratios_against_table_5() {
                 &mut r,
             )
             .unwrap();
-            let re_row = r
-                .rows
-                .iter()
-                .find(|x| x.quantity.starts_with("Re"))
-                .unwrap();
+            let re_row = row_starting(&r, "Re");
             assert_eq!(re_row.pass, pass.map(|_| true), "{label}: {}", r.markdown());
             let got = r.value("cd").unwrap();
             assert!(
