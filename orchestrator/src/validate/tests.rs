@@ -861,6 +861,29 @@ fn rti_reports_the_growth_rate_over_each_half_of_the_fitted_stretch() {
     assert_eq!(rates, ["35.000", "35.000"], "{one}");
 }
 
+/// The RTI report gives the bounds again with the suspension at the fluid's viscosity
+/// (no Krieger eq. 38, which the unresolved model has no mechanism for): for the water
+/// quick 29.291 … 54.031 1/s against 28.467 … 50.279 with it. The reference is an
+/// independent Python bisection of eq. (37) (written 2026-12-06; it also gives the
+/// full water–glycerol column's 9.985 … 22.891 against 9.310 … 18.813).
+#[test]
+fn rti_reports_the_bounds_without_the_suspensions_krieger_viscosity() {
+    let scene = rti_quick_scene();
+    let rec = Recording {
+        has_summary: true,
+        bodies: rti_lowest_grain_growing(&scene, 35.0),
+        ..Default::default()
+    };
+    let mut r = Report::default();
+    rayleigh_taylor(&scene, &rec, &mut r).unwrap();
+    let row = row_starting(&r, "bounds with the suspension at the fluid's viscosity");
+    assert_eq!(
+        (row.measured.as_str(), row.pass),
+        ("29.291 1/s (ε = 0.93) … 54.031 1/s (ε = 0.8)", None),
+        "{row:?}"
+    );
+}
+
 /// A lowest grain (body 0) whose depth below the quick scene's settling face grows as
 /// a(0) e^(n t), a(0) = 0.1 mm, recorded every millisecond to 0.1 s.
 fn rti_lowest_grain_growing(scene: &Scene, n: f64) -> Vec<BodySample> {
