@@ -1101,7 +1101,9 @@ pub(super) fn rayleigh_taylor(
     };
     let rate = |e: f64, k: f64| rate_with(e, k, krieger_viscosity(mu, e, KRIEGER_POROSITY_MIN));
     let k = 2.0 * std::f64::consts::PI / p.wavelength;
-    let (upper, lower) = (rate(eps, 2f64.sqrt() * k)?, rate(0.93, 2f64.sqrt() * k)?);
+    // The judged mode cos kx cos kz's wave number.
+    let sk = 2f64.sqrt() * k;
+    let (upper, lower) = (rate(eps, sk)?, rate(0.93, sk)?);
     // The lowest grain at every recorded time.
     let prefix = format!("{}[", lattice.name);
     let member: Vec<bool> = (scene.bodies.iter())
@@ -1162,7 +1164,7 @@ pub(super) fn rayleigh_taylor(
     report.judge(
         "bounds of the growth rate, two-fluid model (Robinson eqs. 37–38)",
         format!("{lower:.3} 1/s (ε = 0.93) … {upper:.3} 1/s (ε = {eps})"),
-        format!("wave number √2 · 2π/λ = {:.1} 1/m", 2f64.sqrt() * k),
+        format!("wave number √2 · 2π/λ = {sk:.1} 1/m"),
         "reported".into(),
         None,
     );
@@ -1170,9 +1172,7 @@ pub(super) fn rayleigh_taylor(
     // ε = 0.8. The unresolved model has no mechanism for it: its suspension is the
     // fluid, at the fluid's viscosity, with grains held by drag. In water–glycerol, where
     // viscosity counts, that moves the full column's upper bound from 18.813 to 22.891
-    // 1/s; in the water quick from 50.279 to 54.031. The full water–glycerol run at α = 0
-    // grew 19.3 1/s over 40–48 ms and its layer's mode 22.2 (lavapipe, 2026-12-06).
-    let sk = 2f64.sqrt() * k;
+    // 1/s; in the water quick from 50.279 to 54.031.
     report.judge(
         "bounds with the suspension at the fluid's viscosity (eq. 37 without eq. 38, which the unresolved model has no mechanism for; not judged)",
         format!(
