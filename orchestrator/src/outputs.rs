@@ -178,6 +178,12 @@ impl Outputs {
         Ok(())
     }
 
+    /// Writes out the recording so far (the CSV is written out every window): what a
+    /// checkpoint needs before it counts ([`crate::run::CoupledRun::checkpoint`]).
+    pub fn flush(&mut self) -> Result<(), RecordError> {
+        self.mcap.flush()
+    }
+
     /// Writes what is pending and closes every file; the MCAP gets its summary.
     pub fn close(&mut self) -> Result<(), RecordError> {
         let rows = self.write_pending();

@@ -602,6 +602,18 @@ impl Recorder {
         );
     }
 
+    /// Writes out what is recorded so far (the open chunk ends): a process killed
+    /// after this leaves a file that reads to here (not closed, so without its summary).
+    pub fn flush(&self) -> Result<(), RecordError> {
+        match &self.writer {
+            Some(w) => w.flush().map_err(|e| RecordError::Mcap {
+                path: self.path.clone(),
+                detail: e.to_string(),
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// Flushes and writes the summary; the file is complete and indexed afterwards.
     pub fn close(&mut self) -> Result<(), RecordError> {
         if let Some(w) = self.writer.take() {
@@ -709,6 +721,20 @@ pub struct WindowRecord {
     pub wall_s: f64,
 }
 
+/// Windows `from_step..to_step` (start times `from_time`, `to_time`, s) that no sitting of
+/// a resumed run recorded. A sitting killed outright (SIGKILL, the machine going down)
+/// loses what its recorder had not yet written; a checkpoint taken later than that, where
+/// the next sitting starts, leaves the windows between in neither recording. Since
+/// 2026-12-06 a checkpoint first writes out the recording
+/// ([`crate::run::CoupledRun::checkpoint`]), so only older runs have them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gap {
+    pub from_step: u64,
+    pub to_step: u64,
+    pub from_time: f64,
+    pub to_time: f64,
+}
+
 /// What a recording holds, decoded.
 #[derive(Debug, Default)]
 pub struct Recording {
@@ -716,8 +742,12 @@ pub struct Recording {
     pub bodies: Vec<BodySample>,
     pub loads: Vec<LoadSample>,
     pub windows: usize,
-    /// The last window recorded.
+    /// The first and the last window recorded.
+    pub first_window: Option<WindowRecord>,
     pub last_window: Option<WindowRecord>,
+    /// Windows of a run over several sittings that none recorded
+    /// ([`crate::resume::read_chain`]); none in one file.
+    pub gaps: Vec<Gap>,
     /// The file ends with a summary and footer (it was closed properly).
     pub has_summary: bool,
     /// Why reading stopped early in a file that was never closed (a run killed mid-write):
@@ -832,12 +862,14 @@ pub fn read_recording_before(path: &Path, stop: Option<u64>) -> Result<Recording
                     .as_u64()
                     .ok_or_else(|| format!("{}: a window without its step", path.display()))?;
                 rec.windows += 1;
-                rec.last_window = Some(WindowRecord {
+                let w = WindowRecord {
                     step,
                     time: v["time"].as_f64().unwrap_or(f64::NAN),
                     window: v["window"].as_f64().unwrap_or(f64::NAN),
                     wall_s: v["wall_s"].as_f64().unwrap_or(f64::NAN),
-                });
+                };
+                rec.first_window.get_or_insert(w);
+                rec.last_window = Some(w);
                 if stop.is_some_and(|s| step + 1 >= s) {
                     break;
                 }
@@ -1017,5 +1049,30 @@ mod tests {
         std::fs::write(&path, b"not an mcap file").unwrap();
         assert!(read_recording(&path).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Regression (2026-12-06): a process killed outright (SIGKILL; the lavapipe RTI's
+    /// machine restarting) loses what its recorder holds in memory, the open chunk, which
+    /// may span thousands of windows; a checkpoint taken meanwhile then starts the next
+    /// sitting after the recording's end. `flush` writes it out: what was recorded
+    /// before it survives the process, what came after does not.
+    #[test]
+    fn a_flushed_recording_survives_its_process_killed_to_the_flush() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("run.mcap");
+        let rec = Recorder::create(&path, "test", "name = \"test\"\n", &[]).unwrap();
+        let window = |step: u64| rec.window(step, step as f64, 1.0, 0.0, None, None);
+        (0..10).for_each(window);
+        rec.flush().unwrap();
+        (10..15).for_each(window);
+        // As SIGKILL: no close, no drop; the writer's memory is never written.
+        std::mem::forget(rec);
+        let r = read_recording(&path).unwrap();
+        assert!(!r.has_summary);
+        let steps = (
+            r.first_window.map(|w| w.step),
+            r.last_window.map(|w| w.step),
+        );
+        assert_eq!((r.windows, steps), (10, (Some(0), Some(9))));
     }
 }

@@ -799,6 +799,14 @@ impl CoupledRun {
             prescribed: self.prescribed.clone(),
             wall_s: self.wall_so_far(),
         };
+        // The recording must reach the checkpoint before the checkpoint counts (its
+        // orchestrator state, written last, makes it whole): a sitting killed outright
+        // later loses only windows that the next sitting, starting here, records again.
+        // Until 2026-12-06 it did not, and a lavapipe RTI killed by its machine's restart
+        // left windows 7433–7600 in neither sitting's recording (`Gap`).
+        if let Some(r) = self.recorder.as_mut() {
+            r.flush()?;
+        }
         let time = self.step as f64 * self.plan.window;
         write_state(
             &state_file(&dir, Role::Orchestrator),

@@ -140,6 +140,68 @@ fn a_run_stopped_and_resumed_from_its_checkpoint_records_what_one_sitting_record
     );
 }
 
+/// Regression (2026-12-06): a sitting killed outright (SIGKILL to its process group, as
+/// when its machine goes down) after a checkpoint has a recording that reaches that
+/// checkpoint, so `--resume` continues with no window missing. Before, a checkpoint did
+/// not write out the recording: the recorder's open chunk died with the process (here
+/// every window so far; in a lavapipe RTI the 168 windows before its checkpoint, which
+/// `read_chain` then refused), and no sitting had the windows before the checkpoint.
+#[test]
+fn regression_a_sitting_killed_outright_recorded_up_to_its_checkpoint() {
+    let out = tempfile::tempdir().unwrap();
+    let scene_path = scene("dam-break-boxes");
+    let args: Vec<&str> = ["run", scene_path.to_str().unwrap(), "--out"]
+        .into_iter()
+        .chain([out.path().to_str().unwrap()])
+        .chain(SCENE_ARGS)
+        .chain(["--checkpoint-every", "0.5"])
+        .collect();
+    let mut cli = {
+        use std::os::unix::process::CommandExt;
+        Command::new(CLI)
+            .args(&args)
+            .process_group(0)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let start = Instant::now();
+    while newest_checkpoint(out.path()).unwrap().is_none() {
+        assert!(
+            cli.try_wait().unwrap().is_none(),
+            "the run ended before its first checkpoint"
+        );
+        assert!(start.elapsed() < LIMIT, "no checkpoint within {LIMIT:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(250));
+    // SAFETY: kill(2) on the process group our child leads.
+    unsafe { libc::kill(-(cli.id() as i32), libc::SIGKILL) };
+    let (status, stderr) = exit_within(&mut cli, LIMIT, "the killed sitting ends");
+    assert!(status.code().is_none(), "{stderr}");
+    let (step, _) = newest_checkpoint(out.path()).unwrap().unwrap();
+    let cut = read_recording(&out.path().join("run.mcap")).unwrap();
+    assert!(!cut.has_summary);
+    let last = cut.last_window.map(|w| w.step + 1);
+    assert!(
+        last.is_some_and(|l| l >= step),
+        "the killed sitting's recording ends before window {last:?}, its checkpoint is at {step}"
+    );
+
+    let second = run(out.path(), &["--resume"]);
+    assert!(
+        second.status.success(),
+        "{}",
+        String::from_utf8_lossy(&second.stderr)
+    );
+    let chain = read_chain(out.path()).unwrap();
+    assert!(chain.gaps.is_empty(), "{:?}", chain.gaps);
+    assert_eq!(chain.windows, 688);
+    assert!(chain.has_summary);
+}
+
 /// The summary of a resumed sitting speaks of that sitting: its windows, time and speed,
 /// and per-window means over its own windows. Until 2026-12-01 the means divided the
 /// sitting's sums by every window since t = 0 (a lavapipe RTI resumed at window 2036

@@ -1192,8 +1192,71 @@ fn analysed(
         "exact".into(),
         Some(rec.has_summary),
     );
+    if !rec.gaps.is_empty() {
+        let (value, lost) = gap_losses(scene, rec);
+        report.judge(
+            "windows in no sitting's recording (a sitting killed before it wrote them out)",
+            value,
+            "every snapshot and body record the scene asks for".into(),
+            "none lost".into(),
+            Some(lost == 0),
+        );
+    }
     (case.analyse)(scene, rec, &mut report).map_err(ValidateError::Analysis)?;
     Ok(report)
+}
+
+/// What the gaps of a resumed run's recording ([`crate::record::Gap`]) lost: the fluid
+/// snapshots and body records that the scene's output intervals put in them and that
+/// are not in the recording. A record at interval multiple kΔ falls in the first window
+/// that ends at kΔ or later (`CoupledRun::advance`, to 1e-9 Δ), so a gap's due times
+/// are the multiples in (from_time, to_time]; body records without
+/// `time.body_output_interval` are due every window. Returns the row's text and the
+/// number lost.
+fn gap_losses(scene: &Scene, rec: &Recording) -> (String, usize) {
+    let multiples = |iv: f64, a: f64, b: f64| {
+        let e = 1e-9 * iv;
+        (((b + e) / iv).floor() - ((a + e) / iv).floor()).max(0.0) as usize
+    };
+    let within = |t: f64, a: f64, b: f64| t > a && t <= b;
+    let (mut due, mut lost) = ([0usize; 2], [0usize; 2]);
+    let mut spans = Vec::new();
+    for g in &rec.gaps {
+        let (a, b) = (g.from_time, g.to_time);
+        spans.push(format!(
+            "{}–{} (t = {a:.6} … {b:.6} s)",
+            g.from_step,
+            g.to_step - 1
+        ));
+        let snaps = match scene.fluid {
+            Some(_) => multiples(scene.time.output_interval, a, b),
+            None => 0,
+        };
+        let found = rec.snapshots.iter().filter(|s| within(s.0, a, b)).count();
+        let bodies = match scene.time.body_output_interval {
+            Some(iv) => multiples(iv, a, b),
+            None if scene.bodies.is_empty() => 0,
+            None => (g.to_step - g.from_step) as usize,
+        };
+        let mut times: Vec<f64> = (rec.bodies.iter())
+            .map(|s| s.time)
+            .filter(|&t| within(t, a, b))
+            .collect();
+        times.dedup();
+        due[0] += snaps;
+        due[1] += bodies;
+        lost[0] += snaps.saturating_sub(found);
+        lost[1] += bodies.saturating_sub(times.len());
+    }
+    let text = format!(
+        "windows {}: snapshots lost {} of {} due there, body records lost {} of {}",
+        spans.join(", "),
+        lost[0],
+        due[0],
+        lost[1],
+        due[1]
+    );
+    (text, lost[0] + lost[1])
 }
 
 /// A fraction as a percentage: two decimals, or three significant digits below 0.01 %

@@ -1378,11 +1378,13 @@ pub(super) fn lowest_layer_modes(
             (b.name.strip_prefix(&prefix))
                 .and_then(|r| r.strip_suffix(']'))
                 .and_then(|i| i.parse::<usize>().ok())
-                .is_some_and(|i| n[0] > 0 && n[1] > 0 && (i / n[0]) % n[1] == 0)
+                .is_some_and(|i| n[0] > 0 && n[1] > 0 && (i / n[0]).is_multiple_of(n[1]))
         })
         .collect();
-    let mut at: std::collections::BTreeMap<u64, (f64, [[f64; 3]; 3], [f64; 3], usize)> =
-        Default::default();
+    // At each record time: the time, the normal equations' matrix and right side of the
+    // least squares, and the grains summed.
+    type Sums = (f64, [[f64; 3]; 3], [f64; 3], usize);
+    let mut at: std::collections::BTreeMap<u64, Sums> = Default::default();
     for b in (rec.bodies.iter()).filter(|b| lowest.get(b.body) == Some(&true)) {
         let (cx, cz) = ((k * b.position[0]).cos(), (k * b.position[2]).cos());
         let f = [1.0, cx + cz, cx * cz];

@@ -1856,3 +1856,54 @@ fn cavity_probe_is_exact_for_a_linear_field_next_to_the_lid() {
     assert!((got - field(x, y)).abs() < 1e-6, "{got} vs {}", field(x, y));
     assert!(probe_xy(&snap[..2], x, y, r, 0).is_none());
 }
+
+/// A gap in a resumed run's recording (`crate::record::Gap`) is judged by what it lost:
+/// the records the scene's intervals put in it (snapshots every 10 ms, body records
+/// every 2 ms here) less those the recording holds. The lavapipe RTI's gap of
+/// 2026-12-06, windows 7433–7600 at 7.8028 µs (57.9978 … 59.3087 ms), holds the body
+/// record due at 58 ms and no snapshot: if the killed sitting wrote that record it lost
+/// nothing. Hand counts; a second gap with the 60 ms snapshot due and absent loses one.
+#[test]
+fn a_gap_in_a_resumed_recording_is_judged_by_the_records_it_lost() {
+    let mut scene = rti_quick_scene();
+    scene.time.output_interval = 0.01;
+    scene.time.body_output_interval = Some(2e-3);
+    let w = 0.25 / 32_040.0;
+    let gap = |a: u64, b: u64| crate::record::Gap {
+        from_step: a,
+        to_step: b,
+        from_time: a as f64 * w,
+        to_time: b as f64 * w,
+    };
+    let sample = |time: f64| BodySample {
+        time,
+        body: 0,
+        position: [0.0; 3],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        velocity: [0.0; 3],
+    };
+    let mut rec = Recording {
+        gaps: vec![gap(7433, 7601)],
+        bodies: vec![sample(7432.0 * w), sample(7434.0 * w), sample(7602.0 * w)],
+        ..Default::default()
+    };
+    let (text, lost) = gap_losses(&scene, &rec);
+    assert_eq!(lost, 0, "{text}");
+    assert!(
+        text.contains("windows 7433–7600 (t = 0.057998 … 0.059309 s)")
+            && text.contains("snapshots lost 0 of 0")
+            && text.contains("body records lost 0 of 1"),
+        "{text}"
+    );
+    rec.bodies.remove(1);
+    assert_eq!(gap_losses(&scene, &rec).1, 1);
+    // Windows 7680–7699 (59.925 … 60.081 ms) hold the snapshot and the body record due
+    // at 60 ms, neither recorded: with the 58 ms record gone, three lost.
+    rec.gaps.push(gap(7680, 7700));
+    let (text, lost) = gap_losses(&scene, &rec);
+    assert_eq!(lost, 3, "{text}");
+    assert!(
+        text.contains("snapshots lost 1 of 1") && text.contains("body records lost 2 of 2"),
+        "{text}"
+    );
+}
