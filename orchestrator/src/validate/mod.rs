@@ -547,7 +547,7 @@ static CASES: [Case; 17] = [
         scene: "rayleigh-taylor.toml",
         about: "Robinson §7 (RTI, Figs. 13–14): the ε = 0.8 block of free grains over clear fluid, its lower face disturbed by Robinson eq. (39), in water–glycerol with α = 0.1 and α = 0 and in water with α = 0 and δ-SPH — growth rate of the lowest grain's depth between the two-fluid model's rates (eqs. 37–38) at ε = 0.93 and ε = 0.8",
         quick: RTI_QUICK,
-        quick_why: "water with α = 0 (Robinson's Fig. 13) and δ-SPH 0.1 on ρ/ε holding the block's faces, in a column cut to 16 lattice spacings (2.2 mm) across, so the wave number is 1.9 times Robinson's, with 18 fluid spacings across it, to t = 0.06 s: 15 552 fluid particles and 4352 grains, about 37 minutes on lavapipe (water–glycerol's growth at a narrow width is viscous, a few 1/s, and would need seconds). Measured 2026-12-05 (2200 s, windows of 9 fluid steps, h/c_s): the lowest grain 35.537 1/s over 27–60 ms against the bounds 28.467–50.279 1/s; the lowest layer's mode cos kx cos kz 43.969 1/s over 26–60 ms, 25 to 227 µm; the fluid's largest speed 4.2 mm/s at 20 ms, 11 at 40 and 16 at 50, at the lower face, then 128 and 65 mm/s at 55 and 60 ms down the spike's axis, where the stem's grains fall at 38 mm/s, twice the tip's speed (results/2026-12-05-lavapipe-rti-window/rti-wide-a0-dsph-60ms). The scene's α = 0.1 without δ-SPH read 38.904 1/s (2537 s, again 2408 s bit for bit; mode 52.3 1/s, 25 to 159 µm) in a noisier fluid: pressures from −146 to 218 Pa by 35 ms and −209 to 281 by 45 (with δ-SPH the hydrostatic 16–80 and 32–95 Pa) and its largest speed 20–40 mm/s at the upper face over 35–45 ms (results/2026-12-05-lavapipe-rti-window/rti-wide-h), and its growth had been 12–20 1/s in each 10 ms until then, 51 over 40–50 ms: its fit read the noise's burst. With δ-SPH, α = 0.1 grew 17–20 1/s throughout, 18.062 1/s over 39–60 ms, below both bounds as Robinson's water with α = 0.1, in the quietest fluid of all (2175 s, 2026-12-06, results/2026-12-06-lavapipe-rti-alpha); at α = 0 without δ-SPH the column blew up at 16.7 ms with windows of 20 fluid steps and at 37.3 ms with the window at most h/c_s, from its faces, the fluid under the lid and odd-even rows in the block (ARCHITECTURE.md, \"A window longer than the sound's crossing of h\"); the 1.1 mm one at 18 ms. Not narrower: the column until that day, 1.1 mm (8 lattice and 9 fluid spacings), holds an interface (the porosity smoothed over a support of 3δ = 0.37 mm) a third of the wavelength wide, and there the layer's mode burst to about 0.1 mm by 70 ms and levelled off (120 µm at 0.12 s); its lowest grain read whatever stretch its doubling picked: 26.742 and 27.208 1/s (PASS, 2026-11-28 and 29), 22.115 1/s (FAIL, 2026-12-05), 10.875 1/s run to 0.12 s (ARCHITECTURE.md, \"The narrow RTI quick is no proxy\"). In that column, with 8 fluid spacings across its 8 lattice spacings, the fluid's lattice on the grains', the code of 2026-11-28 blew up at t = 55.2 ms (a fluid particle at 56 m/s among the grains)",
+        quick_why: "water with α = 0 (Robinson's Fig. 13) and δ-SPH 0.1 on ρ/ε holding the block's faces, in a column cut to 16 lattice spacings (2.2 mm) across, so the wave number is 1.9 times Robinson's, with 18 fluid spacings across it, to t = 0.06 s: 15 552 fluid particles and 4352 grains, about 37 minutes on lavapipe (water–glycerol's growth at a narrow width is viscous, a few 1/s, and would need seconds). Measured 2026-12-05 (2200 s, windows of 9 fluid steps, h/c_s): the lowest grain 35.537 1/s over 27–60 ms against the bounds 28.467–50.279 1/s; the lowest layer's mode cos kx cos kz 43.969 1/s over 26–60 ms, 25 to 227 µm (results/2026-12-05-lavapipe-rti-window/rti-wide-a0-dsph-60ms). The other three corners of α and δ-SPH (results/2026-12-06-lavapipe-rti-alpha/comparison.md): α = 0.1 with δ-SPH 18.062 1/s, below both bounds as Robinson's water with α = 0.1, in the quietest fluid of all; α = 0.1 without δ-SPH 38.904 1/s, a fit over the burst of a fluid turned noisy at 35 ms (12–20 1/s in each 10 ms until then); α = 0 without δ-SPH blew up at 37.3 ms from its faces (ARCHITECTURE.md, \"A window longer than the sound's crossing of h\"). Not narrower: at 1.1 mm across the interface, the porosity smoothed over a support of 3δ, is a third of the wavelength wide, the layer's mode levelled off at about 0.1 mm, and the lowest grain read whatever stretch its fit picked, 10.9 to 27.2 1/s (ARCHITECTURE.md, \"The narrow RTI quick is no proxy\")",
         sweep_spacings: &[],
         sweep_schemes: &[],
         sweep_thin_axes: &[],
@@ -955,11 +955,15 @@ fn run_case(
     how: &HowToRun,
 ) -> Result<Report, ValidateError> {
     let with = |variant: &[&str]| run_overrides(base, variant, extra);
-    let sweep_point = point.map(|p| (p.index, p.spacing));
+    // What every report of this call carries: the sweep point and the command line's
+    // overrides, which its title names.
+    let stamped = |r: Report| Report {
+        sweep_point: point.map(|p| (p.index, p.spacing)),
+        command_line: extra.to_vec(),
+        ..r
+    };
     if variants.is_empty() {
-        let mut report = run_one(case, quick, with(&[]), out, scenes_dir, how)?;
-        report.sweep_point = sweep_point;
-        report.command_line = extra.to_vec();
+        let report = stamped(run_one(case, quick, with(&[]), out, scenes_dir, how)?);
         write_outputs(&report)?;
         return Ok(report);
     }
@@ -979,24 +983,23 @@ fn run_case(
         ) {
             // Ctrl-C or SIGTERM ends the case, not just this variant.
             Err(e) if e.is_interrupted() => return Err(e),
-            Ok(mut r) => {
-                r.case = format!("{} ({label})", case.name);
-                r.sweep_point = sweep_point;
-                r.command_line = extra.to_vec();
+            Ok(r) => {
+                let r = stamped(Report {
+                    case: format!("{} ({label})", case.name),
+                    ..r
+                });
                 write_outputs(&r)?;
                 r
             }
             Err(e) => {
                 eprintln!("validate {}: {label} failed: {e}", case.name);
                 failed.push(*label);
-                let mut r = Report {
+                let mut r = stamped(Report {
                     case: format!("{} ({label})", case.name),
                     quick,
-                    sweep_point,
                     wall_s: t0.elapsed().as_secs_f64(),
-                    command_line: extra.to_vec(),
                     ..Default::default()
-                };
+                });
                 r.judge(
                     "run",
                     format!("failed: {e}"),
@@ -1009,16 +1012,14 @@ fn run_case(
         };
         parts.push(r);
     }
-    let mut report = Report {
+    let mut report = stamped(Report {
         case: case.name.to_owned(),
         quick,
-        sweep_point,
         wall_s: parts.iter().map(|r| r.wall_s).sum(),
         out: out.clone(),
         particles: parts.iter().map(|r| r.particles).max().unwrap_or(0),
-        command_line: extra.to_vec(),
         ..Default::default()
-    };
+    });
     for ((label, _), r) in variants.iter().zip(&parts) {
         for row in &r.rows {
             report.rows.push(Row {
