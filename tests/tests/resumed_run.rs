@@ -45,24 +45,17 @@ fn bits(r: &Recording) -> (Vec<u64>, Vec<u64>, Vec<u32>) {
     (bodies, times, particles)
 }
 
-#[test]
-fn a_run_stopped_and_resumed_from_its_checkpoint_records_what_one_sitting_records() {
-    let whole = tempfile::tempdir().unwrap();
-    assert!(run(whole.path(), &[]).status.success());
-    let one = read_recording(&whole.path().join("run.mcap")).unwrap();
-    assert_eq!(
-        one.windows, 688,
-        "the scene's plan changed: update this test"
-    );
-
-    // First sitting: a checkpoint every 0.5 s of wall time, stopped by SIGTERM to its
-    // process group (the servers too) a quarter second after its first one, so that it
-    // has run windows past it (read_chain drops them; its unit tests fix the case).
-    let two = tempfile::tempdir().unwrap();
+/// A first sitting into `out` with a checkpoint every 0.5 s of wall time, sent `signal`
+/// to its process group (the servers too) a quarter second after its first checkpoint,
+/// so that it has run windows past it; its exit status and standard error.
+fn first_sitting_stopped(
+    out: &std::path::Path,
+    signal: libc::c_int,
+) -> (std::process::ExitStatus, String) {
     let scene_path = scene("dam-break-boxes");
     let args: Vec<&str> = ["run", scene_path.to_str().unwrap(), "--out"]
         .into_iter()
-        .chain([two.path().to_str().unwrap()])
+        .chain([out.to_str().unwrap()])
         .chain(SCENE_ARGS)
         .chain(["--checkpoint-every", "0.5"])
         .collect();
@@ -78,7 +71,7 @@ fn a_run_stopped_and_resumed_from_its_checkpoint_records_what_one_sitting_record
             .unwrap()
     };
     let start = Instant::now();
-    while newest_checkpoint(two.path()).unwrap().is_none() {
+    while newest_checkpoint(out).unwrap().is_none() {
         assert!(
             cli.try_wait().unwrap().is_none(),
             "the run ended before its first checkpoint"
@@ -88,8 +81,24 @@ fn a_run_stopped_and_resumed_from_its_checkpoint_records_what_one_sitting_record
     }
     std::thread::sleep(Duration::from_millis(250));
     // SAFETY: kill(2) on the process group our child leads.
-    unsafe { libc::kill(-(cli.id() as i32), libc::SIGTERM) };
-    let (status, stderr) = exit_within(&mut cli, LIMIT, "the first sitting stops");
+    unsafe { libc::kill(-(cli.id() as i32), signal) };
+    exit_within(&mut cli, LIMIT, "the first sitting stops")
+}
+
+#[test]
+fn a_run_stopped_and_resumed_from_its_checkpoint_records_what_one_sitting_records() {
+    let whole = tempfile::tempdir().unwrap();
+    assert!(run(whole.path(), &[]).status.success());
+    let one = read_recording(&whole.path().join("run.mcap")).unwrap();
+    assert_eq!(
+        one.windows, 688,
+        "the scene's plan changed: update this test"
+    );
+
+    // First sitting: stopped by SIGTERM after its first checkpoint, windows past it
+    // (read_chain drops them; its unit tests fix the case).
+    let two = tempfile::tempdir().unwrap();
+    let (status, stderr) = first_sitting_stopped(two.path(), libc::SIGTERM);
     assert_eq!(status.code(), Some(143), "{stderr}");
     let cut = read_recording(&two.path().join("run.mcap")).unwrap();
     let (step, _) = newest_checkpoint(two.path()).unwrap().unwrap();
@@ -149,37 +158,7 @@ fn a_run_stopped_and_resumed_from_its_checkpoint_records_what_one_sitting_record
 #[test]
 fn regression_a_sitting_killed_outright_recorded_up_to_its_checkpoint() {
     let out = tempfile::tempdir().unwrap();
-    let scene_path = scene("dam-break-boxes");
-    let args: Vec<&str> = ["run", scene_path.to_str().unwrap(), "--out"]
-        .into_iter()
-        .chain([out.path().to_str().unwrap()])
-        .chain(SCENE_ARGS)
-        .chain(["--checkpoint-every", "0.5"])
-        .collect();
-    let mut cli = {
-        use std::os::unix::process::CommandExt;
-        Command::new(CLI)
-            .args(&args)
-            .process_group(0)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap()
-    };
-    let start = Instant::now();
-    while newest_checkpoint(out.path()).unwrap().is_none() {
-        assert!(
-            cli.try_wait().unwrap().is_none(),
-            "the run ended before its first checkpoint"
-        );
-        assert!(start.elapsed() < LIMIT, "no checkpoint within {LIMIT:?}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    std::thread::sleep(Duration::from_millis(250));
-    // SAFETY: kill(2) on the process group our child leads.
-    unsafe { libc::kill(-(cli.id() as i32), libc::SIGKILL) };
-    let (status, stderr) = exit_within(&mut cli, LIMIT, "the killed sitting ends");
+    let (status, stderr) = first_sitting_stopped(out.path(), libc::SIGKILL);
     assert!(status.code().is_none(), "{stderr}");
     let (step, _) = newest_checkpoint(out.path()).unwrap().unwrap();
     let cut = read_recording(&out.path().join("run.mcap")).unwrap();
