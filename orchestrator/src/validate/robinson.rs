@@ -1256,6 +1256,41 @@ pub(super) fn rayleigh_taylor(
             );
         }
     }
+    // Robinson's Figs. 13–14 set the lowest grain's trajectory beside the bounds'
+    // curves a(0) e^(n t) and call it between them; a start from rest lags both curves
+    // at first, so a grain whose own rate ends above the upper one can lie between the
+    // curves over most of the stretch (the full water–glycerol column at α = 0 on
+    // lavapipe: below the lower curve to about 20 ms, between them after, its fitted
+    // rate above the upper). The chronological runs of the records to half way to the
+    // floor against the curves, reported, not judged.
+    let t_start = depth[0].0;
+    let curve = |n: f64, t: f64| a0 * (n * (t - t_start)).exp();
+    let mut runs: Vec<(&str, f64, f64, usize)> = Vec::new();
+    for &(t, a) in depth.get(1..stop).unwrap_or_default() {
+        let class = if a < curve(lower, t) {
+            "below the lower"
+        } else if a > curve(upper, t) {
+            "above the upper"
+        } else {
+            "between"
+        };
+        match runs.last_mut() {
+            Some(r) if r.0 == class => (r.2, r.3) = (t, r.3 + 1),
+            _ => runs.push((class, t, t, 1)),
+        }
+    }
+    if !runs.is_empty() {
+        let text: Vec<String> = (runs.iter())
+            .map(|(c, a, b, n)| format!("{c} at t = {a:.3e}–{b:.3e} s ({n} records)"))
+            .collect();
+        report.judge(
+            "the lowest grain's depth against the bounds' curves a(0) e^(n t), to half way to the floor (Robinson's Figs. 13–14 compare these; not judged)",
+            text.join("; "),
+            format!("n = {lower:.3} … {upper:.3} 1/s from a(0) = {a0:.4e} m at t = {t_start:.3e} s"),
+            "reported".into(),
+            None,
+        );
+    }
     report.judge(
         "the single-axis modes of eq. (39), wave number 2π/λ (not judged)",
         format!("{:.3} … {:.3} 1/s", rate(0.93, k)?, rate(eps, k)?),
@@ -1361,10 +1396,7 @@ pub(super) fn rayleigh_taylor(
             x_label: "t (s)".into(),
             y_label: "depth below the settling face (m)".into(),
             points: depth.clone(),
-            reference: depth
-                .iter()
-                .map(|&(t, _)| (t, a0 * (bound * t).exp()))
-                .collect(),
+            reference: depth.iter().map(|&(t, _)| (t, curve(bound, t))).collect(),
         });
     }
     Ok(())

@@ -889,6 +889,46 @@ fn rti_reports_the_bounds_without_the_suspensions_krieger_viscosity() {
     );
 }
 
+/// The RTI report sets the lowest grain's depth beside the bounds' curves a(0) e^(n t)
+/// as Robinson's Figs. 13–14 do (the quick: 28.467 and 50.279 1/s), in chronological
+/// runs to half way to the floor. A grain starting from rest, a(0) cosh(60 t), lags the
+/// lower curve until they cross at t = 18.83 ms (a bisection of cosh(60 t) =
+/// e^(28.467 t) by hand, 2026-12-06), so its records at 1–18 ms lie below it and those
+/// from 19 ms between, to 55 ms, the last record before half way to the floor (it
+/// would cross the upper curve at 71.3 ms); a(0) e^(60 t) lies above the upper curve
+/// from its first record after the start.
+#[test]
+fn rti_reports_the_lowest_grains_depth_against_the_bounds_curves() {
+    let scene = rti_quick_scene();
+    let row_for = |depth: fn(f64) -> f64| {
+        let rec = Recording {
+            has_summary: true,
+            bodies: rti_lowest_grain(&scene, depth),
+            ..Default::default()
+        };
+        let mut r = Report::default();
+        rayleigh_taylor(&scene, &rec, &mut r).unwrap();
+        row_starting(&r, "the lowest grain's depth against the bounds' curves").clone()
+    };
+    let rest = row_for(|t| 1e-4 * (60.0 * t).cosh());
+    assert_eq!(
+        (rest.measured.as_str(), rest.pass),
+        (
+            "below the lower at t = 1.000e-3–1.800e-2 s (18 records); \
+             between at t = 1.900e-2–5.500e-2 s (37 records)",
+            None
+        ),
+        "{rest:?}"
+    );
+    let fast = row_for(|t| 1e-4 * (60.0 * t).exp());
+    assert!(
+        fast.measured
+            .starts_with("above the upper at t = 1.000e-3–")
+            && !fast.measured.contains(';'),
+        "{fast:?}"
+    );
+}
+
 /// A lowest grain (body 0) whose depth below the quick scene's settling face grows as
 /// a(0) e^(n t), a(0) = 0.1 mm, recorded every millisecond to 0.1 s.
 fn rti_lowest_grain_growing(scene: &Scene, n: f64) -> Vec<BodySample> {
