@@ -803,13 +803,7 @@ fn rti_growth_rate_is_judged_between_the_bounds() {
     let kl = 2f64.sqrt() * k * scene.fluid.as_ref().unwrap().support_radius();
     assert!(kl <= 1.5, "k L = {kl}");
     for (n, pass) in [(35.0, true), (15.0, false), (60.0, false)] {
-        let rec = Recording {
-            has_summary: true,
-            bodies: rti_lowest_grain_growing(&scene, n),
-            ..Default::default()
-        };
-        let mut r = Report::default();
-        rayleigh_taylor(&scene, &rec, &mut r).unwrap();
+        let r = rti_report(&scene, rti_lowest_grain_growing(&scene, n));
         let row = row_starting(&r, "growth rate of the lowest grain");
         assert_eq!(row.pass, Some(pass), "n = {n}: {row:?}");
         assert!((r.value("growth").unwrap() - n).abs() < 1e-9 * n, "{row:?}");
@@ -837,13 +831,7 @@ fn rti_growth_rate_is_judged_between_the_bounds() {
 fn rti_reports_the_growth_rate_over_each_half_of_the_fitted_stretch() {
     let scene = rti_quick_scene();
     let halves = |bodies: Vec<BodySample>| {
-        let rec = Recording {
-            has_summary: true,
-            bodies,
-            ..Default::default()
-        };
-        let mut r = Report::default();
-        rayleigh_taylor(&scene, &rec, &mut r).unwrap();
+        let r = rti_report(&scene, bodies);
         let row = row_starting(&r, "the lowest grain's growth rate over each half");
         assert_eq!(row.pass, None, "{row:?}");
         row.measured.clone()
@@ -870,13 +858,7 @@ fn rti_reports_the_growth_rate_over_each_half_of_the_fitted_stretch() {
 #[test]
 fn rti_reports_the_bounds_without_the_suspensions_krieger_viscosity() {
     let scene = rti_quick_scene();
-    let rec = Recording {
-        has_summary: true,
-        bodies: rti_lowest_grain_growing(&scene, 35.0),
-        ..Default::default()
-    };
-    let mut r = Report::default();
-    rayleigh_taylor(&scene, &rec, &mut r).unwrap();
+    let r = rti_report(&scene, rti_lowest_grain_growing(&scene, 35.0));
     let row = row_starting(&r, "bounds with the suspension at the fluid's viscosity");
     assert_eq!(
         (row.measured.as_str(), row.pass),
@@ -901,13 +883,7 @@ fn rti_reports_the_bounds_without_the_suspensions_krieger_viscosity() {
 fn rti_reports_the_lowest_grains_depth_against_the_bounds_curves() {
     let scene = rti_quick_scene();
     let row_for = |depth: fn(f64) -> f64| {
-        let rec = Recording {
-            has_summary: true,
-            bodies: rti_lowest_grain(&scene, depth),
-            ..Default::default()
-        };
-        let mut r = Report::default();
-        rayleigh_taylor(&scene, &rec, &mut r).unwrap();
+        let r = rti_report(&scene, rti_lowest_grain(&scene, depth));
         row_starting(&r, "the lowest grain's depth against the bounds' curves").clone()
     };
     let rest = row_for(|t| 1e-4 * (60.0 * t).cosh());
@@ -927,6 +903,18 @@ fn rti_reports_the_lowest_grains_depth_against_the_bounds_curves() {
             && !fast.measured.contains(';'),
         "{fast:?}"
     );
+}
+
+/// The RTI report of `scene` on a closed recording of grain states `bodies` alone.
+fn rti_report(scene: &Scene, bodies: Vec<BodySample>) -> Report {
+    let rec = Recording {
+        has_summary: true,
+        bodies,
+        ..Default::default()
+    };
+    let mut r = Report::default();
+    rayleigh_taylor(scene, &rec, &mut r).unwrap();
+    r
 }
 
 /// A lowest grain (body 0) whose depth below the quick scene's settling face grows as
