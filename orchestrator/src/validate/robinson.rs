@@ -1259,10 +1259,9 @@ pub(super) fn rayleigh_taylor(
     // Robinson's Figs. 13–14 set the lowest grain's trajectory beside the bounds'
     // curves a(0) e^(n t) and call it between them; a start from rest lags both curves
     // at first, so a grain whose own rate ends above the upper one can lie between the
-    // curves over most of the stretch (the full water–glycerol column at α = 0 on
-    // lavapipe: below the lower curve to about 20 ms, between them after, its fitted
-    // rate above the upper). The chronological runs of the records to half way to the
-    // floor against the curves, reported, not judged.
+    // curves over most of the stretch (ARCHITECTURE.md has the runs that showed it). The
+    // chronological runs of the records to half way to the floor against the curves,
+    // reported, not judged.
     let t_start = depth[0].0;
     let curve = |n: f64, t: f64| a0 * (n * (t - t_start)).exp();
     let mut runs: Vec<(&str, f64, f64, usize)> = Vec::new();
