@@ -7,7 +7,9 @@
 // fluid particle behind a wall face (WALL_LO/WALL_HI, ∓1e30 where none) is mirrored
 // back across it, x_k ← 2 face − x_k, and loses its velocity into the wall (walls move
 // only tangentially). Each particle moved, by either, is counted once in status[3],
-// read at the window's end and reported.
+// read at the window's end and reported. In a scene without resolved bodies the
+// second entry point, `wall_non_penetration`, does the wall part alone (it binds no
+// markers and no grid).
 // Needs: prelude, SPH constants, StepParams, grid_common, marker_update (library).
 // Its library part, `nearest_surface_marker`, is shared with particle shifting's body
 // variant (particle_shifting_surface.wgsl); a kernel using it declares `pos`, `vel`,
@@ -80,18 +82,49 @@ fn body_non_penetration(@builtin(workgroup_id) wid: vec3<u32>,
     }
     // A body landing on a wall pressed the fluid between them through it (the
     // settling-sphere quick with the mass correction, 2026-11-26).
-    let below = p < WALL_LO;
-    let above = p > WALL_HI;
-    if any(below) || any(above) {
-        p = select(p, WALL_LO + (WALL_LO - p), below);
-        p = select(p, WALL_HI + (WALL_HI - p), above);
-        u = select(u, max(u, vec3<f32>(0.0)), below);
-        u = select(u, min(u, vec3<f32>(0.0)), above);
-        moved = true;
+    let at_wall = inside_walls(p, u);
+    if moved || at_wall.moved {
+        store_moved(i, at_wall.p, at_wall.u);
     }
-    if moved {
-        pos[i] = vec4<f32>(p, pos[i].w);
-        vel[i] = vec4<f32>(u, vel[i].w);
-        atomicAdd(&status[3], 1u);
+}
+
+// Fluid kept inside the wall faces in a scene without resolved bodies: the
+// water–glycerol RTI at α = 0 (2026-12-06) had two fluid particles above its lid at
+// 110 ms, among the wall particles, uncounted.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn wall_non_penetration(@builtin(workgroup_id) wid: vec3<u32>,
+                        @builtin(local_invocation_index) lid: u32,
+                        @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = linear_id(wid, lid, nwg);
+    if i >= params.n_total || !is_fluid(id[i]) {
+        return;
     }
+    let at_wall = inside_walls(pos[i].xyz, vel[i].xyz);
+    if at_wall.moved {
+        store_moved(i, at_wall.p, at_wall.u);
+    }
+}
+
+struct Mirrored {
+    moved: bool,
+    p: vec3<f32>,
+    u: vec3<f32>,
+}
+
+// p mirrored back across every wall face it is beyond (WALL_LO/WALL_HI, ∓1e30 where
+// none), x_k ← 2 face − x_k, and u's velocity into that wall removed.
+fn inside_walls(p_in: vec3<f32>, u_in: vec3<f32>) -> Mirrored {
+    let below = p_in < WALL_LO;
+    let above = p_in > WALL_HI;
+    var p = select(p_in, WALL_LO + (WALL_LO - p_in), below);
+    p = select(p, WALL_HI + (WALL_HI - p), above);
+    var u = select(u_in, max(u_in, vec3<f32>(0.0)), below);
+    u = select(u, min(u, vec3<f32>(0.0)), above);
+    return Mirrored(any(below) || any(above), p, u);
+}
+
+fn store_moved(i: u32, p: vec3<f32>, u: vec3<f32>) {
+    pos[i] = vec4<f32>(p, pos[i].w);
+    vel[i] = vec4<f32>(u, vel[i].w);
+    atomicAdd(&status[3], 1u);
 }

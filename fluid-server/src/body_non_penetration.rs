@@ -21,7 +21,14 @@
 //! between them through the wall, where nothing pushes it back. The settling-sphere
 //! quick (r = 1.25δ) with the mass correction Γ = 2 landed at 0.36 s, one fluid
 //! particle under it went through the floor (1 mm below it by 0.41 s), and its density
-//! went to NaN at 0.417 s. Only scenes with resolved bodies run this pass.
+//! went to NaN at 0.417 s.
+//!
+//! A scene without resolved bodies runs the wall part alone ([`wall_kernel`]), where it
+//! has a wall face. Why: fluid crosses a wall there too once the flow beside it is
+//! disturbed (the water–glycerol RTI at α = 0, 2026-12-06: two fluid particles above
+//! the lid at 110 ms, after its upper face had turned noisy), and nothing reported it;
+//! a particle among the wall layers takes their pressure at a fraction of a spacing.
+//! Now it is mirrored back and counted like the rest.
 //! WGSL: `shaders/body_non_penetration.wgsl`.
 
 use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
@@ -36,11 +43,28 @@ use crate::sph_kernel::{
 
 pub const BODY_NON_PENETRATION_WGSL: &str = include_str!("../shaders/body_non_penetration.wgsl");
 
-pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
+const PARTICLE_BINDINGS: &[(u32, Access)] = &[
+    (pb::POS, Access::ReadWrite),
+    (pb::VEL, Access::ReadWrite),
+    (pb::ID, Access::Read),
+];
+const PARAM_BINDINGS: &[(u32, Access)] = &[
+    (qb::PARAMS, Access::Uniform),
+    (qb::STATUS, Access::ReadWrite),
+];
+
+fn build(
+    gpu: &Gpu,
+    c: &SphConstants,
+    label: &'static str,
+    entry: &str,
+    groups: &[(u32, &[(u32, Access)])],
+    grid_layout: Option<&wgpu::BindGroupLayout>,
+) -> SphKernel {
     let consts = c.wgsl();
     SphKernel::new(
         gpu,
-        "sph: body_non_penetration",
+        label,
         &[
             &consts,
             STEP_PARAMS_WGSL,
@@ -48,26 +72,37 @@ pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) 
             library(MARKER_UPDATE_WGSL),
             BODY_NON_PENETRATION_WGSL,
         ],
+        entry,
+        groups,
+        grid_layout,
+    )
+}
+
+/// The pass with resolved bodies: their surfaces, then the wall faces.
+pub fn kernel(gpu: &Gpu, c: &SphConstants, grid_layout: &wgpu::BindGroupLayout) -> SphKernel {
+    build(
+        gpu,
+        c,
+        "sph: body_non_penetration",
         "body_non_penetration",
         &[
-            (
-                PARTICLES,
-                &[
-                    (pb::POS, Access::ReadWrite),
-                    (pb::VEL, Access::ReadWrite),
-                    (pb::ID, Access::Read),
-                ],
-            ),
+            (PARTICLES, PARTICLE_BINDINGS),
             (BODIES, &[(bb::MARKERS_IN, Access::Read)]),
-            (
-                PARAMS,
-                &[
-                    (qb::PARAMS, Access::Uniform),
-                    (qb::STATUS, Access::ReadWrite),
-                ],
-            ),
+            (PARAMS, PARAM_BINDINGS),
         ],
         Some(grid_layout),
+    )
+}
+
+/// The pass without resolved bodies: the wall faces alone (no markers, no grid).
+pub fn wall_kernel(gpu: &Gpu, c: &SphConstants) -> SphKernel {
+    build(
+        gpu,
+        c,
+        "sph: wall_non_penetration",
+        "wall_non_penetration",
+        &[(PARTICLES, PARTICLE_BINDINGS), (PARAMS, PARAM_BINDINGS)],
+        None,
     )
 }
 

@@ -278,6 +278,12 @@ impl SphConstants {
                 .powf(1.0 / self.gamma)
     }
 
+    /// Some axis has a wall face ([`Self::wall_faces`]): fluid is kept inside it
+    /// ([`crate::body_non_penetration`]).
+    pub fn has_wall_face(&self) -> bool {
+        self.wall_faces.iter().flatten().any(|f| f.is_finite())
+    }
+
     /// The per-step gradient pass ([`crate::joubert2020_gradients`]) runs: it feeds
     /// the gradient and Laplacian corrections, particle shifting and δ-SPH.
     pub fn gradient_pass(&self) -> bool {

@@ -29,6 +29,7 @@ pub const GRAVITY: &str = "gravity";
 pub const INTEGRATE: &str = "joubert2020_predictor_corrector";
 pub const BODY_LOADS: &str = "joubert2020_body_loads";
 pub const BODY_NON_PENETRATION: &str = "body_non_penetration";
+pub const WALL_NON_PENETRATION: &str = "wall_non_penetration";
 pub const BLOWUP_CHECK: &str = "blowup_check";
 pub const GRADIENTS: &str = "joubert2020_gradients";
 pub const PARTICLE_SHIFTING: &str = "particle_shifting";
@@ -342,11 +343,26 @@ pub fn stages(scene: &Scene) -> Vec<Stage> {
             ),
         );
     }
+    // Every non-periodic axis has a wall face (+y has its floor even with an open top).
+    let walled = axis_names(|k| !scene.domain.periodic[k]);
+    let beyond_walls = "a fluid particle beyond a wall face after the step is mirrored back across it and its velocity into the wall removed";
     if resolved {
         push(
             BODY_NON_PENETRATION,
-            "resolved bodies: a fluid particle behind the tangent plane of its nearest surface marker after the step is mirrored back and its inward relative velocity removed; counted per window (not in Joubert)".into(),
+            format!(
+                "resolved bodies: a fluid particle behind the tangent plane of its nearest surface marker after the step is mirrored back and its inward relative velocity removed; then {beyond_walls}; counted per window (not in Joubert)"
+            ),
         );
+    } else if !walled.is_empty() {
+        push(
+            WALL_NON_PENETRATION,
+            format!(
+                "walls on {}: {beyond_walls}; counted per window (not in Joubert)",
+                walled.join(", ")
+            ),
+        );
+    }
+    if resolved {
         push(
             BODY_LOADS,
             format!(

@@ -8,7 +8,7 @@
 //! ```text
 //! marker_update?  grid sort  smoothing_lengths?  gradients? │ boundary pressure  fluid_rates  marker_loads?  predict
 //!                                                           │ boundary pressure  fluid_rates  marker_loads?  correct
-//!                                                           │ shift?  body_non_penetration?  advance_clock?
+//!                                                           │ shift?  body_ or wall_non_penetration?  advance_clock?
 //! ```
 //!
 //! and, once per window, `reduce_body_loads?` and the blow-up check. Stages switched off
@@ -23,8 +23,8 @@
 //! Adami's extrapolation, or with `domain.wall_model = "joubert"` Joubert's Neumann
 //! values (eqs. 25, 27; [`crate::joubert2020_boundary_values`]) at walls and markers.
 //! With the gradient correction the marker loads' velocity gradient takes a one-sided
-//! B ([`crate::joubert2020_body_loads`]). With markers, a fluid particle that ends a step
-//! behind a body's surface or a wall face is mirrored back and counted
+//! B ([`crate::joubert2020_body_loads`]). A fluid particle that ends a step behind a
+//! body's surface (with markers) or a wall face is mirrored back and counted
 //! ([`crate::body_non_penetration`]).
 
 use crate::checkpoint::{self, FluidState};
@@ -128,6 +128,9 @@ pub struct SphPipelines {
     shift: Option<SphKernel>,
     smoothing_lengths: Option<SphKernel>,
     grain_reaction: Option<SphKernel>,
+    /// Fluid kept inside the wall faces where no marker pass does it (a scene without
+    /// resolved bodies that has a wall face).
+    wall_non_penetration: Option<SphKernel>,
     markers: Option<MarkerPipelines>,
 }
 
@@ -164,6 +167,8 @@ impl SphPipelines {
             grain_reaction: c
                 .grain_reaction
                 .then(|| crate::unresolved_coupling::add_kernel(gpu, c)),
+            wall_non_penetration: (!with_markers && c.has_wall_face())
+                .then(|| body_non_penetration::wall_kernel(gpu, c)),
             markers: with_markers.then(|| MarkerPipelines::new(gpu, c, grid_layout)),
         }
     }
@@ -220,6 +225,7 @@ struct Bound {
     shift: Option<BoundKernel>,
     smoothing_lengths: Option<BoundKernel>,
     grain_reaction: Option<BoundKernel>,
+    wall_non_penetration: Option<BoundKernel>,
     markers: Option<BoundMarkers>,
 }
 
@@ -773,6 +779,13 @@ impl SphData {
                     ),
                     None => None,
                 },
+                wall_non_penetration: match &p.wall_non_penetration {
+                    Some(k) => Some(
+                        k.bind(gpu, resolve, None)
+                            .ok_or_else(|| missing("wall_non_penetration"))?,
+                    ),
+                    None => None,
+                },
                 markers,
             }
         };
@@ -870,9 +883,10 @@ impl SphData {
                 Some(m) => (&m.marker_loads, "sph: joubert2020_marker_loads"),
                 None => return,
             },
-            Op::NonPenetration => match m {
-                Some(m) => (&m.non_penetration, "sph: body_non_penetration"),
-                None => return,
+            Op::NonPenetration => match (m, &b.wall_non_penetration) {
+                (Some(m), _) => (&m.non_penetration, "sph: body_non_penetration"),
+                (None, Some(k)) => (k, "sph: wall_non_penetration"),
+                (None, None) => return,
             },
             Op::AdvanceClock => {
                 if let Some(m) = m {

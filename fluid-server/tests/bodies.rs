@@ -1,6 +1,7 @@
 //! The fluid around resolved bodies. Fill points take Adami's pressure from the fluid in
 //! front of their nearest surface only; fluid behind a body's surface is mirrored out
-//! (`body_non_penetration`). Each GPU kernel against its CPU twin.
+//! (`body_non_penetration`), and fluid beyond a wall face is mirrored back, with bodies
+//! or without. Each GPU kernel against its CPU twin.
 //!
 //! Non-penetration: A sphere of 300 surface markers (r = 5δ) carves the fluid out of itself,
 //! then moves 0.8δ along +x at 0.1 m/s, so the fluid that stood δ/2 to 0.8δ outside its
@@ -358,19 +359,16 @@ fn fluid_behind_a_body_across_a_periodic_face_is_mirrored_out_as_the_twin_does()
     assert_fluid_agrees(&c, &got, &twin);
 }
 
-/// Regression (settling-sphere quick with Γ = 2, 2026-11-26: a sphere landing on the
-/// floor pressed a fluid particle through it, where its density went to NaN): the
-/// non-penetration pass also mirrors fluid back across the domain's wall faces. In the
-/// open-topped 0.2 m box with the sphere of the test above, three fluid particles
-/// start 0.3δ below the floor, 0.3δ beyond the +x wall and 0.3δ above the open top,
-/// each moving outward at 0.05 m/s. Reference: the mirror image, analytic — the first
-/// two end 0.3δ inside their face with no outward velocity; the third, above no wall,
-/// is left alone — and the twin for the whole state.
-#[test]
-fn fluid_pressed_through_a_wall_by_a_body_is_mirrored_back() {
+/// Three fluid particles of the 0.2 m box start 0.3δ below the floor, 0.3δ beyond the
+/// +x wall and 0.3δ above the top, each moving outward at 0.05 m/s; then the
+/// non-penetration pass alone, with the filled sphere of the tests above when `body`.
+/// Reference: the mirror image, analytic — each particle beyond a wall face ends 0.3δ
+/// inside it with no outward velocity, one above an open top is left alone — and the
+/// twin, `non_penetration_cpu`, for the whole state.
+fn fluid_beyond_the_walls_is_mirrored_back(closed_top: bool, body: bool) {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
-    let s = common::scene("", "");
-    assert!(!s.domain.closed_top, "the test wants an open top");
+    let mut s = common::scene("", "");
+    s.domain.closed_top = closed_top;
     let c = SphConstants::from_scene(&s).unwrap();
     let d = c.spacing;
     let mut set = initial_particles(&s, &c).unwrap();
@@ -390,24 +388,41 @@ fn fluid_pressed_through_a_wall_by_a_body_is_mirrored_back() {
         set.vel[i][k] = u;
     }
     let ids: Vec<u32> = cases.iter().map(|&(i, ..)| set.id[i]).collect();
-    let (points, state) = filled_sphere([0.1, 0.1, 0.1], 5.0 * d, 300, 0.9);
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
-    solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
-    let (got, twin, count, twin_count) = non_penetration_pass(&gpu, &c, &mut solver, &points);
+    let (got, twin, count, twin_count) = if body {
+        let (points, state) = filled_sphere([0.1, 0.1, 0.1], 5.0 * d, 300, 0.9);
+        solver.set_bodies(&gpu, &[state], &points, &[]).unwrap();
+        non_penetration_pass(&gpu, &c, &mut solver, &points)
+    } else {
+        let mut twin = solver.data().read(&gpu).unwrap();
+        solver
+            .run_ops(&gpu, &[Op::NonPenetration], 1e-5, 1.0)
+            .unwrap();
+        let twin_count = non_penetration_cpu(&c, &mut twin, &[]);
+        let got = solver.data().read(&gpu).unwrap();
+        (
+            got,
+            twin,
+            solver.data().read_reflected(&gpu).unwrap(),
+            twin_count,
+        )
+    };
     println!("mirrored: GPU {count}, twin {twin_count}");
     assert_eq!(
-        count, 2,
-        "the floor's and the +x wall's particles, not the top's"
+        count,
+        if closed_top { 3 } else { 2 },
+        "the floor's, the +x wall's and, under a lid, the top's particles"
     );
     assert_eq!(twin_count, count);
     let origin = solver.origin();
     let at = |id: u32| (0..got.len()).find(|&i| got.id[i] == id).unwrap();
     // Positions to f32 round-off of the 0.2 m box (1e-7 · 0.2 m).
-    let expect = [
-        (1, 0.3 * d, 0.0),
-        (0, 0.2 - 0.3 * d, 0.0),
-        (1, 0.2 + 0.3 * d, 0.05),
-    ];
+    let top = if closed_top {
+        (1, 0.2 - 0.3 * d, 0.0)
+    } else {
+        (1, 0.2 + 0.3 * d, 0.05)
+    };
+    let expect = [(1, 0.3 * d, 0.0), (0, 0.2 - 0.3 * d, 0.0), top];
     for (&id, &(k, x, u)) in ids.iter().zip(&expect) {
         let i = at(id);
         let world = got.pos[i][k] + origin[k];
@@ -424,10 +439,26 @@ fn fluid_pressed_through_a_wall_by_a_body_is_mirrored_back() {
             "velocity {:e}",
             got.vel[i][k]
         );
-        let j = (0..twin.len()).find(|&j| twin.id[j] == id).unwrap();
-        assert!((twin.pos[j][k] - got.pos[i][k]).abs() <= 2e-8);
-        assert!((twin.vel[j][k] - got.vel[i][k]).abs() <= 1e-7);
     }
+    assert_fluid_agrees(&c, &got, &twin);
+}
+
+/// Regression (settling-sphere quick with Γ = 2, 2026-11-26: a sphere landing on the
+/// floor pressed a fluid particle through it, where its density went to NaN): the
+/// bodies' non-penetration pass also mirrors fluid back across the domain's wall
+/// faces; in the open-topped box the particle above the top is left alone.
+#[test]
+fn fluid_pressed_through_a_wall_by_a_body_is_mirrored_back() {
+    fluid_beyond_the_walls_is_mirrored_back(false, true);
+}
+
+/// Regression (the full water–glycerol RTI at α = 0, 2026-12-06: two fluid particles
+/// above the lid at 110 ms, among its wall layers, where no pass saw them): a scene
+/// without resolved bodies keeps fluid inside its wall faces too (the walls' pass,
+/// `wall_non_penetration`), the lid's included.
+#[test]
+fn fluid_beyond_a_lid_without_bodies_is_mirrored_back() {
+    fluid_beyond_the_walls_is_mirrored_back(true, false);
 }
 
 /// Adami's boundary pass with a body's fill points (area 0) on one side: a sphere r = 1.5δ

@@ -42,7 +42,8 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.2, {height}, 0.2] }}]
 /// The stage list follows the effects: viscosity and artificial viscosity appear only
 /// when on; markers and loads only with resolved bodies; gravity only on the fluid; the
 /// gradient pass only with the correction, shifting or Antuono's δ-SPH, the shift only
-/// with shifting.
+/// with shifting; fluid is kept inside the wall faces by the bodies' pass with resolved
+/// bodies, by the walls' alone without, and by neither where every axis is periodic.
 #[test]
 fn stages_follow_the_scene() {
     let names = |s: &Scene| stages(s).iter().map(|s| s.name).collect::<Vec<_>>();
@@ -57,6 +58,14 @@ fn stages_follow_the_scene() {
             && !n.contains(&"joubert2020_body_loads")
     );
     assert!(!n.contains(&"joubert2020_gradients") && !n.contains(&"particle_shifting"));
+    assert!(n.contains(&"wall_non_penetration") && !n.contains(&"body_non_penetration"));
+    let mut periodic = tank("");
+    periodic.domain.periodic = [true; 3];
+    let periodic = names(&periodic);
+    assert!(
+        !periodic.contains(&"wall_non_penetration") && !periodic.contains(&"body_non_penetration"),
+        "{periodic:?}"
+    );
     let full = tank(
         "[effects]\nviscosity = \"laminar\"\nartificial_viscosity = 0.1\ngradient_correction = true\nparticle_shifting = 0.05\n[[bodies]]\nname = \"s\"\nshape.sphere.radius = 0.02\ndensity = 1200.0\nposition = [0.1, 0.2, 0.1]",
     );
@@ -69,9 +78,11 @@ fn stages_follow_the_scene() {
         "joubert2020_body_loads",
         "joubert2020_gradients",
         "particle_shifting",
+        "body_non_penetration",
     ] {
         assert!(n.contains(&s), "{s} missing from {n:?}");
     }
+    assert!(!n.contains(&"wall_non_penetration"), "{n:?}");
     assert!(stages(&full).iter().all(|s| !s.reason.is_empty()));
     // δ-SPH: Antuono's form needs the gradient pass's ∇ρ, Fourtakas's does not.
     let antuono = names(&tank("[effects]\ndensity_diffusion = 0.1"));

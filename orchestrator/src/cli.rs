@@ -681,7 +681,7 @@ fn summary_text(s: &RunSummary) -> String {
     }
     if s.reflected > 0 {
         t += &format!(
-            "bodies: {} fluid particle-steps ended behind a body's surface or a wall face under a body and were mirrored back (per window in /run/windows; many mean a gap or a body under-resolved)\n",
+            "non-penetration: {} fluid particle-steps ended behind a body's surface or a wall face and were mirrored back (per window in /run/windows; many mean a gap or a body under-resolved, or a disturbed flow at a wall)\n",
             s.reflected
         );
     }

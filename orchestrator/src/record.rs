@@ -188,7 +188,7 @@ pub fn window_schema() -> Value {
             "wait_us": {"type": "number"},
             "exchange_us": {"type": "number"},
             "near_singular": {"type": "integer", "minimum": 0, "description": "fluid particle-steps that kept the uncorrected gradient (Joubert eq. 10)"},
-            "reflected": {"type": "integer", "minimum": 0, "description": "fluid particle-steps that ended behind a resolved body's surface and were mirrored back out"},
+            "reflected": {"type": "integer", "minimum": 0, "description": "fluid particle-steps that ended behind a resolved body's surface or a wall face and were mirrored back"},
             "shift_limited": {"type": "integer", "minimum": 0, "description": "fluid particle-steps whose shift (Joubert eq. 17) was cut short δ/2 in front of a resolved body's surface"},
             "kinetic_energy": {"type": "number", "minimum": 0, "description": "fluid at the window's end: Σ ½ m |u|², J (0 for the DEM)"},
             "max_speed": {"type": "number", "minimum": 0, "description": "fluid at the window's end: largest particle speed, m/s (0 for the DEM)"},

@@ -155,7 +155,8 @@ pub struct RunSummary {
     /// Fluid particle-steps that kept the uncorrected gradient (near-singular truncation
     /// matrix, Joubert eq. 10), over the run.
     pub near_singular: u64,
-    /// Fluid particle-steps mirrored back out of a resolved body, over the run.
+    /// Fluid particle-steps mirrored back out of a resolved body or across a wall face,
+    /// over the run.
     pub reflected: u64,
     /// Fluid particle-steps whose shift was cut short δ/2 in front of a resolved body's
     /// surface (couplet_fluid::particle_shifting::limit_toward_surface), over the run.

@@ -266,7 +266,8 @@ pub struct SideReport {
     /// parameter change or checkpoint it acknowledges).
     pub kind: u32,
     /// Fluid: particle-steps of the window that ended behind a resolved body's surface
-    /// and were mirrored back out (couplet_fluid::body_non_penetration); 0 for the DEM.
+    /// or a wall face and were mirrored back (couplet_fluid::body_non_penetration); 0
+    /// for the DEM.
     pub reflected: u32,
     /// Fluid: particle-steps of the window whose shift (Joubert eq. 17) was cut short
     /// δ/2 in front of a resolved body's surface
