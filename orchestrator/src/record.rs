@@ -748,6 +748,11 @@ pub struct Recording {
     /// Windows of a run over several sittings that none recorded
     /// ([`crate::resume::read_chain`]); none in one file.
     pub gaps: Vec<Gap>,
+    /// The fluid's `reflected` summed over the windows: particle-steps mirrored back
+    /// out of a body or across a wall face (couplet_fluid::body_non_penetration), and
+    /// the start of the first window that had any, s.
+    pub reflected: u64,
+    pub first_reflected: Option<f64>,
     /// The file ends with a summary and footer (it was closed properly).
     pub has_summary: bool,
     /// Why reading stopped early in a file that was never closed (a run killed mid-write):
@@ -862,6 +867,12 @@ pub fn read_recording_before(path: &Path, stop: Option<u64>) -> Result<Recording
                     .as_u64()
                     .ok_or_else(|| format!("{}: a window without its step", path.display()))?;
                 rec.windows += 1;
+                let reflected = v["fluid"]["reflected"].as_u64().unwrap_or(0);
+                if reflected > 0 {
+                    rec.reflected += reflected;
+                    rec.first_reflected
+                        .get_or_insert(v["time"].as_f64().unwrap_or(f64::NAN));
+                }
                 let w = WindowRecord {
                     step,
                     time: v["time"].as_f64().unwrap_or(f64::NAN),
@@ -1056,6 +1067,24 @@ mod tests {
     /// may span thousands of windows; a checkpoint taken meanwhile then starts the next
     /// sitting after the recording's end. `flush` writes it out: what was recorded
     /// before it survives the process, what came after does not.
+    #[test]
+    fn a_recording_sums_the_fluid_mirrored_back_over_its_windows() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("run.mcap");
+        let mut rec = Recorder::create(&path, "test", "name = \"test\"\n", &[]).unwrap();
+        for (step, reflected) in [0, 0, 3, 0, 2].into_iter().enumerate() {
+            let fluid = SideReport {
+                reflected,
+                ..Default::default()
+            };
+            let t = 0.5 * step as f64;
+            rec.window(step as u64, t, 0.5, 0.0, Some(&fluid), None);
+        }
+        rec.close().unwrap();
+        let r = read_recording(&path).unwrap();
+        assert_eq!((r.reflected, r.first_reflected), (5, Some(1.0)));
+    }
+
     #[test]
     fn a_flushed_recording_survives_its_process_killed_to_the_flush() {
         let dir = tempfile::tempdir().unwrap();

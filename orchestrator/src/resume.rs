@@ -141,6 +141,8 @@ pub fn read_chain(out: &Path) -> Result<Recording, String> {
         chain.bodies.extend(r.bodies);
         chain.loads.extend(r.loads);
         chain.windows += r.windows;
+        chain.reflected += r.reflected;
+        chain.first_reflected = chain.first_reflected.or(r.first_reflected);
         chain.first_window = chain.first_window.or(r.first_window);
         chain.last_window = r.last_window.or(chain.last_window);
         chain.has_summary = r.has_summary;

@@ -1203,6 +1203,15 @@ fn analysed(
             Some(lost == 0),
         );
     }
+    if let Some(t) = rec.first_reflected {
+        report.judge(
+            "fluid particle-steps mirrored back out of a body or across a wall face (couplet_fluid::body_non_penetration; not in the papers, not judged)",
+            format!("{}, the first in the window from t = {t:.4e} s", rec.reflected),
+            "0 where the fluid keeps off its walls and bodies".into(),
+            "reported".into(),
+            None,
+        );
+    }
     (case.analyse)(scene, rec, &mut report).map_err(ValidateError::Analysis)?;
     Ok(report)
 }

@@ -906,6 +906,46 @@ fn rti_reports_the_lowest_grains_depth_against_the_bounds_curves() {
 }
 
 /// The RTI report of `scene` on a closed recording of grain states `bodies` alone.
+/// Fluid mirrored back out of a body or across a wall face is reported under any case,
+/// with its count over the run and the first window that had any, and only where there
+/// was some (here the RTI's judge on a grain growing at 35 1/s). Hand-set counts.
+#[test]
+fn a_report_names_the_fluid_mirrored_back_across_a_wall() {
+    let scene = rti_quick_scene();
+    let report = |reflected: u64, first_reflected: Option<f64>| {
+        let rec = Recording {
+            has_summary: true,
+            bodies: rti_lowest_grain_growing(&scene, 35.0),
+            reflected,
+            first_reflected,
+            ..Default::default()
+        };
+        analysed(
+            find("rayleigh-taylor").unwrap(),
+            &scene,
+            &rec,
+            PathBuf::new(),
+        )
+        .unwrap()
+    };
+    let quiet = report(0, None);
+    assert!(
+        !quiet
+            .rows
+            .iter()
+            .any(|r| r.quantity.starts_with("fluid particle-steps mirrored")),
+        "{:?}",
+        quiet.rows
+    );
+    let r = report(5, Some(0.0875));
+    let row = row_starting(&r, "fluid particle-steps mirrored back");
+    assert_eq!(
+        (row.measured.as_str(), row.pass),
+        ("5, the first in the window from t = 8.7500e-2 s", None),
+        "{row:?}"
+    );
+}
+
 fn rti_report(scene: &Scene, bodies: Vec<BodySample>) -> Report {
     let rec = Recording {
         has_summary: true,
