@@ -1062,11 +1062,8 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    /// Regression (2026-12-06): a process killed outright (SIGKILL; the lavapipe RTI's
-    /// machine restarting) loses what its recorder holds in memory, the open chunk, which
-    /// may span thousands of windows; a checkpoint taken meanwhile then starts the next
-    /// sitting after the recording's end. `flush` writes it out: what was recorded
-    /// before it survives the process, what came after does not.
+    /// The fluid's `reflected` of each window (the non-penetration pass's count) is
+    /// summed over the recording, and the first window with any is kept. Hand-set counts.
     #[test]
     fn a_recording_sums_the_fluid_mirrored_back_over_its_windows() {
         let dir = tempfile::tempdir().unwrap();
@@ -1085,6 +1082,11 @@ mod tests {
         assert_eq!((r.reflected, r.first_reflected), (5, Some(1.0)));
     }
 
+    /// Regression (2026-12-06): a process killed outright (SIGKILL; the lavapipe RTI's
+    /// machine restarting) loses what its recorder holds in memory, the open chunk, which
+    /// may span thousands of windows; a checkpoint taken meanwhile then starts the next
+    /// sitting after the recording's end. `flush` writes it out: what was recorded
+    /// before it survives the process, what came after does not.
     #[test]
     fn a_flushed_recording_survives_its_process_killed_to_the_flush() {
         let dir = tempfile::tempdir().unwrap();

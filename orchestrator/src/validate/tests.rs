@@ -905,7 +905,6 @@ fn rti_reports_the_lowest_grains_depth_against_the_bounds_curves() {
     );
 }
 
-/// The RTI report of `scene` on a closed recording of grain states `bodies` alone.
 /// Fluid mirrored back out of a body or across a wall face is reported under any case,
 /// with its count over the run and the first window that had any, and only where there
 /// was some (here the RTI's judge on a grain growing at 35 1/s). Hand-set counts.
@@ -946,6 +945,7 @@ fn a_report_names_the_fluid_mirrored_back_across_a_wall() {
     );
 }
 
+/// The RTI report of `scene` on a closed recording of grain states `bodies` alone.
 fn rti_report(scene: &Scene, bodies: Vec<BodySample>) -> Report {
     let rec = Recording {
         has_summary: true,
