@@ -728,13 +728,7 @@ fn sedimentation_regimes_judges_a_one_way_grain_at_the_porosity_it_sees() {
                 }
             })
             .collect();
-        let rec = Recording {
-            has_summary: true,
-            bodies,
-            ..Default::default()
-        };
-        let mut r = Report::default();
-        sedimentation_regimes(scene, &rec, &mut r).unwrap();
+        let r = judged_on_bodies(sedimentation_regimes, scene, bodies);
         let row = |q: &str| row_starting(&r, q).clone();
         (
             row("porosity the lone grain sees"),
@@ -947,13 +941,23 @@ fn a_report_names_the_fluid_mirrored_back_across_a_wall() {
 
 /// The RTI report of `scene` on a closed recording of grain states `bodies` alone.
 fn rti_report(scene: &Scene, bodies: Vec<BodySample>) -> Report {
+    judged_on_bodies(rayleigh_taylor, scene, bodies)
+}
+
+/// The report of the case judge `judge` on `scene` and a closed recording of body
+/// states `bodies` alone.
+fn judged_on_bodies(
+    judge: fn(&Scene, &Recording, &mut Report) -> Result<(), String>,
+    scene: &Scene,
+    bodies: Vec<BodySample>,
+) -> Report {
     let rec = Recording {
         has_summary: true,
         bodies,
         ..Default::default()
     };
     let mut r = Report::default();
-    rayleigh_taylor(scene, &rec, &mut r).unwrap();
+    judge(scene, &rec, &mut r).unwrap();
     r
 }
 
