@@ -973,7 +973,9 @@ impl NeighbourGrid {
     /// their slices would pass the adapter's largest storage binding (at least one:
     /// [`NeighbourGrid::new`] checked that a 16-byte slice fits). Each pass gathers into
     /// the smallest lent buffer it fits, the passes needing the most choosing first, or
-    /// into scratch of its own.
+    /// into scratch of its own; a loan left over that holds a 16-byte slice takes as
+    /// many as it holds off a 16-byte pass with scratch of its own, as a pass of their
+    /// own.
     fn build_gather_passes(&self, gpu: &Gpu) -> Vec<GatherPass> {
         let n = u64::from(self.params.n_particles);
         let max_binding = gpu.storage_binding_limit;
@@ -1002,6 +1004,25 @@ impl NeighbourGrid {
             {
                 scratch_of[k] = Some(free.remove(at));
             }
+        }
+        // A loan too small for any whole pass still takes the 16-byte buffers it holds,
+        // split off the largest 16-byte pass that has scratch of its own: one pass more
+        // for at least 16 B a particle less (Antuono's δ-SPH lends its ∇ρ slot, 16 B,
+        // which then takes one of the standard three; ARCHITECTURE.md, "GPU memory per
+        // particle"). Largest loan first.
+        for &l in free.iter().rev() {
+            let fits = (self.lent[l].bytes_per_particle / 16) as usize;
+            let own = (0..plan.len())
+                .filter(|&k| plan[k].0 && scratch_of[k].is_none() && plan[k].1.len() > 1)
+                .max_by_key(|&k| plan[k].1.len());
+            let Some(k) = own.filter(|_| fits > 0) else {
+                continue;
+            };
+            // fits < the pass's members: a loan holding them all took the whole pass.
+            let members = &mut plan[k].1;
+            let tail = members.split_off(members.len() - fits.min(members.len() - 1));
+            plan.insert(k + 1, (true, tail));
+            scratch_of.insert(k + 1, Some(l));
         }
         (plan.into_iter().zip(scratch_of))
             .map(|((wide, members), lent)| {

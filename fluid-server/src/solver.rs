@@ -566,7 +566,8 @@ impl SphData {
             // B and the gradient slots are written by the gradient pass after every
             // sort, for every fluid particle, before anything reads them (the rates read
             // a neighbour's slots only where it is fluid): the reorder's 16-byte buffers
-            // (48 B a particle in the standard scheme's three) may gather into either.
+            // (48 B a particle in the standard scheme's three) may gather into either, or
+            // as many of them as the slots hold (δ-SPH's one slot: the low words).
             if g.fields.store_b {
                 grid.lend_scratch(&g.bmat, 48)?;
             }
