@@ -1012,11 +1012,14 @@ impl NeighbourGrid {
         // particle"). Largest loan first.
         for &l in free.iter().rev() {
             let fits = (self.lent[l].bytes_per_particle / 16) as usize;
+            if fits == 0 {
+                continue;
+            }
             let own = (0..plan.len())
                 .filter(|&k| plan[k].0 && scratch_of[k].is_none() && plan[k].1.len() > 1)
                 .max_by_key(|&k| plan[k].1.len());
-            let Some(k) = own.filter(|_| fits > 0) else {
-                continue;
+            let Some(k) = own else {
+                break;
             };
             // fits < the pass's members: a loan holding them all took the whole pass.
             let members = &mut plan[k].1;

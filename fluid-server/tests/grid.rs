@@ -709,15 +709,14 @@ fn resort_shuffled(gpu: &Gpu, grid: &NeighbourGrid, b: &OnGpu, n: usize) {
     let vel_now: Vec<[f32; 4]> = gpu.read_buffer(&b.vel, 0, n as u64).unwrap();
     let rho_now: Vec<f32> = gpu.read_buffer(&b.rho, 0, n as u64).unwrap();
     let id_now: Vec<u32> = gpu.read_buffer(&b.id, 0, n as u64).unwrap();
+    fn shuffled<T: bytemuck::Pod>(v: &[T], order: &[usize]) -> Vec<T> {
+        order.iter().map(|&k| v[k]).collect()
+    }
     let write = |buf: &wgpu::Buffer, bytes: &[u8]| gpu.queue.write_buffer(buf, 0, bytes);
-    let pos_s: Vec<[f32; 4]> = order.iter().map(|&k| pos_now[k]).collect();
-    let vel_s: Vec<[f32; 4]> = order.iter().map(|&k| vel_now[k]).collect();
-    let rho_s: Vec<f32> = order.iter().map(|&k| rho_now[k]).collect();
-    let id_s: Vec<u32> = order.iter().map(|&k| id_now[k]).collect();
-    write(&b.pos, bytemuck::cast_slice(&pos_s));
-    write(&b.vel, bytemuck::cast_slice(&vel_s));
-    write(&b.rho, bytemuck::cast_slice(&rho_s));
-    write(&b.id, bytemuck::cast_slice(&id_s));
+    write(&b.pos, bytemuck::cast_slice(&shuffled(&pos_now, &order)));
+    write(&b.vel, bytemuck::cast_slice(&shuffled(&vel_now, &order)));
+    write(&b.rho, bytemuck::cast_slice(&shuffled(&rho_now, &order)));
+    write(&b.id, bytemuck::cast_slice(&shuffled(&id_now, &order)));
     sort(gpu, grid, b);
     grid.check(gpu).unwrap();
 }
