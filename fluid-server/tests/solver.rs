@@ -421,10 +421,10 @@ fn a_restored_solver_continues_bit_for_bit() {
 /// correction alone B (48 B), lent to the reorder for pos, vel and the low words, and no
 /// gradient slot, 180.125 B; with Antuono's δ-SPH alone the ∇ρ slot (16 B) and no B,
 /// lent to the reorder for the low words (a pass of their own), which leaves 32 B of its
-/// own scratch, 180.125 B (196.125 until 2026-12-06); shifting alone ∇u, ∇p and s (80 B), which take the reorder's 48 B
-/// (212.125 B); the correction with the corrected Laplacian adds B̂ (32 B), 212.125 B;
-/// with the correction, shifting and
-/// δ-SPH every slot, 276.125 B. Until 2026-12-05 every gradient pass kept B and all six
+/// own scratch, 180.125 B (196.125 until 2026-12-06); shifting alone ∇u, ∇p and s
+/// (80 B), which take the reorder's 48 B (212.125 B); the correction with the corrected
+/// Laplacian adds B̂ (32 B), 212.125 B; with the correction, shifting and δ-SPH every
+/// slot, 276.125 B. Until 2026-12-05 every gradient pass kept B and all six
 /// slots (144 B), there were no low words (32 B with their scratch), and the reorder's
 /// scratch was all its own (60 B).
 ///
