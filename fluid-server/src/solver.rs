@@ -267,8 +267,9 @@ pub struct SphData {
     /// the gradient correction or particle shifting.
     pub gradients: Option<GradientBuffers>,
     /// No-slip walls' velocity in the viscous sums (one vec4 per particle; written by
-    /// the boundary pass after every sort, so not permuted), when a viscous term meets
-    /// no-slip walls ([`SphConstants::wall_velocity_extrapolation`]).
+    /// the boundary pass after every sort, so not permuted, and lent to the reorder as
+    /// scratch), when a viscous term meets no-slip walls
+    /// ([`SphConstants::wall_velocity_extrapolation`]).
     pub wall_vel: Option<wgpu::Buffer>,
     /// Joubert boundaries' frames ([`BoundaryFrame`]: walls from
     /// [`joubert2020_boundary_values::wall_frames`], then the markers', rewritten by
@@ -584,6 +585,12 @@ impl SphData {
             .wall_velocity_extrapolation
             .then(|| particle_buffer(gpu, "sph: wall velocity", n, 16))
             .transpose()?;
+        if let Some(w) = &wall_vel {
+            // The boundary pass writes every wall's entry, in both halves of every step,
+            // before the rates read it (at walls only): dead at a sort. With nothing
+            // larger lent it takes one of the standard 16-byte buffers (16 B a particle).
+            grid.lend_scratch(w, 16)?;
+        }
         let boundary_frame = c.joubert_walls.then(|| {
             // Markers' frames are written by every set_bodies.
             let mut frames = wall_frames.to_vec();

@@ -414,16 +414,18 @@ fn a_restored_solver_continues_bit_for_bit() {
 /// scheme, closed tank with Adami's no-slip walls: the state (pos 16, vel 16, ρ 4, p 4,
 /// id 4, dρ/dt 4, du/dt 16, ρ_n 4, u_n 16, the low words of position and density 16 =
 /// 100 B), the grid's sort (cell, rank, slot in the atomics' order, gather map: 16 B),
-/// the reorder's scratch for pos, vel and the low words (48 B; ρ, p and id are gathered
-/// into u_n, lent), the walls' extrapolated velocity (16 B, kept for every slot) and the
-/// window statistics' partials (16 B per workgroup of 128 = 0.125 B): 180.125 B. The
-/// gradient pass stores only what the scene reads (`GradientFields`): with Joubert's
-/// correction alone B (48 B), lent to the reorder for pos, vel and the low words, and no
-/// gradient slot, 180.125 B; with Antuono's δ-SPH alone the ∇ρ slot (16 B) and no B,
-/// lent to the reorder for the low words (a pass of their own), which leaves 32 B of its
-/// own scratch, 180.125 B (196.125 until 2026-12-06); shifting alone ∇u, ∇p and s
-/// (80 B), which take the reorder's 48 B (212.125 B); the correction with the corrected
-/// Laplacian adds B̂ (32 B), 212.125 B; with the correction, shifting and δ-SPH every
+/// the walls' extrapolated velocity (16 B, kept for every slot), the reorder's scratch
+/// for pos and vel (32 B; ρ, p and id are gathered into u_n, the low words into the
+/// walls' velocity, both lent) and the window statistics' partials (16 B per workgroup
+/// of 128 = 0.125 B): 164.125 B (180.125 until 2026-12-06, the walls' velocity not
+/// lent). The gradient pass stores only what the scene reads (`GradientFields`): with
+/// Joubert's correction alone B (48 B), lent to the reorder for pos, vel and the low
+/// words, and no gradient slot, 180.125 B; with Antuono's δ-SPH alone the ∇ρ slot
+/// (16 B) and no B, lent to the reorder for the low words (a pass of their own, as the
+/// walls' velocity then takes vel), which leaves 16 B of its own scratch, 164.125 B
+/// (196.125, then 180.125, until 2026-12-06); shifting alone ∇u, ∇p and s (80 B), which
+/// take the reorder's 48 B (212.125 B); the correction with the corrected Laplacian adds
+/// B̂ (32 B), 212.125 B; with the correction, shifting and δ-SPH every
 /// slot, 276.125 B. Until 2026-12-05 every gradient pass kept B and all six
 /// slots (144 B), there were no low words (32 B with their scratch), and the reorder's
 /// scratch was all its own (60 B).
@@ -438,9 +440,9 @@ fn a_restored_solver_continues_bit_for_bit() {
 fn buffer_memory_per_particle_matches_the_inventory() {
     let gpu = shared_test_gpu().unwrap();
     for (effects, inventory) in [
-        ("", 180.125),
+        ("", 164.125),
         ("gradient_correction = true", 180.125),
-        ("density_diffusion = 0.1", 180.125),
+        ("density_diffusion = 0.1", 164.125),
         ("particle_shifting = 0.1", 212.125),
         (
             "gradient_correction = true\nlaplacian_correction = true",
@@ -573,68 +575,80 @@ fn buffers_past_one_binding_are_refused_not_a_panic() {
     }
 }
 
-/// The reorder gathers into uⁿ, B and the gradient slots (`NeighbourGrid::lend_scratch`,
-/// ARCHITECTURE.md "The reorder gathers into buffers that are dead at a sort"), which is
-/// sound only if nothing reads them after a sort before writing them. Here all three are
-/// filled with NaN right after each sort, and the rest of the step (Joubert's correction,
-/// shifting and δ-SPH, so that every loan is taken) must come out the same bit for bit
-/// over three steps. Reference: the same steps on an identical solver without the
-/// poison. The comparison does see a read: the low words, which carry state across the
-/// sort, poisoned alike change the result.
+/// The reorder gathers into uⁿ, B, the gradient slots and the walls' velocity
+/// (`NeighbourGrid::lend_scratch`, ARCHITECTURE.md "The reorder gathers into buffers that
+/// are dead at a sort"), which is sound only if nothing reads them after a sort before
+/// writing them. Here each is filled with NaN right after each sort, and the rest of the
+/// step must come out the same bit for bit over three steps, in two tanks: Joubert's
+/// correction with shifting and δ-SPH (B, the slots and uⁿ taken), and the standard
+/// scheme (uⁿ and the walls' velocity taken). Reference: the same steps on an identical
+/// solver without the poison. The comparison does see a read: the low words, which carry
+/// state across the sort, poisoned alike change the result.
 #[test]
 fn buffers_lent_to_the_reorder_are_dead_after_a_sort() {
     let gpu = shared_test_gpu().unwrap();
-    let scene = tank_with(
-        0.02,
-        0.3,
-        "[effects]\ngradient_correction = true\nparticle_shifting = 0.1\ndensity_diffusion = 0.1",
-    );
-    let rest = [
-        Op::Gradients,
+    let halves = [
         Op::BoundaryPressure,
         Op::FluidRates,
         Op::Predict,
         Op::BoundaryPressure,
         Op::FluidRates,
         Op::Correct,
-        Op::Shift,
     ];
+    let corrected = [&[Op::Gradients][..], &halves, &[Op::Shift]].concat();
     let nan = |buf: &wgpu::Buffer| {
         gpu.queue
             .write_buffer(buf, 0, &vec![0xFFu8; buf.size() as usize])
     };
-    let run = |poison: &dyn Fn(&couplet_fluid::solver::SphData)| {
-        let mut solver = FluidSolver::new(&gpu, &scene).unwrap();
-        let dt = solver.limits().dt;
-        for _ in 0..3 {
-            solver.run_ops(&gpu, &[Op::Sort], dt, 1.0).unwrap();
-            poison(solver.data());
-            solver.run_ops(&gpu, &rest, dt, 1.0).unwrap();
-        }
-        let s = solver.data().read(&gpu).unwrap();
-        let bits = |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-        let scalars = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for (effects, rest) in [
         (
-            bits(&s.pos),
-            bits(&s.vel),
-            scalars(&s.rho),
-            scalars(&s.press),
-        )
-    };
-    let plain = run(&|_| {});
-    let lent = run(&|d| {
-        let g = d.gradients.as_ref().expect("the gradient pass");
-        assert!(g.fields.store_b && g.fields.slot_bytes() > 0);
-        nan(&d.vel_n);
-        nan(&g.bmat);
-        nan(&g.grads);
-    });
-    assert!(
-        plain == lent,
-        "a buffer lent to the reorder was read after a sort before being written"
-    );
-    let live = run(&|d| nan(&d.low_words));
-    assert!(plain != live, "poisoning a live buffer went unseen");
+            "gradient_correction = true\nparticle_shifting = 0.1\ndensity_diffusion = 0.1",
+            &corrected[..],
+        ),
+        ("", &halves[..]),
+    ] {
+        let scene = tank_with(0.02, 0.3, &format!("[effects]\n{effects}"));
+        let run = |poison: &dyn Fn(&couplet_fluid::solver::SphData)| {
+            let mut solver = FluidSolver::new(&gpu, &scene).unwrap();
+            let dt = solver.limits().dt;
+            for _ in 0..3 {
+                solver.run_ops(&gpu, &[Op::Sort], dt, 1.0).unwrap();
+                poison(solver.data());
+                solver.run_ops(&gpu, rest, dt, 1.0).unwrap();
+            }
+            let s = solver.data().read(&gpu).unwrap();
+            let bits = |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let scalars = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            (
+                bits(&s.pos),
+                bits(&s.vel),
+                scalars(&s.rho),
+                scalars(&s.press),
+            )
+        };
+        let plain = run(&|_| {});
+        let lent = run(&|d| {
+            nan(&d.vel_n);
+            nan(d
+                .wall_vel
+                .as_ref()
+                .expect("no-slip walls under a viscous fluid"));
+            if let Some(g) = &d.gradients {
+                assert!(g.fields.store_b && g.fields.slot_bytes() > 0);
+                nan(&g.bmat);
+                nan(&g.grads);
+            }
+        });
+        assert!(
+            plain == lent,
+            "{effects:?}: a buffer lent to the reorder was read after a sort before being written"
+        );
+        let live = run(&|d| nan(&d.low_words));
+        assert!(
+            plain != live,
+            "{effects:?}: poisoning a live buffer went unseen"
+        );
+    }
 }
 
 /// `predict` and `correct` (integrate.wgsl) against their CPU twin
