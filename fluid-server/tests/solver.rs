@@ -633,6 +633,8 @@ fn buffers_lent_to_the_reorder_are_dead_after_a_sort() {
                 .wall_vel
                 .as_ref()
                 .expect("no-slip walls under a viscous fluid"));
+            // The corrected tank stores B and slots; the standard one has no gradient pass.
+            assert_eq!(d.gradients.is_some(), !effects.is_empty(), "{effects:?}");
             if let Some(g) = &d.gradients {
                 assert!(g.fields.store_b && g.fields.slot_bytes() > 0);
                 nan(&g.bmat);
