@@ -2,9 +2,11 @@
 // After `correct` (eq. 23 has moved the particles), once per step:
 //   δr_i = β ‖u‖max Δt s_i                         (eq. 17; s_i from the gradient pass)
 //   δu_i = ⟨∇u⟩ᶜ_i · δr_i,  δp_i = ⟨∇p⟩ᶜ_i · δr_i   (eq. 18)
-//   δρ_i = (ρ0/ρ_i)^(γ−1) δp_i / c_s²              (eq. 19), then p_i from the EOS.
+//   δρ_i = (ρ0/ρ_i)^(γ−1) δp_i / c_s²              (eq. 19), then p_i from the EOS;
+//   among unresolved grains ρ_i is the intrinsic density ρ/ε (the EOS's, Robinson eq. 15).
 // Fluid particles only. Needs: prelude, SPH constants, StepParams, the gradient layout
 // (GradientFields::layout_wgsl: shifting reads ∇u, ∇p and s), tait_eos (library),
+// `porosity(i)` (porosity.rs: 1 without grains),
 // `limit_shift(p_i, δr)`: δr itself without bodies (PLAIN_SHIFT_WGSL in
 // particle_shifting.rs), the surface rule of particle_shifting_surface.wgsl with them.
 
@@ -33,11 +35,14 @@ fn shift(@builtin(workgroup_id) wid: vec3<u32>,
     let gu = GRAD_SLOT_U;
     let du = vec3<f32>(dot(grads[g + gu].xyz, dr), dot(grads[g + gu + 1u].xyz, dr), dot(grads[g + gu + 2u].xyz, dr));
     let dp = dot(grads[g + GRAD_SLOT_P].xyz, dr);
-    // Joubert eq. (19).
-    let r = rho[i];
+    // Joubert eq. (19) on the intrinsic density ρ/ε, which the EOS takes among unresolved
+    // grains (Robinson eq. 15); the superficial density is ε times it. Without grains
+    // ε = 1, and the division and the product are exact.
+    let eps = porosity(i);
+    let r = rho[i] / eps;
     let r_new = r + pow(RHO0 / r, GAMMA - 1.0) * dp / (SOUND_SPEED * SOUND_SPEED);
     pos[i] = vec4<f32>(pos[i].xyz + dr, pos[i].w);
     vel[i] = vec4<f32>(vel[i].xyz + du, 0.0);
-    rho[i] = r_new;
+    rho[i] = eps * r_new;
     press[i] = tait_pressure(r_new);
 }

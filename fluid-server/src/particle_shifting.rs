@@ -6,6 +6,15 @@
 //! - `δf_i = ⟨∇f⟩ᶜ_i · δr_i` for the velocity components and the pressure (eq. 18);
 //! - `δρ_i = (ρ0/ρ_i)^(γ−1) δp_i / c_s²` (eq. 19), and the pressure from the EOS.
 //!
+//! Among unresolved grains ρ_i in eq. (19) is the intrinsic density ρ/ε that the EOS
+//! takes (Robinson eq. 15), and the superficial density moves by ε δρ_i. Until
+//! 2026-12-06 the shift set p = EOS(ρ) on the superficial ρ (water at c_s = 10 m/s in a
+//! block at ε = 0.8: −11.3 kPa where EOS(ρ/ε) gives the column's hydrostatic tens of Pa),
+//! and the next step's gradient, wall and first rate passes read it
+//! (`regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps`). The
+//! porosity's own change over δr_i is left to the next step's porosity (a shift is
+//! O(β) of the step's motion).
+//!
 //! The gradients are those of the step start (the pass runs on the sorted state, before
 //! the rates): a first-order Taylor correction over a shift of O(β) of the distance
 //! moved in the step. Only with `effects.particle_shifting` = β > 0.
@@ -26,6 +35,7 @@ use crate::joubert2020_gradients::Gradients;
 use crate::marker_update::MARKER_UPDATE_WGSL;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
 use crate::particles::dot;
+use crate::porosity::porosity_wgsl;
 use crate::sph_kernel::{
     Access, BODIES, PARAMS, PARTICLES, SphKernel, body_binding as bb, library, param_binding as qb,
     particle_binding as pb,
@@ -49,7 +59,8 @@ pub fn kernel(
 ) -> SphKernel {
     let consts = c.wgsl();
     let layout = crate::joubert2020_gradients::GradientFields::of(c).layout_wgsl();
-    let particles: &[(u32, Access)] = &[
+    let (porosity, porosity_binding) = porosity_wgsl(c);
+    let mut particles = vec![
         (pb::POS, Access::ReadWrite),
         (pb::VEL, Access::ReadWrite),
         (pb::RHO, Access::ReadWrite),
@@ -57,6 +68,8 @@ pub fn kernel(
         (pb::ID, Access::Read),
         (pb::GRADS, Access::Read),
     ];
+    particles.extend(porosity_binding);
+    let particles = particles.as_slice();
     let params: &[(u32, Access)] = &[(qb::PARAMS, Access::Uniform), (qb::DIAG, Access::Read)];
     // With bodies, the count of shifts cut short (status[4]).
     let params_surface: &[(u32, Access)] = &[
@@ -73,6 +86,7 @@ pub fn kernel(
                 &layout,
                 STEP_PARAMS_WGSL,
                 library(TAIT_EOS_WGSL),
+                porosity,
                 PLAIN_SHIFT_WGSL,
                 PARTICLE_SHIFTING_WGSL,
             ],
@@ -91,6 +105,7 @@ pub fn kernel(
                 library(MARKER_UPDATE_WGSL),
                 library(BODY_NON_PENETRATION_WGSL),
                 library(TAIT_EOS_WGSL),
+                porosity,
                 PARTICLE_SHIFTING_SURFACE_WGSL,
                 PARTICLE_SHIFTING_WGSL,
             ],
@@ -135,14 +150,16 @@ pub struct Shifted {
     pub rho: f64,
 }
 
-/// CPU twin of eqs. (17)–(19) for one particle; `nearest` as [`limit_toward_surface`]
-/// takes it (None without bodies).
+/// CPU twin of eqs. (17)–(19) for one particle at porosity `porosity` (1 without grains;
+/// eq. 19 then acts on ρ/ε); `nearest` as [`limit_toward_surface`] takes it (None
+/// without bodies). The pressure after the shift is the EOS's at `rho / porosity`.
 pub fn shift_cpu(
     c: &SphConstants,
     g: &Gradients,
     u_max: f64,
     dt: f64,
     s: Shifted,
+    porosity: f64,
     nearest: Option<([f64; 3], [f64; 3])>,
 ) -> Shifted {
     let dr = limit_toward_surface(
@@ -151,9 +168,10 @@ pub fn shift_cpu(
         nearest,
     );
     let dp = dot(g.grad_p, dr);
+    let (intrinsic, c2) = (s.rho / porosity, c.sound_speed * c.sound_speed);
     Shifted {
         pos: std::array::from_fn(|k| s.pos[k] + dr[k]),
         vel: std::array::from_fn(|k| s.vel[k] + dot(g.grad_u[k], dr)),
-        rho: s.rho + (c.rho0 / s.rho).powf(c.gamma - 1.0) * dp / (c.sound_speed * c.sound_speed),
+        rho: porosity * (intrinsic + (c.rho0 / intrinsic).powf(c.gamma - 1.0) * dp / c2),
     }
 }

@@ -190,8 +190,8 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
             rho: before.rho[i],
         };
         let near = nearest_surface_marker_cpu(&c, &before, &markers, &surface, i);
-        let twin = shift_cpu(&c, &g, u_max, dt, s0, near.map(|(_, r, n)| (r, n)));
-        let free = shift_cpu(&c, &g, u_max, dt, s0, None);
+        let twin = shift_cpu(&c, &g, u_max, dt, s0, 1.0, near.map(|(_, r, n)| (r, n)));
+        let free = shift_cpu(&c, &g, u_max, dt, s0, 1.0, None);
         for k in 0..3 {
             pairs.push((after.pos[i][k] - s0.pos[k], twin.pos[k] - s0.pos[k]));
         }

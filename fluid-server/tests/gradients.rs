@@ -286,7 +286,7 @@ fn particle_shifting_matches_cpu_twin() {
             vel: before.vel[i],
             rho: before.rho[i],
         };
-        let w = shift_cpu(&c, &g, u_max, dt, s0, None);
+        let w = shift_cpu(&c, &g, u_max, dt, s0, 1.0, None);
         for k in 0..3 {
             dr.push((after.pos[i][k] - s0.pos[k], w.pos[k] - s0.pos[k]));
             du.push((after.vel[i][k] - s0.vel[k], w.vel[k] - s0.vel[k]));

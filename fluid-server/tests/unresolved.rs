@@ -9,7 +9,9 @@ use common::{at_each_team_width, max_err, random_set, scene};
 use couplet_fluid::drag::DragLaw;
 use couplet_fluid::fluid_rates::{PorosityAt, fluid_rates_among_grains_cpu};
 use couplet_fluid::gpu::{Gpu, shared_test_gpu};
+use couplet_fluid::joubert2020_gradients::gradients_among_grains_cpu;
 use couplet_fluid::neighbour_grid::team_threads;
+use couplet_fluid::particle_shifting::{Shifted, shift_cpu};
 use couplet_fluid::porosity::{
     PorosityField, Solid, boundary_state_cpu, porosity_gradient_from_counts,
 };
@@ -346,7 +348,7 @@ fn energy_pair_pressure_forces_balance_exactly() {
 }
 
 /// `s`'s fluid (a [`grain_scene`]) at random velocities (±5 cm/s) and densities (±0.5 %)
-/// from `seeds[0]`, and 20 grains of radius `radius` at random points a support inside
+/// from `seeds[0]`, moved off its lattice by up to ±`jitter` spacings on each axis, and 20 grains of radius `radius` at random points a support inside
 /// the box (`grains_inside`, `seeds[1]`) already sent to the solver, positions relative
 /// to its origin.
 fn stirred_box_with_grains(
@@ -354,6 +356,7 @@ fn stirred_box_with_grains(
     s: &Scene,
     seeds: [u64; 2],
     radius: f64,
+    jitter: f64,
 ) -> (FluidSolver, Vec<Grain>) {
     let c = SphConstants::from_scene(s).unwrap();
     let mut set = couplet_fluid::initial_particles(s, &c).unwrap();
@@ -361,6 +364,11 @@ fn stirred_box_with_grains(
     for i in 0..set.len() {
         set.vel[i] = std::array::from_fn(|_| rng.random_range(-0.05..0.05));
         set.rho[i] *= 1.0 + rng.random_range(-0.005..0.005);
+        if jitter > 0.0 {
+            for k in 0..3 {
+                set.pos[i][k] += jitter * c.spacing * rng.random_range(-1.0..1.0);
+            }
+        }
     }
     let mut solver = FluidSolver::from_particles(gpu, s, set).unwrap();
     let set0 = solver.data().read(gpu).unwrap();
@@ -392,7 +400,7 @@ fn energy_pair_rates_match_cpu_twin() {
         let s = grain_scene(20, true, "energy-pair");
         let c = SphConstants::from_scene(&s).unwrap();
         assert!(c.porosity_pair);
-        let (mut solver, grains) = stirred_box_with_grains(gpu, &s, [31, 9], 0.003);
+        let (mut solver, grains) = stirred_box_with_grains(gpu, &s, [31, 9], 0.003, 0.0);
         let origin = solver.origin();
         solver.run_ops(gpu, &[Op::FluidRates], 1e-4, 1.0).unwrap();
         let set = solver.data().read(gpu).unwrap();
@@ -477,7 +485,7 @@ fn density_diffusion_among_grains_matches_cpu_twin() {
         let mut s = grain_scene(20, true, pressure);
         s.effects.density_diffusion = 0.1;
         let c = SphConstants::from_scene(&s).unwrap();
-        let (mut solver, grains) = stirred_box_with_grains(&gpu, &s, [37, 11], 0.005);
+        let (mut solver, grains) = stirred_box_with_grains(&gpu, &s, [37, 11], 0.005, 0.0);
         let origin = solver.origin();
         solver
             .run_ops(&gpu, &[Op::Gradients, Op::FluidRates], 1e-4, 1.0)
@@ -522,6 +530,73 @@ fn density_diffusion_among_grains_matches_cpu_twin() {
             "{pressure}: max |Δ| {e:e} of {m:e}"
         );
     }
+}
+
+/// The bug this guards (`particle_shifting.rs`): among unresolved grains the shift
+/// (Joubert eqs. 17–19) set p = EOS(ρ) on the superficial density, where the EOS takes
+/// ρ/ε (Robinson eq. 15), and the next step's gradient, wall and first rate passes read
+/// it. 20 grains of radius 5 mm a support inside the stirred periodic box, its fluid
+/// moved off the lattice by up to ±0.2 spacings (on the lattice eq. 17's sum takes the
+/// neighbours exactly a support away, 3 spacings, or not by round-off, differently on
+/// the GPU and in f64), the correction and shifting at β = 0.1, one gradient pass and shift with
+/// Δt = 1e-3 s; every fluid particle a support inside the box (the twins' sums have no
+/// periodic images) against `shift_cpu` at its porosity (`PorosityField`) on the
+/// gradient twin (`gradients_among_grains_cpu`): the pressure after the shift within
+/// 1 Pa of the twin's EOS(ρ/ε) (the f32 EOS's quantisation is 0.02 Pa; the porosity's
+/// i32 sums 2⁻³¹), where EOS(ρ) on the superficial density is over 1 kPa off; the shift
+/// of ρ within 1e-3 of its largest, plus the f32 quantisation of ρ (1e-4 kg/m³), as
+/// `particle_shifting_matches_cpu_twin` in `gradients.rs`.
+#[test]
+fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
+    let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
+    let mut s = grain_scene(20, true, "robinson");
+    s.effects.gradient_correction = true;
+    s.effects.particle_shifting = 0.1;
+    let c = SphConstants::from_scene(&s).unwrap();
+    let (mut solver, grains) = stirred_box_with_grains(&gpu, &s, [41, 13], 0.005, 0.2);
+    let origin = solver.origin();
+    let before = solver.data().read(&gpu).unwrap();
+    let dt = 1e-3;
+    solver
+        .run_ops(&gpu, &[Op::Gradients, Op::Shift], dt, 1.0)
+        .unwrap();
+    let after = solver.data().read(&gpu).unwrap();
+    let world: Vec<[f64; 3]> = (before.pos.iter())
+        .map(|p| std::array::from_fn(|k| p[k] + origin[k]))
+        .collect();
+    let porosity = PorosityField::of_scene(&c, &s).porosity(&world, &solids(&grains, origin));
+    let grads = gradients_among_grains_cpu(&c, &before, Some(&porosity));
+    let u_max = common::largest_fluid_speed(&before);
+    let r = c.support_radius();
+    let inside = |p: [f64; 3]| p.iter().all(|x| x.abs() < 0.1 - 1.01 * r);
+    let (mut e_p, mut superficial, mut eps_min) = (0.0f64, 0.0f64, 1.0f64);
+    let mut drho = Vec::new();
+    for i in (0..before.len()).filter(|&i| inside(before.pos[i])) {
+        let Some(g) = grads[i] else { continue };
+        let s0 = Shifted {
+            pos: before.pos[i],
+            vel: before.vel[i],
+            rho: before.rho[i],
+        };
+        let w = shift_cpu(&c, &g, u_max, dt, s0, porosity[i], None);
+        e_p = e_p.max((after.press[i] - c.pressure(w.rho / porosity[i])).abs());
+        superficial = superficial.max((c.pressure(w.rho) - c.pressure(w.rho / porosity[i])).abs());
+        eps_min = eps_min.min(porosity[i]);
+        drho.push((after.rho[i] - s0.rho, w.rho - s0.rho));
+    }
+    let (e_rho, m_rho) = max_err(drho.into_iter());
+    println!(
+        "shift among grains (ε ≥ {eps_min:.4}): p max |Δ| = {e_p:e} Pa (EOS on the superficial ρ off by up to {superficial:.0} Pa); δρ max |Δ| = {e_rho:e} of {m_rho:e} kg/m³"
+    );
+    assert!(
+        superficial > 1e3,
+        "the porosity is lost: {superficial:e} Pa"
+    );
+    assert!(e_p <= 1.0, "p after the shift: max |Δ| {e_p:e} Pa");
+    assert!(
+        m_rho > 0.0 && e_rho <= 1e-3 * m_rho + 1e-4,
+        "δρ: max |Δ| = {e_rho:e}, max = {m_rho:e}"
+    );
 }
 
 /// The bug this guards (ARCHITECTURE.md, "An odd-even pressure mode among grains"): δ-SPH
