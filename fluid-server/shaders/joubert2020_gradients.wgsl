@@ -9,10 +9,12 @@
 //   ⟨∇f⟩ᶜ_i = B_i Σ_j V_j (f_j − f_i) ∇W_ij      for f = u_x, u_y, u_z, p, ρ/ε (eqs. 7, 9–10;
 //                                               ρ/ε: the renormalised gradient of δ-SPH,
 //                                               of the intrinsic density among grains)
-//   s_i = r̄_i² Σ_j (m_j/m_0) e_ij / r_ij²       the shift direction of eq. (17) before
+//   s_i = r̄_i² Σ_j (m_j/(m_0 ε_j)) e_ij / r_ij²  the shift direction of eq. (17) before
 //                                               its factor β ‖u‖max Δt, each neighbour
 //                                               counted as the lattice particles
-//                                               (m_0 = LATTICE_MASS) it stands for
+//                                               (m_0 = LATTICE_MASS) it stands for: among
+//                                               unresolved grains a particle's mass is
+//                                               ε m_0 (initial_mass.rs, porosity.rs)
 // and the largest fluid speed of the step (diag[0], f32 bits: non-negative floats
 // order like their bit patterns).
 // With B_HAT_SOLVE (the corrected Laplacian or the mass correction) also B̂_i of Joubert eq. (11): with q(e) = (e_x², e_y², e_z²,
@@ -242,7 +244,7 @@ fn gradients(@builtin(workgroup_id) wid: vec3<u32>,
                 if SHIFT_SUMS {
                     r_sum += r;
                     count += 1.0;
-                    s += (pos[j].w / LATTICE_MASS) * r_ij / (r2 * r);
+                    s += (pos[j].w / (LATTICE_MASS * porosity(j))) * r_ij / (r2 * r);
                 }
                 if B_HAT_SOLVE {
                     let e = r_ij / r;

@@ -396,8 +396,9 @@ pub fn gradients_among_grains_cpu(
                 let r = r2.sqrt();
                 r_sum += r;
                 count += 1.0;
-                // Each neighbour counts as the lattice particles it stands for.
-                let w = set.mass[j] / c.mass;
+                // Each neighbour counts as the lattice particles it stands for: among
+                // grains a lattice particle's mass is ε m0.
+                let w = set.mass[j] / (c.mass * porosity.map_or(1.0, |e| e[j]));
                 for k in 0..3 {
                     s[k] += w * r_ij[k] / (r2 * r);
                 }

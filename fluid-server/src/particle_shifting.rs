@@ -7,7 +7,8 @@
 //! - `δρ_i = (ρ0/ρ_i)^(γ−1) δp_i / c_s²` (eq. 19), and the pressure from the EOS.
 //!
 //! Among unresolved grains ρ_i in eq. (19) is the intrinsic density ρ/ε that the EOS
-//! takes (Robinson eq. 15), and the superficial density moves by ε δρ_i. Until
+//! takes (Robinson eq. 15), and the superficial density moves by ε δρ_i; eq. (17)'s sum
+//! counts a neighbour as m_j/(ε_j m0) lattice particles (the gradient pass). Until
 //! 2026-12-06 the shift set p = EOS(ρ) on the superficial ρ (water at c_s = 10 m/s in a
 //! block at ε = 0.8: −11.3 kPa where EOS(ρ/ε) gives the column's hydrostatic tens of Pa),
 //! and the next step's gradient, wall and first rate passes read it

@@ -543,9 +543,12 @@ fn density_diffusion_among_grains_matches_cpu_twin() {
 /// periodic images) against `shift_cpu` at its porosity (`PorosityField`) on the
 /// gradient twin (`gradients_among_grains_cpu`): the pressure after the shift within
 /// 1 Pa of the twin's EOS(ρ/ε) (the f32 EOS's quantisation is 0.02 Pa; the porosity's
-/// i32 sums 2⁻³¹), where EOS(ρ) on the superficial density is over 1 kPa off; the shift
-/// of ρ within 1e-3 of its largest, plus the f32 quantisation of ρ (1e-4 kg/m³), as
-/// `particle_shifting_matches_cpu_twin` in `gradients.rs`.
+/// i32 sums 2⁻³¹), where EOS(ρ) on the superficial density is over 1 kPa off; the shifts
+/// of ρ and of the position within 1e-3 of their largest, plus the f32 quantisation of ρ
+/// (1e-4 kg/m³) and of positions near 0.1 m (2e-8 m), as
+/// `particle_shifting_matches_cpu_twin` in `gradients.rs`. The box's masses are m0
+/// where ε < 1, so eq. (17)'s sums count those neighbours 1/ε
+/// (`shift_sums_among_grains_count_a_particle_by_its_mass_at_its_porosity`).
 #[test]
 fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
     let gpu = shared_test_gpu().expect("a Vulkan adapter (lavapipe)");
@@ -570,7 +573,7 @@ fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
     let r = c.support_radius();
     let inside = |p: [f64; 3]| p.iter().all(|x| x.abs() < 0.1 - 1.01 * r);
     let (mut e_p, mut superficial, mut eps_min) = (0.0f64, 0.0f64, 1.0f64);
-    let mut drho = Vec::new();
+    let (mut dr, mut drho) = (Vec::new(), Vec::new());
     for i in (0..before.len()).filter(|&i| inside(before.pos[i])) {
         let Some(g) = grads[i] else { continue };
         let s0 = Shifted {
@@ -583,10 +586,18 @@ fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
         superficial = superficial.max((c.pressure(w.rho) - c.pressure(w.rho / porosity[i])).abs());
         eps_min = eps_min.min(porosity[i]);
         drho.push((after.rho[i] - s0.rho, w.rho - s0.rho));
+        for k in 0..3 {
+            dr.push((after.pos[i][k] - s0.pos[k], w.pos[k] - s0.pos[k]));
+        }
     }
     let (e_rho, m_rho) = max_err(drho.into_iter());
+    let (e_r, m_r) = max_err(dr.into_iter());
     println!(
-        "shift among grains (ε ≥ {eps_min:.4}): p max |Δ| = {e_p:e} Pa (EOS on the superficial ρ off by up to {superficial:.0} Pa); δρ max |Δ| = {e_rho:e} of {m_rho:e} kg/m³"
+        "shift among grains (ε ≥ {eps_min:.4}): p max |Δ| = {e_p:e} Pa (EOS on the superficial ρ off by up to {superficial:.0} Pa); δρ max |Δ| = {e_rho:e} of {m_rho:e} kg/m³, δr {e_r:e} of {m_r:e} m"
+    );
+    assert!(
+        m_r > 0.0 && e_r <= 1e-3 * m_r + 2e-8,
+        "δr: max |Δ| = {e_r:e}, max = {m_r:e}"
     );
     assert!(
         superficial > 1e3,
@@ -599,22 +610,10 @@ fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
     );
 }
 
-/// The bug this guards (ARCHITECTURE.md, "An odd-even pressure mode among grains"): δ-SPH
-/// on the superficial density ρ = ε ρ_f would diffuse the porosity's own step at a
-/// block's faces, and without δ-SPH the intrinsic density's odd-even row mode is not
-/// damped at all. A closed 0.2 × 0.5 × 0.2 m box (δ = 1 cm, 20 000 particles) with a slab
-/// of grains at ε = 0.8 across y = 0.25–0.45 m, no gravity, the fluid at rest at ρ0
-/// (`initial_particles`: ρ = ε ρ0 among the grains); CPU twins, particles two supports
-/// from every wall. (1) The intrinsic density uniform: the δ-SPH rates among grains are
-/// round-off (below 1e-9 of ρ0 c/h; 8e-17 measured), where the superficial form's reach
-/// 6.7e-3 of ρ0 c/h at the slab's faces (held above 1e-3): 10 % of ρ0 in a millisecond. (2) An odd-even row mode ρ_f = ρ0 (1 ± 1e-4): it decays inside the
-/// slab (two supports from its faces) at the rate it decays in clear fluid, to 1e-3
-/// (861.2 and 861.3 1/s measured: the lattice volumes m/ρ are the same; the masses ripple
-/// with the lattice's porosity).
-#[test]
-fn density_diffusion_among_grains_damps_the_odd_even_mode_and_keeps_the_faces() {
-    use couplet_fluid::continuity::continuity_among_grains_cpu;
-    use couplet_fluid::joubert2020_gradients::gradients_among_grains_cpu;
+/// A closed 0.2 × 0.5 × 0.2 m box of fluid at rest (δ = 1 cm, 20 000 particles, no
+/// gravity, δ-SPH 0.1) with a rigid slab of grains (radius 3 mm) at ε = 0.8 across
+/// y = 0.25–0.45 m.
+fn slab_scene() -> Scene {
     let text = r#"
 [meta]
 name = "slab"
@@ -651,7 +650,25 @@ density = 2500.0
 porosity = 0.8
 rigid = true
 "#;
-    let s = Scene::parse(text, std::path::Path::new("slab.toml")).unwrap();
+    Scene::parse(text, std::path::Path::new("slab.toml")).unwrap()
+}
+
+/// The bug this guards (ARCHITECTURE.md, "An odd-even pressure mode among grains"): δ-SPH
+/// on the superficial density ρ = ε ρ_f would diffuse the porosity's own step at a
+/// block's faces, and without δ-SPH the intrinsic density's odd-even row mode is not
+/// damped at all. A closed 0.2 × 0.5 × 0.2 m box (δ = 1 cm, 20 000 particles) with a slab
+/// of grains at ε = 0.8 across y = 0.25–0.45 m, no gravity, the fluid at rest at ρ0
+/// (`initial_particles`: ρ = ε ρ0 among the grains); CPU twins, particles two supports
+/// from every wall. (1) The intrinsic density uniform: the δ-SPH rates among grains are
+/// round-off (below 1e-9 of ρ0 c/h; 8e-17 measured), where the superficial form's reach
+/// 6.7e-3 of ρ0 c/h at the slab's faces (held above 1e-3): 10 % of ρ0 in a millisecond. (2) An odd-even row mode ρ_f = ρ0 (1 ± 1e-4): it decays inside the
+/// slab (two supports from its faces) at the rate it decays in clear fluid, to 1e-3
+/// (861.2 and 861.3 1/s measured: the lattice volumes m/ρ are the same; the masses ripple
+/// with the lattice's porosity).
+#[test]
+fn density_diffusion_among_grains_damps_the_odd_even_mode_and_keeps_the_faces() {
+    use couplet_fluid::continuity::continuity_among_grains_cpu;
+    let s = slab_scene();
     let c = SphConstants::from_scene(&s).unwrap();
     let mut set = couplet_fluid::initial_particles(&s, &c).unwrap();
     let field = PorosityField::of_scene(&c, &s);
@@ -1391,4 +1408,73 @@ fn moving_grain_layer_displaces_the_fluid() {
         "fluid in the moving layer: u_y = {u:.4e} m/s, mean of {samples} windows over one acoustic period; continuity {want:.4e}"
     );
     assert!((u - want).abs() < 0.1 * want, "u_y {u:e} vs {want:e}");
+}
+
+/// Eq. (17)'s sum counts each neighbour as the lattice particles it stands for
+/// (`joubert2020_gradients.wgsl`), and among unresolved grains a lattice particle's mass
+/// is ε m0 (`initial_mass.rs`), so a neighbour counts m_j/(m0 ε_j). Counted by its mass
+/// alone, the fluid inside a block counts ε, and on the lattice at rest the shift sums
+/// at a block's faces point into it. [`slab_scene`] on its lattice (CPU twin,
+/// `gradients_among_grains_cpu`; fluid particles two supports from every wall): the
+/// sums s_i against those of the same lattice with every mass m0 (the same pairs, so
+/// the lattice's own sums, ties at the support's edge included, cancel). Measured: the
+/// largest offset, at the slab's lower face (y = 0.245 m, pointing into the slab), 5.807
+/// counted by mass and 1.249 by m/(m0 ε); what is left is the summation-consistent
+/// masses' ripple about ε m0 at the faces (m/(m0 ε) = 0.9455–1.0485).
+#[test]
+fn shift_sums_among_grains_count_a_particle_by_its_mass_at_its_porosity() {
+    let s = slab_scene();
+    let c = SphConstants::from_scene(&s).unwrap();
+    let set = couplet_fluid::initial_particles(&s, &c).unwrap();
+    let field = PorosityField::of_scene(&c, &s);
+    let solids: Vec<Solid> = (s.bodies.iter())
+        .map(|b| Solid {
+            position: b.position,
+            volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
+        })
+        .collect();
+    let eps = field.porosity(&set.pos, &solids);
+    let r = c.support_radius();
+    let away = |p: [f64; 3]| {
+        (p[0] > 2.0 * r && p[0] < 0.2 - 2.0 * r)
+            && (p[2] > 2.0 * r && p[2] < 0.2 - 2.0 * r)
+            && (p[1] > 2.0 * r && p[1] < 0.5 - 2.0 * r)
+    };
+    let fluid: Vec<usize> = (0..set.len())
+        .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid && away(set.pos[i]))
+        .collect();
+    let mut uniform = set.clone();
+    uniform.mass.iter_mut().for_each(|m| *m = c.mass);
+    let lattice = gradients_among_grains_cpu(&c, &uniform, None);
+    let by_porosity = gradients_among_grains_cpu(&c, &set, Some(&eps));
+    let by_mass = gradients_among_grains_cpu(&c, &set, None);
+    let off = |g: &[Option<couplet_fluid::joubert2020_gradients::Gradients>]| {
+        let mut worst = (0.0f64, 0.0f64, 0usize);
+        for &i in &fluid {
+            let (a, b) = (g[i].unwrap().shift, lattice[i].unwrap().shift);
+            let d = (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+            if d > worst.0 {
+                worst = (d, a[1] - b[1], i);
+            }
+        }
+        worst
+    };
+    let (p, py, pi) = off(&by_porosity);
+    let (m, my, mi) = off(&by_mass);
+    let ratios = (fluid.iter()).map(|&i| set.mass[i] / (c.mass * eps[i]));
+    let (lo, hi) = ratios.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
+    println!(
+        "shift sums off the lattice's: by m/(m0 ε) {p:.3} (y {py:+.3}) at y {:.3} m, by m {m:.3} (y {my:+.3}) at y {:.3} m; m/(m0 ε) {lo:.4}–{hi:.4}",
+        set.pos[pi][1], set.pos[mi][1]
+    );
+    assert!(
+        m > 4.0,
+        "counted by mass the face's sums are only {m:.3} off the lattice's"
+    );
+    assert!(
+        p < 0.25 * m,
+        "counted by m/(m0 ε) the face's sums are {p:.3} off the lattice's (by mass {m:.3})"
+    );
 }

@@ -589,8 +589,10 @@ pub struct EffectsSpec {
     /// factor β; 0 switches it off. Joubert gives 0.001 ≤ β ≤ 0.1, and values outside
     /// that range are refused. Each neighbour in eq. (17)'s sum counts as the lattice
     /// particles it stands for, m_j/(ρ0 δ³): 1 for fluid, wall and fill particles, ΔS/δ²
-    /// for a body's surface marker (ARCHITECTURE.md). Default 0 (off): shifting changes
-    /// the particle distribution, which a scene asks for.
+    /// for a body's surface marker (ARCHITECTURE.md); among unresolved grains, where a
+    /// lattice particle's mass is ε m0, m_j/(ε_j ρ0 δ³), and eq. (19) acts on the
+    /// intrinsic density ρ/ε. Default 0 (off): shifting changes the particle
+    /// distribution, which a scene asks for.
     #[serde(default)]
     pub particle_shifting: f64,
     /// δ-SPH density diffusion (Antuono, Colagrossi, Marrone & Molteni 2010) with the
