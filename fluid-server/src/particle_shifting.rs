@@ -35,7 +35,7 @@ use crate::gpu::Gpu;
 use crate::joubert2020_gradients::Gradients;
 use crate::marker_update::MARKER_UPDATE_WGSL;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
-use crate::particles::dot;
+use crate::particles::{ParticleSet, dot};
 use crate::porosity::porosity_wgsl;
 use crate::sph_kernel::{
     Access, BODIES, PARAMS, PARTICLES, SphKernel, body_binding as bb, library, param_binding as qb,
@@ -149,6 +149,17 @@ pub struct Shifted {
     pub pos: [f64; 3],
     pub vel: [f64; 3],
     pub rho: f64,
+}
+
+impl Shifted {
+    /// Entry `i` of `set`, as the shift takes it.
+    pub fn of(set: &ParticleSet, i: usize) -> Self {
+        Shifted {
+            pos: set.pos[i],
+            vel: set.vel[i],
+            rho: set.rho[i],
+        }
+    }
 }
 
 /// CPU twin of eqs. (17)–(19) for one particle at porosity `porosity` (1 without grains;

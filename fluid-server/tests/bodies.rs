@@ -184,11 +184,7 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
     let mut largest_hold = 0.0f64;
     for i in 0..before.len() {
         let Some(g) = cpu[i] else { continue };
-        let s0 = Shifted {
-            pos: before.pos[i],
-            vel: before.vel[i],
-            rho: before.rho[i],
-        };
+        let s0 = Shifted::of(&before, i);
         let near = nearest_surface_marker_cpu(&c, &before, &markers, &surface, i);
         let twin = shift_cpu(&c, &g, u_max, dt, s0, 1.0, near.map(|(_, r, n)| (r, n)));
         let free = shift_cpu(&c, &g, u_max, dt, s0, 1.0, None);

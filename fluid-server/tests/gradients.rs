@@ -281,11 +281,7 @@ fn particle_shifting_matches_cpu_twin() {
     let (mut dr, mut du, mut drho) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..before.len() {
         let Some(g) = cpu[i] else { continue };
-        let s0 = Shifted {
-            pos: before.pos[i],
-            vel: before.vel[i],
-            rho: before.rho[i],
-        };
+        let s0 = Shifted::of(&before, i);
         let w = shift_cpu(&c, &g, u_max, dt, s0, 1.0, None);
         for k in 0..3 {
             dr.push((after.pos[i][k] - s0.pos[k], w.pos[k] - s0.pos[k]));

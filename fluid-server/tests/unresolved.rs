@@ -576,11 +576,7 @@ fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
     let (mut dr, mut drho) = (Vec::new(), Vec::new());
     for i in (0..before.len()).filter(|&i| inside(before.pos[i])) {
         let Some(g) = grads[i] else { continue };
-        let s0 = Shifted {
-            pos: before.pos[i],
-            vel: before.vel[i],
-            rho: before.rho[i],
-        };
+        let s0 = Shifted::of(&before, i);
         let w = shift_cpu(&c, &g, u_max, dt, s0, porosity[i], None);
         e_p = e_p.max((after.press[i] - c.pressure(w.rho / porosity[i])).abs());
         superficial = superficial.max((c.pressure(w.rho) - c.pressure(w.rho / porosity[i])).abs());
@@ -612,7 +608,46 @@ fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
 
 /// A closed 0.2 × 0.5 × 0.2 m box of fluid at rest (δ = 1 cm, 20 000 particles, no
 /// gravity, δ-SPH 0.1) with a rigid slab of grains (radius 3 mm) at ε = 0.8 across
-/// y = 0.25–0.45 m.
+/// y = 0.25–0.45 m, on its starting lattice (`initial_particles`, world positions, as the
+/// porosity field takes them): the porosity at every entry, and the fluid particles two
+/// supports from every wall.
+struct Slab {
+    s: Scene,
+    c: SphConstants,
+    set: ParticleSet,
+    eps: Vec<f64>,
+    fluid: Vec<usize>,
+}
+
+fn slab() -> Slab {
+    let s = slab_scene();
+    let c = SphConstants::from_scene(&s).unwrap();
+    let set = couplet_fluid::initial_particles(&s, &c).unwrap();
+    let solids: Vec<Solid> = (s.bodies.iter())
+        .map(|b| Solid {
+            position: b.position,
+            volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
+        })
+        .collect();
+    let eps = PorosityField::of_scene(&c, &s).porosity(&set.pos, &solids);
+    let r = c.support_radius();
+    let away = |p: [f64; 3]| {
+        (p[0] > 2.0 * r && p[0] < 0.2 - 2.0 * r)
+            && (p[2] > 2.0 * r && p[2] < 0.2 - 2.0 * r)
+            && (p[1] > 2.0 * r && p[1] < 0.5 - 2.0 * r)
+    };
+    let fluid: Vec<usize> = (0..set.len())
+        .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid && away(set.pos[i]))
+        .collect();
+    Slab {
+        s,
+        c,
+        set,
+        eps,
+        fluid,
+    }
+}
+
 fn slab_scene() -> Scene {
     let text = r#"
 [meta]
@@ -668,27 +703,13 @@ rigid = true
 #[test]
 fn density_diffusion_among_grains_damps_the_odd_even_mode_and_keeps_the_faces() {
     use couplet_fluid::continuity::continuity_among_grains_cpu;
-    let s = slab_scene();
-    let c = SphConstants::from_scene(&s).unwrap();
-    let mut set = couplet_fluid::initial_particles(&s, &c).unwrap();
-    let field = PorosityField::of_scene(&c, &s);
-    let solids: Vec<Solid> = (s.bodies.iter())
-        .map(|b| Solid {
-            position: b.position,
-            volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
-        })
-        .collect();
-    // `initial_particles` gives world positions, as the field takes them.
-    let eps = field.porosity(&set.pos, &solids);
-    let r = c.support_radius();
-    let away = |p: [f64; 3]| {
-        (p[0] > 2.0 * r && p[0] < 0.2 - 2.0 * r)
-            && (p[2] > 2.0 * r && p[2] < 0.2 - 2.0 * r)
-            && (p[1] > 2.0 * r && p[1] < 0.5 - 2.0 * r)
-    };
-    let fluid: Vec<usize> = (0..set.len())
-        .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid && away(set.pos[i]))
-        .collect();
+    let Slab {
+        s,
+        c,
+        mut set,
+        eps,
+        fluid,
+    } = slab();
     let rates = |set: &ParticleSet, e: Option<&[f64]>| -> Vec<f64> {
         let grads = gradients_among_grains_cpu(&c, set, e);
         (fluid.iter())
@@ -736,6 +757,7 @@ fn density_diffusion_among_grains_damps_the_odd_even_mode_and_keeps_the_faces() 
         }
         num / (n * c.rho0 * amplitude)
     };
+    let r = c.support_radius();
     let in_slab = rate(&|y| y > 0.25 + 2.0 * r && y < 0.45 - 2.0 * r);
     let clear = rate(&|y| y < 0.25 - 2.0 * r);
     println!(
@@ -1414,7 +1436,7 @@ fn moving_grain_layer_displaces_the_fluid() {
 /// (`joubert2020_gradients.wgsl`), and among unresolved grains a lattice particle's mass
 /// is ε m0 (`initial_mass.rs`), so a neighbour counts m_j/(m0 ε_j). Counted by its mass
 /// alone, the fluid inside a block counts ε, and on the lattice at rest the shift sums
-/// at a block's faces point into it. [`slab_scene`] on its lattice (CPU twin,
+/// at a block's faces point into it. [`slab`] (CPU twin,
 /// `gradients_among_grains_cpu`; fluid particles two supports from every wall): the
 /// sums s_i against those of the same lattice with every mass m0 (the same pairs, so
 /// the lattice's own sums, ties at the support's edge included, cancel). Measured: the
@@ -1423,26 +1445,9 @@ fn moving_grain_layer_displaces_the_fluid() {
 /// masses' ripple about ε m0 at the faces (m/(m0 ε) = 0.9455–1.0485).
 #[test]
 fn shift_sums_among_grains_count_a_particle_by_its_mass_at_its_porosity() {
-    let s = slab_scene();
-    let c = SphConstants::from_scene(&s).unwrap();
-    let set = couplet_fluid::initial_particles(&s, &c).unwrap();
-    let field = PorosityField::of_scene(&c, &s);
-    let solids: Vec<Solid> = (s.bodies.iter())
-        .map(|b| Solid {
-            position: b.position,
-            volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),
-        })
-        .collect();
-    let eps = field.porosity(&set.pos, &solids);
-    let r = c.support_radius();
-    let away = |p: [f64; 3]| {
-        (p[0] > 2.0 * r && p[0] < 0.2 - 2.0 * r)
-            && (p[2] > 2.0 * r && p[2] < 0.2 - 2.0 * r)
-            && (p[1] > 2.0 * r && p[1] < 0.5 - 2.0 * r)
-    };
-    let fluid: Vec<usize> = (0..set.len())
-        .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid && away(set.pos[i]))
-        .collect();
+    let Slab {
+        c, set, eps, fluid, ..
+    } = slab();
     let mut uniform = set.clone();
     uniform.mass.iter_mut().for_each(|m| *m = c.mass);
     let lattice = gradients_among_grains_cpu(&c, &uniform, None);
