@@ -167,11 +167,7 @@ fn shift_keeps_fluid_off_a_surface_as_the_twin_does() {
     solver
         .run_ops(&gpu, &[Op::MarkerUpdate, Op::Sort], dt, 1.0)
         .unwrap();
-    let before = solver.data().read(&gpu).unwrap();
-    solver
-        .run_ops(&gpu, &[Op::Gradients, Op::Shift], dt, 1.0)
-        .unwrap();
-    let after = solver.data().read(&gpu).unwrap();
+    let (before, after) = common::around_a_shift(&gpu, &mut solver, dt);
     let count = solver.data().read_shift_limited(&gpu).unwrap();
     let markers = surface_points(&points);
     let surface = surface_markers(&before, &markers);

@@ -270,12 +270,8 @@ fn particle_shifting_matches_cpu_twin() {
     let set = random_set(&c, 14, 0.3, 0.2, 0.5, 12);
     let mut solver = FluidSolver::from_particles(&gpu, &s, set).unwrap();
     solver.run_ops(&gpu, &[Op::Sort], 1e-3, 1.0).unwrap();
-    let before = solver.data().read(&gpu).unwrap();
     let dt = 1e-3;
-    solver
-        .run_ops(&gpu, &[Op::Gradients, Op::Shift], dt, 1.0)
-        .unwrap();
-    let after = solver.data().read(&gpu).unwrap();
+    let (before, after) = common::around_a_shift(&gpu, &mut solver, dt);
     let cpu = gradients_cpu(&c, &before);
     let u_max = common::largest_fluid_speed(&before);
     let (mut dr, mut du, mut drho) = (Vec::new(), Vec::new(), Vec::new());

@@ -558,12 +558,8 @@ fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
     let c = SphConstants::from_scene(&s).unwrap();
     let (mut solver, grains) = stirred_box_with_grains(&gpu, &s, [41, 13], 0.005, 0.2);
     let origin = solver.origin();
-    let before = solver.data().read(&gpu).unwrap();
     let dt = 1e-3;
-    solver
-        .run_ops(&gpu, &[Op::Gradients, Op::Shift], dt, 1.0)
-        .unwrap();
-    let after = solver.data().read(&gpu).unwrap();
+    let (before, after) = common::around_a_shift(&gpu, &mut solver, dt);
     let world: Vec<[f64; 3]> = (before.pos.iter())
         .map(|p| std::array::from_fn(|k| p[k] + origin[k]))
         .collect();

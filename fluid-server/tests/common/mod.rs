@@ -148,6 +148,25 @@ pub fn max_err(pairs: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
     })
 }
 
+/// The particles before and after one gradient pass and shift (Joubert eqs. 17–19)
+/// with substep `dt`: what the shift twins compare.
+#[allow(dead_code)] // not every test binary that includes `common` shifts
+pub fn around_a_shift(
+    gpu: &Gpu,
+    solver: &mut couplet_fluid::FluidSolver,
+    dt: f64,
+) -> (ParticleSet, ParticleSet) {
+    let before = solver.data().read(gpu).unwrap();
+    (solver.run_ops(
+        gpu,
+        &[couplet_fluid::Op::Gradients, couplet_fluid::Op::Shift],
+        dt,
+        1.0,
+    ))
+    .unwrap();
+    (before, solver.data().read(gpu).unwrap())
+}
+
 /// Largest fluid speed of `set`: ‖u‖max of Joubert eq. (17), as the gradient pass finds it.
 #[allow(dead_code)] // not every test binary that includes `common` shifts
 pub fn largest_fluid_speed(set: &ParticleSet) -> f64 {
