@@ -237,11 +237,16 @@ stiffness = 10.0
     }
 }
 
+/// `p`, in the solver's frame (relative to `origin`), in world coordinates.
+fn in_world(p: &[f64; 3], origin: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|k| p[k] + origin[k])
+}
+
 /// The states the DEM would send: `grains` (relative to `origin`) as bodies 0…n.
 fn states(grains: &[Grain], origin: [f64; 3], density: f64) -> Vec<BodyState> {
     (grains.iter().enumerate())
         .map(|(i, g)| BodyState {
-            position: std::array::from_fn(|k| g.position[k] + origin[k]),
+            position: in_world(&g.position, origin),
             body: i as u32,
             motion: 2,
             orientation: [0.0, 0.0, 0.0, 1.0],
@@ -257,7 +262,7 @@ fn states(grains: &[Grain], origin: [f64; 3], density: f64) -> Vec<BodyState> {
 fn solids(grains: &[Grain], origin: [f64; 3]) -> Vec<Solid> {
     (grains.iter())
         .map(|g| Solid {
-            position: std::array::from_fn(|k| g.position[k] + origin[k]),
+            position: in_world(&g.position, origin),
             volume: g.volume,
         })
         .collect()
@@ -407,9 +412,7 @@ fn energy_pair_rates_match_cpu_twin() {
         let (_, dvel) = solver.data().read_rates(gpu).unwrap();
         let solids = solids(&grains, origin);
         let field = PorosityField::of_scene(&c, &s);
-        let world: Vec<[f64; 3]> = (set.pos.iter())
-            .map(|p| std::array::from_fn(|k| p[k] + origin[k]))
-            .collect();
+        let world: Vec<[f64; 3]> = (set.pos.iter()).map(|p| in_world(p, origin)).collect();
         let porosity = field.porosity(&world, &solids);
         let gradient = field.gradient(&world, &solids);
         // The ∇ε sums of `grain_solid_fraction` themselves (every particle: the field and the
@@ -493,9 +496,7 @@ fn density_diffusion_among_grains_matches_cpu_twin() {
         let set = solver.data().read(&gpu).unwrap();
         let (drho, _) = solver.data().read_rates(&gpu).unwrap();
         let field = PorosityField::of_scene(&c, &s);
-        let world: Vec<[f64; 3]> = (set.pos.iter())
-            .map(|p| std::array::from_fn(|k| p[k] + origin[k]))
-            .collect();
+        let world: Vec<[f64; 3]> = (set.pos.iter()).map(|p| in_world(p, origin)).collect();
         let solids = solids(&grains, origin);
         let porosity = field.porosity(&world, &solids);
         let gradient = field.gradient(&world, &solids);
@@ -560,9 +561,7 @@ fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
     let origin = solver.origin();
     let dt = 1e-3;
     let (before, after) = common::around_a_shift(&gpu, &mut solver, dt);
-    let world: Vec<[f64; 3]> = (before.pos.iter())
-        .map(|p| std::array::from_fn(|k| p[k] + origin[k]))
-        .collect();
+    let world: Vec<[f64; 3]> = (before.pos.iter()).map(|p| in_world(p, origin)).collect();
     let porosity = PorosityField::of_scene(&c, &s).porosity(&world, &solids(&grains, origin));
     let grads = gradients_among_grains_cpu(&c, &before, Some(&porosity));
     let u_max = common::largest_fluid_speed(&before);
@@ -1137,7 +1136,7 @@ fn fluid_porosity_matches_cpu_twin() {
             .filter(|i| set.kinds.kind(set.id[*i]) == Kind::Fluid)
             .collect();
         let points: Vec<[f64; 3]> = (fluid.iter())
-            .map(|&i| std::array::from_fn(|k| set.pos[i][k] + origin[k]))
+            .map(|&i| in_world(&set.pos[i], origin))
             .collect();
         let want = field.porosity(&points, &solids);
         let (mut worst, mut lowest) = (0.0f64, 1.0f64);
@@ -1327,7 +1326,7 @@ fn grain_layer_on_the_floor_feels_its_buoyancy() {
         .filter(|i| set.kinds.kind(set.id[*i]) == Kind::Wall)
         .collect();
     let points: Vec<[f64; 3]> = (walls.iter())
-        .map(|&i| std::array::from_fn(|k| set.pos[i][k] + origin[k]))
+        .map(|&i| in_world(&set.pos[i], origin))
         .collect();
     let solids: Vec<Solid> = (centres.iter())
         .map(|(p, _)| Solid {
