@@ -463,7 +463,10 @@ pub(super) const RTI_QUICK: &[&str] = &[
 /// of at most h/c_s (`grain_sound_crossing`, 2026-12-05) the 2.2 mm column ran to
 /// 37.3 ms, and then blew up from its upper face, the fluid under the lid and odd-even
 /// rows in the block, all growing from 20 ms (ARCHITECTURE.md, "A window longer than the
-/// sound's crossing of h"). With δ-SPH it ran quiet to 0.06 s (2026-12-05). With δ-SPH
+/// sound's crossing of h"). With δ-SPH it ran quiet to 0.06 s (2026-12-05) but for a jet
+/// of the fluid beside the spike's axis at 55 ms, which the scene's particle shifting
+/// (since 2026-12-07) removes: 35.685 1/s to 0.06 s, and to 0.075 s without a jet
+/// (ARCHITECTURE.md, "The RTI's jet"). With δ-SPH
 /// and α = 0.1 (`--set effects.artificial_viscosity=0.1`) the growth falls below both
 /// bounds, 18.062 1/s, as Robinson's water growth with α = 0.1 did (2026-12-06). The
 /// scene's α = 0.1 without δ-SPH (`--set effects.artificial_viscosity=0.1 --set
