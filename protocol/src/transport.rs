@@ -22,6 +22,10 @@ use std::time::{Duration, Instant};
 /// The iceoryx2 service flavour: inter-process, shared memory.
 pub type Svc = ipc::Service;
 
+/// An opened publish–subscribe service of payload `P` and user header `H`.
+type PubSubService<P, H> =
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, P, H>;
+
 /// How long a waiting process spins before it blocks on its wake event. A zero-copy hop
 /// costs ≈ 0.5 µs when the reader spins and ≈ 50 µs through an event wake-up on a small
 /// VM (BENCHMARKS.md), so a window that is answered within this time pays microseconds;
@@ -110,13 +114,14 @@ impl Endpoint {
         Ok((s, n))
     }
 
-    /// Publisher of `[T]` slices with at most `max_len` elements at first (the
-    /// publisher reallocates, power of two, if more are sent later).
-    pub fn slice_sender<T: ZeroCopySend + Debug + Copy + 'static>(
+    /// The windowed service of `leaf`: `[T]` slices under a [`WindowHeader`]. Sender and
+    /// receiver open it through here, so whichever comes first creates it with what the
+    /// other asks for (iceoryx2 refuses an open that asks for more than the creator set:
+    /// another payload or header, more publishers, a deeper buffer).
+    fn slice_service<T: ZeroCopySend + Debug + Copy + 'static>(
         &self,
         leaf: ServiceLeaf,
-        max_len: usize,
-    ) -> Result<SliceSender<T>, TransportError> {
+    ) -> Result<(String, PubSubService<[T], WindowHeader>), TransportError> {
         let (s, n) = self.name(leaf)?;
         let service = self
             .node
@@ -126,6 +131,35 @@ impl Endpoint {
             .subscriber_max_buffer_size(BUFFER)
             .open_or_create()
             .map_err(ipc("open service", &s))?;
+        Ok((s, service))
+    }
+
+    /// The single-value service of `leaf` (control messages), opened alike by sender and
+    /// receiver as [`Self::slice_service`]; up to four publishers.
+    fn value_service<T: ZeroCopySend + Debug + Copy + 'static>(
+        &self,
+        leaf: ServiceLeaf,
+    ) -> Result<(String, PubSubService<T, ()>), TransportError> {
+        let (s, n) = self.name(leaf)?;
+        let service = self
+            .node
+            .service_builder(&n)
+            .publish_subscribe::<T>()
+            .subscriber_max_buffer_size(BUFFER)
+            .max_publishers(4)
+            .open_or_create()
+            .map_err(ipc("open service", &s))?;
+        Ok((s, service))
+    }
+
+    /// Publisher of `[T]` slices with at most `max_len` elements at first (the
+    /// publisher reallocates, power of two, if more are sent later).
+    pub fn slice_sender<T: ZeroCopySend + Debug + Copy + 'static>(
+        &self,
+        leaf: ServiceLeaf,
+        max_len: usize,
+    ) -> Result<SliceSender<T>, TransportError> {
+        let (s, service) = self.slice_service::<T>(leaf)?;
         let publisher = service
             .publisher_builder()
             .initial_max_slice_len(max_len.max(1))
@@ -142,15 +176,7 @@ impl Endpoint {
         &self,
         leaf: ServiceLeaf,
     ) -> Result<SliceReceiver<T>, TransportError> {
-        let (s, n) = self.name(leaf)?;
-        let service = self
-            .node
-            .service_builder(&n)
-            .publish_subscribe::<[T]>()
-            .user_header::<WindowHeader>()
-            .subscriber_max_buffer_size(BUFFER)
-            .open_or_create()
-            .map_err(ipc("open service", &s))?;
+        let (s, service) = self.slice_service::<T>(leaf)?;
         let subscriber = service
             .subscriber_builder()
             .create()
@@ -165,15 +191,7 @@ impl Endpoint {
         &self,
         leaf: ServiceLeaf,
     ) -> Result<ValueSender<T>, TransportError> {
-        let (s, n) = self.name(leaf)?;
-        let service = self
-            .node
-            .service_builder(&n)
-            .publish_subscribe::<T>()
-            .subscriber_max_buffer_size(BUFFER)
-            .max_publishers(4)
-            .open_or_create()
-            .map_err(ipc("open service", &s))?;
+        let (s, service) = self.value_service::<T>(leaf)?;
         let publisher = service
             .publisher_builder()
             .create()
@@ -188,15 +206,7 @@ impl Endpoint {
         &self,
         leaf: ServiceLeaf,
     ) -> Result<ValueReceiver<T>, TransportError> {
-        let (s, n) = self.name(leaf)?;
-        let service = self
-            .node
-            .service_builder(&n)
-            .publish_subscribe::<T>()
-            .subscriber_max_buffer_size(BUFFER)
-            .max_publishers(4)
-            .open_or_create()
-            .map_err(ipc("open service", &s))?;
+        let (s, service) = self.value_service::<T>(leaf)?;
         let subscriber = service
             .subscriber_builder()
             .create()
@@ -207,9 +217,17 @@ impl Endpoint {
         })
     }
 
-    /// The wake event of a process (`leaf` is one of the `*Wake` leaves): a listener
-    /// for its owner.
-    pub fn wake_listener(&self, leaf: ServiceLeaf) -> Result<WakeListener, TransportError> {
+    /// The event service of `leaf`, opened alike by its listener and its notifiers.
+    fn event_service(
+        &self,
+        leaf: ServiceLeaf,
+    ) -> Result<
+        (
+            String,
+            iceoryx2::service::port_factory::event::PortFactory<Svc>,
+        ),
+        TransportError,
+    > {
         let (s, n) = self.name(leaf)?;
         let event = self
             .node
@@ -217,6 +235,13 @@ impl Endpoint {
             .event()
             .open_or_create()
             .map_err(ipc("open event", &s))?;
+        Ok((s, event))
+    }
+
+    /// The wake event of a process (`leaf` is one of the `*Wake` leaves): a listener
+    /// for its owner.
+    pub fn wake_listener(&self, leaf: ServiceLeaf) -> Result<WakeListener, TransportError> {
+        let (s, event) = self.event_service(leaf)?;
         let listener = event
             .listener_builder()
             .create()
@@ -229,13 +254,7 @@ impl Endpoint {
 
     /// A notifier that wakes the owner of `leaf`.
     pub fn waker(&self, leaf: ServiceLeaf) -> Result<Waker, TransportError> {
-        let (s, n) = self.name(leaf)?;
-        let event = self
-            .node
-            .service_builder(&n)
-            .event()
-            .open_or_create()
-            .map_err(ipc("open event", &s))?;
+        let (s, event) = self.event_service(leaf)?;
         let notifier = event
             .notifier_builder()
             .create()
