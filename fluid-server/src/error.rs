@@ -13,6 +13,8 @@ pub enum FluidError {
     NoFluid,
     #[error("cannot continue from the checkpoint: {0}")]
     Restore(String),
+    #[error("linear acoustics about rest: {0}")]
+    LinearAcoustics(String),
     #[error("fluid.blocks fill no particle: spacing {spacing} m is larger than every block")]
     NoParticles { spacing: f64 },
     #[error("{what} needs {needed} bytes in one GPU buffer, the adapter allows {limit}")]

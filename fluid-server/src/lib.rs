@@ -35,6 +35,7 @@ pub mod joubert2020_boundary_values;
 pub mod joubert2020_gradients;
 pub mod kernel;
 pub mod limits;
+pub mod linear_acoustics;
 pub mod marker_update;
 pub mod momentum;
 pub mod neighbour_count;

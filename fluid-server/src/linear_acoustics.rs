@@ -1,0 +1,161 @@
+//! The fluid's rates linearised about rest, from the f64 CPU twins: whether a scheme's
+//! spatial operators conserve the energy of small motions, or can grow a mode by
+//! themselves (ARCHITECTURE.md, "Joubert's one-layer walls grow a mode").
+//!
+//! The state is x = (ρ'_a, u_a) of every fluid particle a about rest on the scene's start
+//! lattice (ρ = ρ0, u = 0; the scene must have no gravity, so that rest is a steady
+//! state). Its rates are one step's, in the solver's order: the equation of state at the
+//! fluid, the walls' and markers' values (Joubert eq. 25 with `domain.wall_model =
+//! "joubert"`; Adami's walls are summed inside the rates), then (dρ/dt, du/dt)
+//! ([`crate::fluid_rates::fluid_rates_cpu`]). At rest they are linear in x, but for
+//! Monaghan's α, which acts only on approaching pairs: give α = 0. The energy of small
+//! motions, E = Σ_a m_a (c² ρ'_a²/ρ0² + |u_a|²)/2, is conserved by the linear rates J
+//! exactly when W J is skew-symmetric, W = diag(m c²/ρ0², m, m, m) a particle
+//! ([`RestState::energy_weights`]).
+//!
+//! The CPU twins sum over all pairs without periodic images, so the scene must be a
+//! closed box (checked), and small: each evaluation costs (fluid + walls)² pair tests.
+
+use crate::constants::SphConstants;
+use crate::error::FluidError;
+use crate::fluid_rates::fluid_rates_cpu;
+use crate::joubert2020_boundary_values::{BoundaryFrame, boundary_values_cpu, wall_frames};
+use crate::particles::{Kind, ParticleSet, initial_particles};
+use couplet_protocol::Scene;
+
+/// The largest perturbation [`RestState::apply`] takes, as a velocity over the sound
+/// speed (a density part counts as c ρ'/ρ0): small enough that the equation of state's
+/// curvature, which the central difference cancels to second order, leaves J at
+/// round-off, large enough that the rates stand well above it.
+const PROBE: f64 = 1e-6;
+
+/// A scene's fluid at rest, ready to give its rates and their linearisation.
+pub struct RestState {
+    pub c: SphConstants,
+    set: ParticleSet,
+    frames: Vec<BoundaryFrame>,
+    fluid: Vec<usize>,
+}
+
+impl RestState {
+    /// The scene's start lattice at ρ0 and rest. Refused: gravity on the fluid (rest
+    /// would not be steady), a periodic axis (the twins take no images).
+    pub fn new(scene: &Scene) -> Result<Self, FluidError> {
+        let c = SphConstants::from_scene(scene)?;
+        if c.gravity_fluid.iter().any(|g| *g != 0.0) {
+            return Err(FluidError::LinearAcoustics(format!(
+                "gravity {:?} m/s² acts on the fluid, so rest is not a steady state; give \
+                 gravity.vector = [0, 0, 0] (or gravity.on_fluid = false)",
+                c.gravity_fluid
+            )));
+        }
+        if let Some(k) = scene.domain.periodic.iter().position(|p| *p) {
+            return Err(FluidError::LinearAcoustics(format!(
+                "axis {k} is periodic, and the CPU twins take no periodic images: give a \
+                 closed box"
+            )));
+        }
+        let mut set = initial_particles(scene, &c)?;
+        let frames = if c.joubert_walls {
+            wall_frames(scene, &set)
+        } else {
+            Vec::new()
+        };
+        let fluid: Vec<usize> = (0..set.len())
+            .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid)
+            .collect();
+        for &a in &fluid {
+            set.rho[a] = c.rho0;
+            set.vel[a] = [0.0; 3];
+        }
+        Ok(Self {
+            c,
+            set,
+            frames,
+            fluid,
+        })
+    }
+
+    /// The state's size: four numbers (ρ', u_x, u_y, u_z) a fluid particle.
+    pub fn len(&self) -> usize {
+        4 * self.fluid.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.fluid.is_empty()
+    }
+
+    /// The fluid particles' positions, in the state's order.
+    pub fn positions(&self) -> Vec<[f64; 3]> {
+        self.fluid.iter().map(|&a| self.set.pos[a]).collect()
+    }
+
+    /// The wall particles' count (Adami's layers or Joubert's one).
+    pub fn n_wall(&self) -> usize {
+        self.set.kinds.n_wall
+    }
+
+    /// W of the energy E = xᵀ W x / 2 (module doc), a weight per state entry.
+    pub fn energy_weights(&self) -> Vec<f64> {
+        let s = (self.c.sound_speed / self.c.rho0).powi(2);
+        (self.fluid.iter())
+            .flat_map(|&a| {
+                let m = self.set.mass[a];
+                [m * s, m, m, m]
+            })
+            .collect()
+    }
+
+    /// The rates (dρ/dt, du/dt of each fluid particle, the state's order) at rest + `x`.
+    pub fn rates(&self, x: &[f64]) -> Vec<f64> {
+        assert_eq!(x.len(), self.len(), "a state of 4 entries a fluid particle");
+        let mut s = self.set.clone();
+        for (k, &a) in self.fluid.iter().enumerate() {
+            s.rho[a] = self.c.rho0 + x[4 * k];
+            s.vel[a] = [x[4 * k + 1], x[4 * k + 2], x[4 * k + 3]];
+            s.press[a] = self.c.pressure(s.rho[a]);
+        }
+        if self.c.joubert_walls {
+            let values = boundary_values_cpu(&self.c, &s, &self.frames);
+            for (i, v) in values.into_iter().enumerate() {
+                if let Some(v) = v {
+                    (s.press[i], s.rho[i], s.vel[i]) = (v.press, v.rho, v.vel);
+                }
+            }
+        }
+        // The step enters the rates through the mass correction only.
+        let r = fluid_rates_cpu(&self.c, &s, 1e-5);
+        (self.fluid.iter())
+            .flat_map(|&a| {
+                let (drho, du) = r[a].expect("a fluid particle's rates");
+                [drho, du[0], du[1], du[2]]
+            })
+            .collect()
+    }
+
+    /// J x, J the rates' Jacobian at rest, by a central difference of [`Self::rates`]
+    /// along x, scaled to [`PROBE`].
+    pub fn apply(&self, x: &[f64]) -> Vec<f64> {
+        let rho_per_u = self.c.rho0 / self.c.sound_speed;
+        let size = (0..x.len())
+            .map(|k| {
+                if k % 4 == 0 {
+                    x[k].abs() / rho_per_u
+                } else {
+                    x[k].abs()
+                }
+            })
+            .fold(0.0, f64::max);
+        if size == 0.0 {
+            return vec![0.0; x.len()];
+        }
+        let h = PROBE * self.c.sound_speed / size;
+        let plus: Vec<f64> = x.iter().map(|v| h * v).collect();
+        let minus: Vec<f64> = x.iter().map(|v| -h * v).collect();
+        let (rp, rm) = (self.rates(&plus), self.rates(&minus));
+        rp.iter()
+            .zip(&rm)
+            .map(|(p, m)| (p - m) / (2.0 * h))
+            .collect()
+    }
+}
