@@ -93,7 +93,7 @@ fn adami_walls_conserve_the_energy_of_small_motions() {
 /// mode"). Its defect rows sit at the walls: 0.96 of the first fluid layer's, 0.22 of
 /// the second's, 0.05 of the third's. Measured here: 0.976; asserted over 0.1, so that a
 /// change that makes the one layer conserve E is seen, and the warning
-/// (`JOUBERT_WALL_DENSITY_DIFFUSION`) revisited.
+/// (`JOUBERT_WALL_DAMPING`) revisited.
 #[test]
 fn joubert_one_layer_walls_do_not_conserve_it() {
     let rest = RestState::new(&closed_box(

@@ -427,8 +427,9 @@ pub enum WallModel {
     /// Eq. (25)'s viscous term is not included yet (exact for fluid at rest and channel
     /// flows), and nothing but compression stops fluid crossing the one layer: a driven
     /// cavity blows up near its lid corners (ARCHITECTURE.md). Even at rest in a closed
-    /// box a mode grows at the one layer at about c/(2δ) unless δ-SPH of at least
-    /// [`JOUBERT_WALL_DENSITY_DIFFUSION`] damps it (the scene warns). Not for a free surface:
+    /// box a mode grows at the one layer (an eigenmode of the corrected operators there,
+    /// `couplet_fluid::linear_acoustics`) unless δ-SPH and α together damp it
+    /// ([`JOUBERT_WALL_DAMPING`]; the scene warns). Not for a free surface:
     /// every open tank and dam break tried blew up within 0.06 s, and the scene warns
     /// (`Scene::may_hold_a_free_surface`).
     Joubert,
@@ -438,10 +439,15 @@ fn default_walls() -> WallKind {
     WallKind::NoSlip
 }
 
-/// The δ-SPH coefficient under which Joubert's one-layer walls are warned of: the
-/// closed hydrostatic tank's quick grew a wall mode from round-off with 0.1 and damped it
-/// with 0.2 (2026-12-05; ARCHITECTURE.md, "Joubert's one-layer walls grow a mode").
-pub const JOUBERT_WALL_DENSITY_DIFFUSION: f64 = 0.2;
+/// The damping measured to hold Joubert's one-layer walls' mode, as pairs (δ-SPH
+/// coefficient, Monaghan's α): a scene with these walls is warned of unless it has at
+/// least both numbers of one pair. In the closed hydrostatic tank's quick (ARCHITECTURE.md,
+/// "Joubert's one-layer walls grow a mode") δ-SPH 0.2 with α = 0.2 decayed (the CI case)
+/// and 0.1 with α = 0.5 held to 1 s, while 0.1 with α = 0.2 grew ×2 every 10 ms, α = 0.5
+/// alone blew up at 0.096 s and δ-SPH 0.2 alone at 0.113 s (2026-12-05, 2026-12-07).
+/// Neither alone removes it: linearised about rest, δ-SPH 0.2 leaves +99.9 1/s (the run
+/// without α grew at 98) and α acts only between approaching particles.
+pub const JOUBERT_WALL_DAMPING: [(f64, f64); 2] = [(0.2, 0.2), (0.1, 0.5)];
 
 /// `[gravity]`.
 #[derive(Debug, Clone, Deserialize)]
@@ -1391,17 +1397,28 @@ impl Scene {
                     .into(),
             );
         }
+        let (dsph, alpha) = (
+            self.effects.density_diffusion,
+            self.effects.artificial_viscosity,
+        );
         if self.domain.wall_model == WallModel::Joubert
-            && self.effects.density_diffusion < JOUBERT_WALL_DENSITY_DIFFUSION
+            && !JOUBERT_WALL_DAMPING
+                .iter()
+                .any(|&(d, a)| dsph >= d && alpha >= a)
         {
             w.push(format!(
-                "domain.wall_model = \"joubert\" with effects.density_diffusion = {} (under {}): \
-                 a mode grows at the one-layer walls at about c/(2δ), from round-off (the closed \
-                 hydrostatic tank's quick: ×10 every 5 ms, blown up at 0.07 s; ×2 every 10 ms \
-                 with δ-SPH 0.1; damped with 0.2). It is the truncated support's, not the time \
-                 step's (the same at a quarter of it) nor eq. (25)'s (ARCHITECTURE.md, \"Joubert's \
-                 one-layer walls grow a mode\")",
-                self.effects.density_diffusion, JOUBERT_WALL_DENSITY_DIFFUSION
+                "domain.wall_model = \"joubert\" with effects.density_diffusion = {dsph} and \
+                 effects.artificial_viscosity = {alpha}: a mode grows at the one-layer walls from \
+                 round-off, an eigenmode of the corrected operators where the one layer truncates \
+                 the support (+319 1/s in the closed hydrostatic tank's quick linearised about \
+                 rest; run without α it grew at 305 1/s and blew up at 0.05 s, with δ-SPH 0.2 at \
+                 98 1/s and 0.113 s). Measured to hold it: δ-SPH and α of at least {}",
+                JOUBERT_WALL_DAMPING
+                    .iter()
+                    .map(|(d, a)| format!("{d} and {a}"))
+                    .collect::<Vec<_>>()
+                    .join(", or ")
+                    + " (ARCHITECTURE.md, \"Joubert's one-layer walls grow a mode\")"
             ));
         }
         let weighs = self.gravity.on_fluid && self.gravity.vector.iter().any(|g| *g != 0.0);
@@ -2207,7 +2224,8 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
             !warned("closed_top = true", "1"),
             "closed, filled to the lid"
         );
-        // Every Joubert-walled scene below δ-SPH 0.2 is warned of the wall mode.
+        // A Joubert-walled scene is warned of the wall mode unless its δ-SPH and α reach
+        // one measured pair of JOUBERT_WALL_DAMPING.
         let mode = |effects: &str| {
             let text = MINIMAL
                 .replace(
@@ -2219,11 +2237,23 @@ blocks = [{ min = [0, 0, 0], max = [1, 0.5, 1] }]
                 + effects;
             (Scene::parse(&text, Path::new("t.toml")).unwrap().warnings())
                 .iter()
-                .any(|w| w.contains("joubert") && w.contains("c/(2δ)"))
+                .any(|w| w.contains("joubert") && w.contains("eigenmode"))
         };
-        assert!(mode(""), "no δ-SPH");
-        assert!(mode("density_diffusion = 0.1"), "δ-SPH 0.1");
-        assert!(!mode("density_diffusion = 0.2"), "δ-SPH 0.2");
+        assert!(mode(""), "no δ-SPH, no α");
+        assert!(mode("density_diffusion = 0.2"), "δ-SPH 0.2 alone");
+        assert!(mode("artificial_viscosity = 0.5"), "α 0.5 alone");
+        assert!(
+            mode("density_diffusion = 0.1\nartificial_viscosity = 0.2"),
+            "δ-SPH 0.1, α 0.2"
+        );
+        assert!(
+            !mode("density_diffusion = 0.2\nartificial_viscosity = 0.2"),
+            "δ-SPH 0.2, α 0.2"
+        );
+        assert!(
+            !mode("density_diffusion = 0.1\nartificial_viscosity = 0.5"),
+            "δ-SPH 0.1, α 0.5"
+        );
     }
 
     /// `[output]` defaults to no VTK and a body CSV; `--set output.vtk=true` creates the

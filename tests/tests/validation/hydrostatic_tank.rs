@@ -58,9 +58,10 @@ fn hydrostatic_tank_quick_validation_passes() {
 /// case then holds the corrected scheme to 1 %. Regression: with eq. (24)'s δ rather than
 /// its smallest spacing δ/2 this run blew up at t = 0.08 s.
 ///
-/// With δ-SPH 0.2 (`JOUBERT_WALL_DENSITY_DIFFUSION`): since the densities are summed with
-/// compensation (2026-12-05) a mode grows at the one-layer walls from round-off at about
-/// c/(2δ), kinetic energy ×10 every 5 ms, blown up at t = 0.07 s without δ-SPH, ×2 every
+/// With δ-SPH 0.2 and the quick's α = 0.2 (`JOUBERT_WALL_DAMPING`): since the densities are summed with
+/// compensation (2026-12-05) a mode grows at the one-layer walls from round-off (an
+/// eigenmode of the corrected operators there, `fluid-server/tests/linear_acoustics.rs`),
+/// kinetic energy ×10 every 5 ms, blown up at t = 0.07 s without δ-SPH, ×2 every
 /// 10 ms with 0.1; f32 sums had dropped its increments under half an ulp and hidden it,
 /// so the 0.48 % measured without δ-SPH on 2026-11-23 was an artefact (ARCHITECTURE.md,
 /// "Joubert's one-layer walls grow a mode"). Measured 2026-12-05 with 0.2: 0.51 %, the
