@@ -8,7 +8,7 @@
 //! fluid, the walls' and markers' values (Joubert eq. 25 with `domain.wall_model =
 //! "joubert"`; Adami's walls are summed inside the rates), then (dρ/dt, du/dt)
 //! ([`crate::fluid_rates::fluid_rates_cpu`]). At rest they are linear in x, but for
-//! Monaghan's α, which acts only on approaching pairs: give α = 0. The energy of small
+//! Monaghan's α, which acts only on approaching pairs, so α > 0 is refused. The energy of small
 //! motions, E = Σ_a m_a (c² ρ'_a²/ρ0² + |u_a|²)/2, is conserved by the linear rates J
 //! exactly when W J is skew-symmetric, W = diag(m c²/ρ0², m, m, m) a particle
 //! ([`RestState::energy_weights`]).
@@ -39,7 +39,8 @@ pub struct RestState {
 
 impl RestState {
     /// The scene's start lattice at ρ0 and rest. Refused: gravity on the fluid (rest
-    /// would not be steady), a periodic axis (the twins take no images).
+    /// would not be steady), α > 0 (not linear), bodies or grains (not modelled here), a
+    /// periodic axis (the twins take no images).
     pub fn new(scene: &Scene) -> Result<Self, FluidError> {
         let c = SphConstants::from_scene(scene)?;
         if c.gravity_fluid.iter().any(|g| *g != 0.0) {
@@ -48,6 +49,20 @@ impl RestState {
                  gravity.vector = [0, 0, 0] (or gravity.on_fluid = false)",
                 c.gravity_fluid
             )));
+        }
+        if c.alpha > 0.0 {
+            return Err(FluidError::LinearAcoustics(format!(
+                "effects.artificial_viscosity = {} acts only between approaching particles, \
+                 so the rates are not linear at rest; give 0",
+                c.alpha
+            )));
+        }
+        if !scene.bodies.is_empty() || !scene.grain_lattices.is_empty() {
+            return Err(FluidError::LinearAcoustics(
+                "the scene has bodies or grains; this linearisation takes the fluid and its \
+                 walls alone"
+                    .into(),
+            ));
         }
         if let Some(k) = scene.domain.periodic.iter().position(|p| *p) {
             return Err(FluidError::LinearAcoustics(format!(

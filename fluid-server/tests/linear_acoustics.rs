@@ -14,8 +14,8 @@ use rand_chacha::ChaCha8Rng;
 use std::path::Path;
 
 /// The hydrostatic tank's CI quick (δ = 0.02 m, support 2δ, c = 17.5 m/s), closed and
-/// cut to 6 × 10 × 6 fluid particles, without gravity, viscosity or α (the rates are
-/// then linear at rest); `domain` and `effects` add lines to those tables.
+/// cut to 6 × 10 × 6 fluid particles, without gravity, viscosity or α (α's default is
+/// 0; the rates are then linear at rest); `domain` and `effects` add lines to those tables.
 fn closed_box(domain: &str, effects: &str) -> Scene {
     let text = format!(
         r#"
@@ -42,7 +42,6 @@ blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.12, 0.2, 0.12] }}]
 vector = [0.0, 0.0, 0.0]
 [effects]
 viscosity = "none"
-artificial_viscosity = 0.0
 {effects}
 "#
     );
@@ -105,15 +104,19 @@ fn joubert_one_layer_walls_do_not_conserve_it() {
     assert!(d > 0.1, "Joubert's walls: energy defect {d:e}");
 }
 
-/// Rest is steady only without gravity on the fluid, and the twins take no periodic
-/// images: both are refused with what to change.
+/// Rest is steady only without gravity on the fluid, α makes the rates non-linear at
+/// rest, and the twins take no periodic images: each is refused with what to change.
 #[test]
-fn rest_state_refuses_gravity_and_periodic_axes() {
+fn rest_state_refuses_gravity_alpha_and_periodic_axes() {
     let mut s = closed_box("", "");
     s.gravity.vector = [0.0, -9.81, 0.0];
     match RestState::new(&s) {
         Err(FluidError::LinearAcoustics(m)) => assert!(m.contains("gravity.vector"), "{m}"),
         other => panic!("gravity: {:?}", other.err()),
+    }
+    match RestState::new(&closed_box("", "artificial_viscosity = 0.2")) {
+        Err(FluidError::LinearAcoustics(m)) => assert!(m.contains("artificial_viscosity"), "{m}"),
+        other => panic!("α: {:?}", other.err()),
     }
     let mut s = closed_box("", "");
     s.domain.periodic = [true, false, false];
