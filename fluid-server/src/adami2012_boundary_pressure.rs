@@ -184,11 +184,11 @@ pub fn extrapolate_from_cpu(
 ) -> Option<(f64, [f64; 3])> {
     let (mut sum_pw, mut sum_rrw, mut sum_vw, mut sum_w) = (0.0, [0.0; 3], [0.0; 3], 0.0);
     let k = c.wall_kernel();
-    for j in set.neighbours(i, k.radius()) {
+    for j in set.neighbours(i, k.radius(), c.period) {
         if set.kinds.kind(set.id[j]) != Kind::Fluid {
             continue;
         }
-        let r_wf = sub(set.pos[i], set.pos[j]);
+        let r_wf = c.pair_vec(set.pos[i], set.pos[j]);
         if side.is_some_and(|n| dot(r_wf, n) >= 0.0) {
             continue;
         }

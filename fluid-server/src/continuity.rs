@@ -102,14 +102,14 @@ pub fn continuity_among_grains_cpu(
     let k_i = kernel_at(c, set, i);
     let omega_i = omega_cpu(c, set, i);
     for j in pair_neighbours(c, set, i) {
-        let grad_w = k_i.grad(sub(set.pos[i], set.pos[j]));
+        let grad_w = k_i.grad(c.pair_vec(set.pos[i], set.pos[j]));
         let u_ij = sub(set.vel[i], set.vel[j]);
         d += match &b {
             Some(b) => set.rho[i] * (set.mass[j] / set.rho[j]) * dot(u_ij, mat_vec(b, grad_w)),
             None => set.mass[j] * dot(u_ij, grad_w) / omega_i,
         };
         if let Some((bm, bhat)) = &mc {
-            let r_ij = sub(set.pos[i], set.pos[j]);
+            let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
             let r = dot(r_ij, r_ij).sqrt();
             let e = r_ij.map(|x| x / r);
             let v_j = set.mass[j] / set.rho[j];
@@ -123,7 +123,7 @@ pub fn continuity_among_grains_cpu(
             mc_div += v_j * dot(sub(g_j, g_i), mat_vec(bm, grad_w));
         }
         if c.density_diffusion > 0.0 && set.kinds.kind(set.id[j]) == Kind::Fluid {
-            let r_ij = sub(set.pos[i], set.pos[j]);
+            let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
             let (rho_f_i, rho_f_j) = (set.rho[i] / eps(i), set.rho[j] / eps(j));
             let psi: [f64; 3] = match c.density_diffusion_form {
                 DensityDiffusionForm::Antuono => {

@@ -130,11 +130,11 @@ pub fn marker_load_cpu(
         // d[a][c] = Σ V du_a ∇W_c; m_i the one-sided M (Joubert eq. 10, fluid only).
         let mut d: Mat3 = [[0.0; 3]; 3];
         let mut m_i: Mat3 = [[0.0; 3]; 3];
-        for j in set.neighbours(i, c.support_radius()) {
+        for j in set.neighbours(i, c.support_radius(), c.period) {
             if set.kinds.kind(set.id[j]) != Kind::Fluid {
                 continue;
             }
-            let r_ij = sub(set.pos[i], set.pos[j]);
+            let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
             let g = c.kernel.grad(r_ij);
             let v = set.mass[j] / set.rho[j];
             let du = sub(set.vel[j], set.vel[i]);

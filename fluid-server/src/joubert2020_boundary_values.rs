@@ -42,7 +42,7 @@ use crate::gpu::Gpu;
 use crate::joubert2020_gradients::{B_DET_MIN, Mat3, determinant, inverse, mat_vec};
 use crate::kernel::kernel_library;
 use crate::neighbour_grid::GRID_COMMON_WGSL;
-use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::particles::{Kind, ParticleSet, dot};
 use crate::porosity::boundary_state_wgsl;
 use crate::sph_kernel::{
     Access, PARAMS, PARTICLES, SphKernel, library, param_binding as qb, particle_binding as pb,
@@ -204,11 +204,11 @@ fn one_boundary(
     let mut m: Mat3 = [[0.0; 3]; 3];
     let (mut s, mut s_rho, mut sp) = ([0.0; 3], [0.0; 3], [0.0; 3]);
     let mut su = [[0.0; 3]; 3];
-    for j in set.neighbours(i, c.support_radius()) {
+    for j in set.neighbours(i, c.support_radius(), c.period) {
         if set.kinds.kind(set.id[j]) != Kind::Fluid {
             continue;
         }
-        let r_wf = sub(set.pos[i], set.pos[j]);
+        let r_wf = c.pair_vec(set.pos[i], set.pos[j]);
         let r = dot(r_wf, r_wf).sqrt();
         let v = set.mass[j] / set.rho[j];
         let vgw = r_wf.map(|x| v * c.kernel.grad_factor(r) * x);

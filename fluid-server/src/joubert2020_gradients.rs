@@ -32,7 +32,7 @@ use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::kernel::{SmoothingKernel, kernel_library};
 use crate::neighbour_grid::{GRID_COMMON_WGSL, dense_team_wgsl};
-use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::particles::{Kind, ParticleSet, dot};
 use crate::porosity::porosity_wgsl;
 use crate::robinson_variable_h::{kernel_at, smoothing_wgsl};
 use crate::sph_kernel::{
@@ -317,12 +317,12 @@ pub struct Truncation {
 pub fn truncation_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> Truncation {
     let mut m = [[0.0; 3]; 3];
     let k = kernel_at(c, set, i);
-    for j in set.neighbours(i, k.radius()) {
+    for j in set.neighbours(i, k.radius(), c.period) {
         add_to_truncation(
             &mut m,
             &k,
             set.mass[j] / set.rho[j],
-            sub(set.pos[i], set.pos[j]),
+            c.pair_vec(set.pos[i], set.pos[j]),
         );
     }
     let det = determinant(&m);
@@ -376,8 +376,8 @@ pub fn gradients_among_grains_cpu(
             let mut raw = [[0.0; 3]; 5];
             let (mut r_sum, mut count, mut s) = (0.0, 0.0, [0.0; 3]);
             let k_i = kernel_at(c, set, i);
-            for j in set.neighbours(i, k_i.radius()) {
-                let r_ij = sub(set.pos[i], set.pos[j]);
+            for j in set.neighbours(i, k_i.radius(), c.period) {
+                let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
                 let r2 = dot(r_ij, r_ij);
                 let g = k_i.grad(r_ij);
                 let v = set.mass[j] / set.rho[j];
@@ -446,8 +446,8 @@ pub fn laplacian_b_hat_cpu(
         ]
     };
     let (mut c1, mut p, mut r_) = ([[0.0; 6]; 6], [[0.0; 3]; 6], [[0.0; 3]; 6]);
-    for j in set.neighbours(i, c.support_radius()) {
-        let r_ij = sub(set.pos[i], set.pos[j]);
+    for j in set.neighbours(i, c.support_radius(), c.period) {
+        let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
         let r = dot(r_ij, r_ij).sqrt();
         let e = r_ij.map(|x| x / r);
         // ∇W = F r_ij: F = (∇W)_k / r_k on any non-zero component.

@@ -13,8 +13,8 @@
 //! exactly when W J is skew-symmetric, W = diag(m c²/ρ0², m, m, m) a particle
 //! ([`RestState::energy_weights`]).
 //!
-//! The CPU twins sum over all pairs without periodic images, so the scene must be a
-//! closed box (checked), and small: each evaluation costs (fluid + walls)² pair tests.
+//! The CPU twins sum over all pairs (to the nearest image on a periodic axis, as the
+//! GPU), so the scene must be small: each evaluation costs (fluid + walls)² pair tests.
 
 use crate::constants::SphConstants;
 use crate::error::FluidError;
@@ -39,8 +39,7 @@ pub struct RestState {
 
 impl RestState {
     /// The scene's start lattice at ρ0 and rest. Refused: gravity on the fluid (rest
-    /// would not be steady), α > 0 (not linear), bodies or grains (not modelled here), a
-    /// periodic axis (the twins take no images).
+    /// would not be steady), α > 0 (not linear), bodies or grains (not modelled here).
     pub fn new(scene: &Scene) -> Result<Self, FluidError> {
         let c = SphConstants::from_scene(scene)?;
         if c.gravity_fluid.iter().any(|g| *g != 0.0) {
@@ -63,12 +62,6 @@ impl RestState {
                  walls alone"
                     .into(),
             ));
-        }
-        if let Some(k) = scene.domain.periodic.iter().position(|p| *p) {
-            return Err(FluidError::LinearAcoustics(format!(
-                "axis {k} is periodic, and the CPU twins take no periodic images: give a \
-                 closed box"
-            )));
         }
         let mut set = initial_particles(scene, &c)?;
         let frames = if c.joubert_walls {

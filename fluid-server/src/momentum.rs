@@ -47,7 +47,7 @@ pub fn momentum_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> [f64; 3] {
     let k_i = kernel_at(c, set, i);
     let q_i = p_i / omega_cpu(c, set, i);
     for j in pair_neighbours(c, set, i) {
-        let r_ij = sub(set.pos[i], set.pos[j]);
+        let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
         let r2 = dot(r_ij, r_ij);
         let g = k_i.grad(r_ij);
         let g_j = kernel_at(c, set, j).grad(r_ij);

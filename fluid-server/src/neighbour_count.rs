@@ -44,7 +44,7 @@ pub fn mean_neighbours_cpu(c: &SphConstants, set: &ParticleSet) -> f64 {
         .collect();
     let total: usize = fluid
         .iter()
-        .map(|&i| set.neighbours(i, c.support_radius()).count())
+        .map(|&i| set.neighbours(i, c.support_radius(), c.period).count())
         .sum();
     total as f64 / fluid.len().max(1) as f64
 }

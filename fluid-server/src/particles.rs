@@ -73,13 +73,20 @@ impl ParticleSet {
     pub fn is_empty(&self) -> bool {
         self.pos.is_empty()
     }
-    /// Indices of the particles within `radius` of particle `i` (itself excluded):
+    /// Indices of the particles within `radius` of particle `i` (itself excluded), the
+    /// distance taken to the nearest image on the axes where `period[k] > 0`
+    /// ([`nearest_image`], `SphConstants::period`), as the GPU's `pair_vec` takes it:
     /// brute force, for the CPU twins.
-    pub fn neighbours(&self, i: usize, radius: f64) -> impl Iterator<Item = usize> + '_ {
+    pub fn neighbours(
+        &self,
+        i: usize,
+        radius: f64,
+        period: [f64; 3],
+    ) -> impl Iterator<Item = usize> + '_ {
         let p = self.pos[i];
         let r2 = radius * radius;
         (0..self.len()).filter(move |&j| {
-            let d = sub(p, self.pos[j]);
+            let d = nearest_image(p, self.pos[j], period);
             j != i && dot(d, d) < r2
         })
     }

@@ -26,7 +26,7 @@ use crate::constants::{STEP_PARAMS_WGSL, SphConstants};
 use crate::gpu::Gpu;
 use crate::kernel::{SmoothingKernel, kernel_library};
 use crate::neighbour_grid::GRID_COMMON_WGSL;
-use crate::particles::{Kind, ParticleSet, dot, sub};
+use crate::particles::{Kind, ParticleSet, dot};
 use crate::sph_kernel::{Access, PARAMS, PARTICLES, SphKernel, particle_binding as pb};
 
 pub const ROBINSON_VARIABLE_H_WGSL: &str = include_str!("../shaders/robinson_variable_h.wgsl");
@@ -117,8 +117,8 @@ pub fn omega_cpu(c: &SphConstants, set: &ParticleSet, i: usize) -> f64 {
     let k = kernel_at(c, set, i);
     // Itself: r = 0, 3 W(0).
     let mut sum = set.mass[i] * 3.0 * k.w(0.0);
-    for j in set.neighbours(i, k.radius()) {
-        let r_ij = sub(set.pos[i], set.pos[j]);
+    for j in set.neighbours(i, k.radius(), c.period) {
+        let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
         let r2 = dot(r_ij, r_ij);
         let r = r2.sqrt();
         sum += set.mass[j] * (3.0 * k.w(r) + r2 * k.grad_factor(r));
@@ -141,11 +141,12 @@ pub fn pair_neighbours<'a>(
     i: usize,
 ) -> impl Iterator<Item = usize> + 'a {
     let r_i = kernel_at(c, set, i).radius();
-    set.neighbours(i, c.grid_radius()).filter(move |&j| {
-        let r_ij = sub(set.pos[i], set.pos[j]);
-        let r = dot(r_ij, r_ij).sqrt();
-        r < r_i || r < kernel_at(c, set, j).radius()
-    })
+    set.neighbours(i, c.grid_radius(), c.period)
+        .filter(move |&j| {
+            let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
+            let r = dot(r_ij, r_ij).sqrt();
+            r < r_i || r < kernel_at(c, set, j).radius()
+        })
 }
 
 /// Ω of eq. (11) at a particle inside a uniform cubic lattice of spacing δ at ρ0 (the

@@ -281,7 +281,7 @@ pub fn pressure_kernel(
 
 /// CPU twin of one `grain_pressure_force` (load weight 1, grains where `grains` has
 /// them): f_j = −V_j Σ_a (m_a/ρ_a) P_a ∇_j W_ja over the fluid entries of `set`, all
-/// pairs, closed domain. Opposite, summed over j, to Σ_a m_a (P_a/ρ_a) ∇ε_a with ∇ε from
+/// pairs (to the nearest image on a periodic axis, as the GPU). Opposite, summed over j, to Σ_a m_a (P_a/ρ_a) ∇ε_a with ∇ε from
 /// [`crate::porosity::PorosityField::gradient`].
 pub fn grain_pressure_force_cpu(
     c: &SphConstants,
@@ -293,7 +293,7 @@ pub fn grain_pressure_force_cpu(
         .map(|g| {
             let mut sum = [0.0; 3];
             for a in (0..set.len()).filter(|a| set.kinds.kind(set.id[*a]) == Kind::Fluid) {
-                let r: [f64; 3] = std::array::from_fn(|k| g.position[k] - set.pos[a][k]);
+                let r = c.pair_vec(g.position, set.pos[a]);
                 let r2 = r.iter().map(|x| x * x).sum::<f64>();
                 if r2 >= r2max {
                     continue;
@@ -331,7 +331,8 @@ pub fn reaction_unit(c: &SphConstants, samples: &[GrainSample]) -> f64 {
 
 /// CPU twin of `spread_grain_reaction` + `grain_reaction_read`: the grains' reaction on
 /// every entry of `set` as an acceleration (zero for non-fluid entries), Robinson eqs.
-/// (26)–(27), exact sums over all pairs; `samples` as [`sample_grains_cpu`] gives them.
+/// (26)–(27), exact sums over all pairs (to the nearest image on a periodic axis);
+/// `samples` as [`sample_grains_cpu`] gives them.
 pub fn grain_reaction_cpu(
     c: &SphConstants,
     set: &ParticleSet,
@@ -346,9 +347,8 @@ pub fn grain_reaction_cpu(
         }
         let f = s.force();
         for a in (0..set.len()).filter(|a| set.kinds.kind(set.id[*a]) == Kind::Fluid) {
-            let r2: f64 = (0..3)
-                .map(|k| (g.position[k] - set.pos[a][k]).powi(2))
-                .sum();
+            let r = c.pair_vec(g.position, set.pos[a]);
+            let r2: f64 = r.iter().map(|x| x * x).sum();
             if r2 >= r2max {
                 continue;
             }
@@ -517,7 +517,7 @@ impl GrainBuffers {
 }
 
 /// CPU twin of `sample_grains`: the same sums over every fluid particle of `set` (all
-/// pairs, closed domain), with `dvel` the particles' rates (`SphData::read_rates`, same
+/// pairs, to the nearest image on a periodic axis), with `dvel` the particles' rates (`SphData::read_rates`, same
 /// order as `set`).
 pub fn sample_grains_cpu(
     c: &SphConstants,
@@ -533,7 +533,7 @@ pub fn sample_grains_cpu(
         .map(|g| {
             let (mut s, mut u, mut t) = (0.0, [0.0; 3], [0.0; 3]);
             for b in (0..set.len()).filter(|b| set.kinds.kind(set.id[*b]) == Kind::Fluid) {
-                let r: [f64; 3] = std::array::from_fn(|k| g.position[k] - set.pos[b][k]);
+                let r = c.pair_vec(g.position, set.pos[b]);
                 let r2 = r.iter().map(|x| x * x).sum::<f64>();
                 if r2 >= r2max {
                     continue;

@@ -607,8 +607,8 @@ fn shifting_counts_a_marker_as_the_patch_it_stands_for() {
         // Eq. (17)'s sum written out, weighted and not.
         let (mut weighted, mut whole, mut r_sum, mut n, mut markers) =
             ([0.0; 3], [0.0; 3], 0.0, 0.0, 0);
-        for j in set.neighbours(i, reach) {
-            let r_ij = sub(set.pos[i], set.pos[j]);
+        for j in set.neighbours(i, reach, c.period) {
+            let r_ij = c.pair_vec(set.pos[i], set.pos[j]);
             let r = dot(r_ij, r_ij).sqrt();
             let w = set.mass[j] / (c.rho0 * d * d * d);
             for k in 0..3 {

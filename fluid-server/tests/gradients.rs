@@ -512,7 +512,7 @@ fn mass_correction_vanishes_for_linear_pressure_and_damps_checkerboard_noise() {
     for i in 0..lin.len() {
         if singular(i)
             || lin
-                .neighbours(i, c.support_radius())
+                .neighbours(i, c.support_radius(), c.period)
                 .any(|j| couplet_fluid::joubert2020_gradients::b_matrix_cpu(&c, &lin, j).1)
         {
             continue;

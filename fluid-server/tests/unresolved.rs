@@ -81,7 +81,7 @@ fn sample(
 }
 
 /// Grains at random points among the fluid particles (relative to the solver origin),
-/// at least a support radius inside their bounding box.
+/// at least `margin` inside their bounding box.
 fn grains_inside(
     set: &ParticleSet,
     origin: [f64; 3],
@@ -330,7 +330,7 @@ fn energy_pair_pressure_forces_balance_exactly() {
         .filter(|i| set.kinds.kind(set.id[*i]) == Kind::Fluid)
         .collect();
     let points: Vec<[f64; 3]> = fluid.iter().map(|&i| set.pos[i]).collect();
-    // The scene is closed: the field has no periodic images, like the twin's sums.
+    // The scene is closed: neither the field nor the twin's sums take periodic images.
     let grad = PorosityField::of_scene(&c, &s).gradient(&points, &solids);
     let scale: f64 = (forces.iter())
         .map(|f| f.iter().map(|x| x.abs()).sum::<f64>())
@@ -353,9 +353,10 @@ fn energy_pair_pressure_forces_balance_exactly() {
 }
 
 /// `s`'s fluid (a [`grain_scene`]) at random velocities (±5 cm/s) and densities (±0.5 %)
-/// from `seeds[0]`, moved off its lattice by up to ±`jitter` spacings on each axis, and 20 grains of radius `radius` at random points a support inside
-/// the box (`grains_inside`, `seeds[1]`) already sent to the solver, positions relative
-/// to its origin.
+/// from `seeds[0]`, moved off its lattice by up to ±`jitter` spacings on each axis, and
+/// 20 grains of radius `radius` at random points of the box, across its periodic faces
+/// too (`grains_inside`, `seeds[1]`), already sent to the solver, positions relative to
+/// its origin.
 fn stirred_box_with_grains(
     gpu: &Gpu,
     s: &Scene,
@@ -377,7 +378,7 @@ fn stirred_box_with_grains(
     }
     let mut solver = FluidSolver::from_particles(gpu, s, set).unwrap();
     let set0 = solver.data().read(gpu).unwrap();
-    let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], c.support_radius(), 20, seeds[1])
+    let grains: Vec<Grain> = grains_inside(&set0, [0.0; 3], 0.0, 20, seeds[1])
         .into_iter()
         .map(|g| Grain {
             volume: 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3),
@@ -393,9 +394,10 @@ fn stirred_box_with_grains(
 
 /// `fluid_rates` and `grain_pressure_force` under `energy-pair` against their CPU twins
 /// (`fluid_rates_among_grains_cpu` with ε and ∇ε from `PorosityField`,
-/// `grain_pressure_force_cpu`): 20 grains a support inside the periodic box, the fluid
-/// at random velocities and densities; du/dt of every fluid particle a support inside
-/// the box (the twins' sums have no periodic images), each grain's pressure force and
+/// `grain_pressure_force_cpu`): 20 grains anywhere in the periodic box, the fluid
+/// at random velocities and densities; du/dt of every fluid particle (the twins take
+/// the nearest image on a periodic axis, as the GPU; until 2026-12-07 they did not, and
+/// grains and particles were judged a support inside the box), each grain's pressure force and
 /// every particle's ∇ε sums within 1e-4 of their largest (the pair kernels' parity bound), and the ∇ε term not
 /// negligible in du/dt (its largest is more than 1 % of the largest du/dt: the parity
 /// sees it).
@@ -439,10 +441,8 @@ fn energy_pair_rates_match_cpu_twin() {
                 gradient: &gradient,
             }),
         );
-        let r = c.support_radius();
-        let inside = |p: [f64; 3]| p.iter().all(|x| x.abs() < 0.1 - 1.01 * r);
         let (mut e, mut m, mut term) = (0.0f64, 0.0f64, 0.0f64);
-        for i in (0..set.len()).filter(|i| inside(set.pos[*i])) {
+        for i in 0..set.len() {
             let Some((_, w)) = want[i] else { continue };
             for k in 0..3 {
                 e = e.max((dvel[i][k] - w[k]).abs());
@@ -475,10 +475,9 @@ fn energy_pair_rates_match_cpu_twin() {
 /// intrinsic density ρ/ε: the gradient pass and `fluid_rates` against their CPU twins
 /// (`fluid_rates_among_grains_cpu` with ε from `PorosityField`), under both pressure
 /// forms (`porosity(i)` reaches `fluid_rates` through the energy pair's terms or on its
-/// own). 20 grains of radius 5 mm a support inside the periodic box (ε down to about 0.93),
+/// own). 20 grains of radius 5 mm anywhere in the periodic box (ε down to about 0.9),
 /// the fluid at random velocities and densities (±0.5 %); dρ/dt of every fluid particle
-/// two supports inside the box (the twins' sums have no periodic images, and δ-SPH
-/// reads the neighbours' gradients) within 1e-4 of its largest (the pair kernels' parity
+/// (the twins take periodic images) within 1e-4 of its largest (the pair kernels' parity
 /// bound), and the diffusion not negligible in it (the twin's dρ/dt without δ-SPH
 /// differs by more than 10 % of the largest).
 #[test]
@@ -510,11 +509,7 @@ fn density_diffusion_among_grains_matches_cpu_twin() {
             ..c.clone()
         };
         let without = fluid_rates_among_grains_cpu(&plain, &set, 1e-4, Some(at()));
-        let r = c.support_radius();
-        let inside = |p: [f64; 3]| p.iter().all(|x| x.abs() < 0.1 - 2.02 * r);
-        let fluid: Vec<usize> = (0..set.len())
-            .filter(|&i| want[i].is_some() && inside(set.pos[i]))
-            .collect();
+        let fluid: Vec<usize> = (0..set.len()).filter(|&i| want[i].is_some()).collect();
         let (e, m) = max_err(fluid.iter().map(|&i| (drho[i], want[i].unwrap().0)));
         let (d, _) = max_err((fluid.iter()).map(|&i| (without[i].unwrap().0, want[i].unwrap().0)));
         let eps_min = fluid.iter().map(|&i| porosity[i]).fold(1.0, f64::min);
@@ -536,12 +531,12 @@ fn density_diffusion_among_grains_matches_cpu_twin() {
 /// The bug this guards (`particle_shifting.rs`): among unresolved grains the shift
 /// (Joubert eqs. 17–19) set p = EOS(ρ) on the superficial density, where the EOS takes
 /// ρ/ε (Robinson eq. 15), and the next step's gradient, wall and first rate passes read
-/// it. 20 grains of radius 5 mm a support inside the stirred periodic box, its fluid
+/// it. 20 grains of radius 5 mm anywhere in the stirred periodic box, its fluid
 /// moved off the lattice by up to ±0.2 spacings (on the lattice eq. 17's sum takes the
 /// neighbours exactly a support away, 3 spacings, or not by round-off, differently on
 /// the GPU and in f64), the correction and shifting at β = 0.1, one gradient pass and shift with
-/// Δt = 1e-3 s; every fluid particle a support inside the box (the twins' sums have no
-/// periodic images) against `shift_cpu` at its porosity (`PorosityField`) on the
+/// Δt = 1e-3 s; every fluid particle against `shift_cpu` at its porosity
+/// (`PorosityField`) on the
 /// gradient twin (`gradients_among_grains_cpu`): the pressure after the shift within
 /// 1 Pa of the twin's EOS(ρ/ε) (the f32 EOS's quantisation is 0.02 Pa; the porosity's
 /// i32 sums 2⁻³¹), where EOS(ρ) on the superficial density is over 1 kPa off; the shifts
@@ -565,11 +560,9 @@ fn regression_particle_shifting_among_grains_keeps_the_eos_on_rho_over_eps() {
     let porosity = PorosityField::of_scene(&c, &s).porosity(&world, &solids(&grains, origin));
     let grads = gradients_among_grains_cpu(&c, &before, Some(&porosity));
     let u_max = common::largest_fluid_speed(&before);
-    let r = c.support_radius();
-    let inside = |p: [f64; 3]| p.iter().all(|x| x.abs() < 0.1 - 1.01 * r);
     let (mut e_p, mut superficial, mut eps_min) = (0.0f64, 0.0f64, 1.0f64);
     let (mut dr, mut drho) = (Vec::new(), Vec::new());
-    for i in (0..before.len()).filter(|&i| inside(before.pos[i])) {
+    for i in 0..before.len() {
         let Some(g) = grads[i] else { continue };
         let s0 = Shifted::of(&before, i);
         let w = shift_cpu(&c, &g, u_max, dt, s0, porosity[i], None);
@@ -780,9 +773,9 @@ fn grain_reaction_matches_cpu_twin() {
             .run_ops(gpu, &[Op::Sort, Op::FluidRates], 1e-4, 1.0)
             .unwrap();
         let set0 = solver.data().read(gpu).unwrap();
-        // A support inside the fluid's bounding box: the twin sums have no periodic images.
-        // `set0` is relative to the solver origin already.
-        let grains = grains_inside(&set0, [0.0; 3], c.support_radius(), 20, 8)
+        // Anywhere in the fluid, across the periodic faces too: the twins take the nearest
+        // image as the GPU does. `set0` is relative to the solver origin already.
+        let grains = grains_inside(&set0, [0.0; 3], 0.0, 20, 8)
             .into_iter()
             .map(|g| Grain {
                 volume: 4.0 / 3.0 * std::f64::consts::PI * 0.003f64.powi(3),

@@ -63,7 +63,9 @@ fn eq19_keeps_the_neighbours_and_omega_is_one() {
         );
         assert!((lattice_omega(&c) - omega).abs() < 1e-9);
         // With one h the same particle keeps about ε of them.
-        let fixed = loose.neighbours(centre, c.support_radius()).count() as f64;
+        let fixed = loose
+            .neighbours(centre, c.support_radius(), c.period)
+            .count() as f64;
         // The lattice's shells make it 0.63, 0.55, 0.38 of them at ε = 0.8, 0.6, 0.4.
         assert!(
             (fixed / n_dense as f64 - eps).abs() < 0.2,
