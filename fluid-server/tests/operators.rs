@@ -407,19 +407,27 @@ fn check_rates_within(effects: &str, walls: &str, seed: u64, rtol: [f64; 2], dt:
             *v = [0.2, 0.0, -0.1 * (k % 3) as f64];
         }
         let (_, drho, dvel, want) = rates_pass(gpu, &s, &c, set, dt);
-        let [(ec, mc), (em, mm)] = rate_errors(&c, &drho, &dvel, &want);
-        println!(
-            "{effects} {walls}: continuity max |Δ| = {ec:e} of {mc:e}; momentum max |Δ| = {em:e} of {mm:e}"
-        );
-        assert!(
-            ec <= rtol[0] * mc,
-            "continuity: max |Δ| = {ec:e}, max = {mc:e}"
-        );
-        assert!(
-            em <= rtol[1] * mm,
-            "momentum: max |Δ| = {em:e}, max = {mm:e}"
+        assert_rates_within(
+            &format!("{effects} {walls}"),
+            rate_errors(&c, &drho, &dvel, &want),
+            rtol,
         );
     });
+}
+
+/// Prints `errors` ([`rate_errors`]: continuity's and momentum's largest difference and
+/// largest value) under `case` and asserts each difference within `rtol` of its value.
+fn assert_rates_within(case: &str, errors: [(f64, f64); 2], rtol: [f64; 2]) {
+    let [(ec, mc), (em, mm)] = errors;
+    println!("{case}: continuity max |Δ| = {ec:e} of {mc:e}; momentum max |Δ| = {em:e} of {mm:e}");
+    assert!(
+        ec <= rtol[0] * mc,
+        "{case}: continuity max |Δ| = {ec:e}, max = {mc:e}"
+    );
+    assert!(
+        em <= rtol[1] * mm,
+        "{case}: momentum max |Δ| = {em:e}, max = {mm:e}"
+    );
 }
 
 /// A seeded set that fills the period of `s`'s x and z axes (a jittered lattice of
@@ -512,28 +520,18 @@ fn rates_match_cpu_twin_across_periodic_faces() {
             let set = random_periodic_set(&c, seed);
             let (got, drho, dvel, want) = rates_pass(gpu, &s, &c, set, 1e-4);
             let reach = c.support_radius();
-            let origin_free = |i: usize, k: usize| {
+            let by_face = |i: usize, k: usize| {
                 // `read` gives positions relative to the solver's origin: the domain's
                 // min, so 0 on these axes.
                 let x = got.pos[i][k];
                 x < reach || x > c.period[k] - reach
             };
             let across = (0..got.len())
-                .filter(|&i| want[i].is_some() && (origin_free(i, 0) || origin_free(i, 2)))
+                .filter(|&i| want[i].is_some() && (by_face(i, 0) || by_face(i, 2)))
                 .count();
-            let [(ec, mc), (em, mm)] = rate_errors(&c, &drho, &dvel, &want);
-            println!(
-                "{effects}: {across} fluid particles within a support of a periodic face; continuity max |Δ| = {ec:e} of {mc:e}; momentum max |Δ| = {em:e} of {mm:e}"
-            );
+            println!("{effects}: {across} fluid particles within a support of a periodic face");
             assert!(across > 1000, "{across} particles by the faces");
-            assert!(
-                ec <= rtol[0] * mc,
-                "{effects}: continuity max |Δ| = {ec:e}, max = {mc:e}"
-            );
-            assert!(
-                em <= rtol[1] * mm,
-                "{effects}: momentum max |Δ| = {em:e}, max = {mm:e}"
-            );
+            assert_rates_within(effects, rate_errors(&c, &drho, &dvel, &want), rtol);
         }
     });
 }
