@@ -5,8 +5,8 @@
 //! The state is x = (ρ'_a, u_a) of every fluid particle a about rest on the scene's start
 //! lattice (ρ = ρ0, u = 0; the scene must have no gravity, so that rest is a steady
 //! state). Its rates are one step's, in the solver's order: the equation of state at the
-//! fluid, the walls' and markers' values (Joubert eq. 25 with `domain.wall_model =
-//! "joubert"`; Adami's walls are summed inside the rates), then (dρ/dt, du/dt)
+//! fluid, the walls' values (Joubert eq. 25 with `domain.wall_model = "joubert"`, else
+//! Adami's extrapolation), then (dρ/dt, du/dt)
 //! ([`crate::fluid_rates::fluid_rates_cpu`]). At rest they are linear in x, but for
 //! Monaghan's α, which acts only on approaching pairs, so α > 0 is refused. The energy of small
 //! motions, E = Σ_a m_a (c² ρ'_a²/ρ0² + |u_a|²)/2, is conserved by the linear rates J
@@ -16,6 +16,7 @@
 //! The CPU twins sum over all pairs (to the nearest image on a periodic axis, as the
 //! GPU), so the scene must be small: each evaluation costs (fluid + walls)² pair tests.
 
+use crate::adami2012_boundary_pressure::boundary_pressure_cpu;
 use crate::constants::SphConstants;
 use crate::error::FluidError;
 use crate::fluid_rates::fluid_rates_cpu;
@@ -123,11 +124,21 @@ impl RestState {
             s.vel[a] = [x[4 * k + 1], x[4 * k + 2], x[4 * k + 3]];
             s.press[a] = self.c.pressure(s.rho[a]);
         }
+        // The boundary pass before the rates, as the solver runs it: Joubert eq. (25) at
+        // his one layer, Adami's extrapolation at Adami's layers. (Until 2026-12-07
+        // Adami's walls kept the rest state's p = 0 here, a pressure-release wall:
+        // regression linearised_adami_walls_extrapolate.)
         if self.c.joubert_walls {
             let values = boundary_values_cpu(&self.c, &s, &self.frames);
             for (i, v) in values.into_iter().enumerate() {
                 if let Some(v) = v {
                     (s.press[i], s.rho[i], s.vel[i]) = (v.press, v.rho, v.vel);
+                }
+            }
+        } else {
+            for (i, v) in boundary_pressure_cpu(&self.c, &s).into_iter().enumerate() {
+                if let Some((p, rho)) = v {
+                    (s.press[i], s.rho[i]) = (p, rho);
                 }
             }
         }
@@ -139,6 +150,46 @@ impl RestState {
                 [drho, du[0], du[1], du[2]]
             })
             .collect()
+    }
+
+    /// The fastest growth rate of small motions, 1/s: x' = J x integrated from `x0` by
+    /// `steps` classical Runge–Kutta steps of `dt`, x rescaled to |x|_W = 1 after each
+    /// (|x|²_W = Σ W x², [`Self::energy_weights`]), the mean of ln |x|_W's growth a step
+    /// over the second half, over `dt`. As the steps go it tends to the largest Re λ of
+    /// J's eigenvalues that `x0` holds (a power iteration on one step's propagator). A
+    /// neutral mode (λ = iω) reads slightly negative, RK4 damping it by |R(iωΔt)| < 1;
+    /// `dt` must keep ωΔt under RK4's limit of 2.8 for the fastest ω, or the step itself
+    /// grows. Each step costs four [`Self::apply`], eight evaluations of the rates.
+    pub fn growth_rate(&self, x0: &[f64], dt: f64, steps: usize) -> f64 {
+        let w = self.energy_weights();
+        let norm = |x: &[f64]| {
+            (x.iter().zip(&w))
+                .map(|(v, w)| w * v * v)
+                .sum::<f64>()
+                .sqrt()
+        };
+        let axpy = |x: &[f64], a: f64, k: &[f64]| -> Vec<f64> {
+            x.iter().zip(k).map(|(x, k)| x + a * k).collect()
+        };
+        let n0 = norm(x0);
+        assert!(n0 > 0.0, "x0 must not be zero");
+        let mut x: Vec<f64> = x0.iter().map(|v| v / n0).collect();
+        let mut log_growth = 0.0;
+        for step in 0..steps {
+            let k1 = self.apply(&x);
+            let k2 = self.apply(&axpy(&x, 0.5 * dt, &k1));
+            let k3 = self.apply(&axpy(&x, 0.5 * dt, &k2));
+            let k4 = self.apply(&axpy(&x, dt, &k3));
+            for i in 0..x.len() {
+                x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+            let n = norm(&x);
+            if step >= steps / 2 {
+                log_growth += n.ln();
+            }
+            x.iter_mut().for_each(|v| *v /= n);
+        }
+        log_growth / ((steps - steps / 2) as f64 * dt)
     }
 
     /// J x, J the rates' Jacobian at rest, by a central difference of [`Self::rates`]
