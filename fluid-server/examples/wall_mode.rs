@@ -5,9 +5,9 @@
 //!
 //! `cargo run --release -p couplet-fluid --example wall_mode -- SCENE OUT [PATH=VALUE…]`
 //!
-//! The scene must be a small box (closed, or periodic) without gravity on the fluid, and α = 0 keeps
-//! the rates linear (the module's doc), e.g. the quick closed tank of 6 × 10 × 6 fluid
-//! particles: `scenes/hydrostatic-tank.toml fluid.spacing=0.02 fluid.support=2.0
+//! The scene must be a small box (closed, or periodic) without gravity on the fluid,
+//! and α = 0 keeps the rates linear (the module's doc), e.g. the quick closed tank of
+//! 6 × 10 × 6 fluid particles: `scenes/hydrostatic-tank.toml fluid.spacing=0.02 fluid.support=2.0
 //! fluid.sound_speed=17.5 effects.artificial_viscosity=0.0 fluid.kinematic_viscosity=0.0
 //! domain.closed_top=true "domain.max=[0.12,0.2,0.12]" "fluid.blocks.0.max=[0.12,0.2,0.12]"
 //! "gravity.vector=[0.0,0.0,0.0]" effects.gradient_correction=true
