@@ -181,6 +181,32 @@ fn small_motions_across_periodic_faces() {
     assert!(g > 150.0, "Joubert's floor and lid: growth rate {g} 1/s");
 }
 
+/// The free-surface switch (`effects.free_surface`, ARCHITECTURE.md, "The free-surface
+/// switch") in the linearised rates: the box open at the top (fluid 0.2 m deep in a
+/// 0.3 m domain, no gravity, so that rest at p = 0 is steady under the free surface),
+/// corrected, support 2δ. Without the switch Joubert's difference forms at the surface
+/// grow a mode at the acoustic rate: the whole J (`examples/wall_mode`, 2026-12-07) has
+/// 112 of its 1440 eigenvalues growing, the fastest at +817 1/s with 99 % of its
+/// energy in the outer layer (at support 3δ +746 1/s), where the open tank's runs
+/// blew up with the kinetic energy ×1000 every 5 ms (about 690 1/s an amplitude). With
+/// it the fastest is +1.21 ± 436i 1/s (3δ: +0.62 ± 411i), a column mode that gains 1.7 %
+/// a cycle, which α damps. Measured here: 0.50 and 811 1/s; asserted under `NEUTRAL`
+/// and over 150.
+#[test]
+fn the_free_surface_switch_removes_the_surface_mode() {
+    let open = |effects: &str| {
+        let mut s = closed_box("", &format!("gradient_correction = true\n{effects}"));
+        s.domain.closed_top = false;
+        s.domain.max[1] = 0.3;
+        RestState::new(&s).unwrap()
+    };
+    let on = growth(&open(""));
+    let off = growth(&open("free_surface = false"));
+    println!("open box: growth rate {on:.3} 1/s with the switch, {off:.1} 1/s without");
+    assert!(on < NEUTRAL, "with the switch: growth rate {on} 1/s");
+    assert!(off > 150.0, "without the switch: growth rate {off} 1/s");
+}
+
 /// Rest is steady only without gravity on the fluid, and α makes the rates non-linear
 /// at rest: each is refused with what to change.
 #[test]
