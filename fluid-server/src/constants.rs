@@ -111,6 +111,11 @@ pub struct SphConstants {
     /// matrix has det M < [`crate::joubert2020_gradients::free_surface_det`] takes the
     /// standard continuity and pressure terms instead of the corrected ones.
     pub free_surface: bool,
+    /// The fraction of a complete support's det M below which the switch takes a
+    /// particle: [`crate::joubert2020_gradients::FREE_SURFACE_FRACTION`], not a scene
+    /// field (a field here so that the linearised rates can be read at others, as
+    /// `fluid-server/tests/linear_acoustics.rs` reads 0.75).
+    pub free_surface_fraction: f64,
     /// Corrected Laplacian (Joubert eqs. 11, 13) in the viscous term: the gradient pass
     /// solves B̂_i, the rates use it (only with laminar viscosity).
     pub laplacian_correction: bool,
@@ -229,6 +234,7 @@ impl SphConstants {
             gradient_correction: scene.effects.gradient_correction,
             corrected_continuity: scene.effects.gradient_correction && scene.grains().is_empty(),
             free_surface: scene.free_surface_switch(),
+            free_surface_fraction: crate::joubert2020_gradients::FREE_SURFACE_FRACTION,
             laplacian_correction: scene.effects.laplacian_correction
                 && scene.effects.viscosity == ViscosityModel::Laminar
                 && f.kinematic_viscosity > 0.0,

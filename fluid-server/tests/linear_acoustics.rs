@@ -184,27 +184,44 @@ fn small_motions_across_periodic_faces() {
 /// The free-surface switch (`effects.free_surface`, ARCHITECTURE.md, "The free-surface
 /// switch") in the linearised rates: the box open at the top (fluid 0.2 m deep in a
 /// 0.3 m domain, no gravity, so that rest at p = 0 is steady under the free surface),
-/// corrected, support 2δ. Without the switch Joubert's difference forms at the surface
-/// grow a mode at the acoustic rate: the whole J (`examples/wall_mode`, 2026-12-07) has
-/// 112 of its 1440 eigenvalues growing, the fastest at +817 1/s with 99 % of its
-/// energy in the outer layer (at support 3δ +746 1/s), where the open tank's runs
-/// blew up with the kinetic energy ×1000 every 5 ms (about 690 1/s an amplitude). With
-/// it the fastest is +1.21 ± 436i 1/s (3δ: +0.62 ± 411i), a column mode that gains 1.7 %
-/// a cycle, which α damps. Measured here: 0.50 and 811 1/s; asserted under `NEUTRAL`
-/// and over 150.
+/// corrected. Without the switch Joubert's difference forms at the surface grow a mode
+/// at the acoustic rate: at support 2δ the whole J (`examples/wall_mode`, 2026-12-07)
+/// has 112 of its 1440 eigenvalues growing, the fastest at +817 1/s with 99 % of its
+/// energy in the outer layer (at 3δ +746 1/s), where the open tank's runs blew up with
+/// the kinetic energy ×1000 every 5 ms (about 690 1/s an amplitude). With it the
+/// fastest is +1.21 ± 436i 1/s (3δ: +0.62 ± 411i), a column mode that gains 1.7 % a
+/// cycle, which α damps. Measured here at 2δ: 0.50 and 811 1/s; asserted under
+/// `NEUTRAL` and over 150. And the switch's fraction (`FREE_SURFACE_FRACTION`, 0.95 of
+/// a complete support's det M): at 3δ it takes the two rows under the surface (det
+/// 0.28–0.58 and 0.83–0.91) and reads 0.24 1/s; at 0.75 it takes the surface row alone
+/// and the second row grows, 29.1 1/s (0.85, part of that row: 10.2), as the open
+/// tank's run at 0.75 did (0.5 m/s in 0.2 s); asserted under `NEUTRAL` and over 15.
 #[test]
 fn the_free_surface_switch_removes_the_surface_mode() {
-    let open = |effects: &str| {
+    let open = |support: f64, effects: &str| {
         let mut s = closed_box("", &format!("gradient_correction = true\n{effects}"));
         s.domain.closed_top = false;
         s.domain.max[1] = 0.3;
+        s.fluid.as_mut().unwrap().support = support;
         RestState::new(&s).unwrap()
     };
-    let on = growth(&open(""));
-    let off = growth(&open("free_surface = false"));
-    println!("open box: growth rate {on:.3} 1/s with the switch, {off:.1} 1/s without");
+    let on = growth(&open(2.0, ""));
+    let off = growth(&open(2.0, "free_surface = false"));
+    println!("open box, support 2δ: growth rate {on:.3} 1/s with the switch, {off:.1} 1/s without");
     assert!(on < NEUTRAL, "with the switch: growth rate {on} 1/s");
     assert!(off > 150.0, "without the switch: growth rate {off} 1/s");
+    let mut rest = open(3.0, "");
+    let two_rows = growth(&rest);
+    rest.c.free_surface_fraction = 0.75;
+    let one_row = growth(&rest);
+    println!(
+        "open box, support 3δ: growth rate {two_rows:.3} 1/s at the fraction 0.95, {one_row:.2} 1/s at 0.75"
+    );
+    assert!(
+        two_rows < NEUTRAL,
+        "fraction 0.95: growth rate {two_rows} 1/s"
+    );
+    assert!(one_row > 15.0, "fraction 0.75: growth rate {one_row} 1/s");
 }
 
 /// Rest is steady only without gravity on the fluid, and α makes the rates non-linear
