@@ -19,7 +19,6 @@
 //! `n = int(np.fromfile(OUT, '<u8', 1)[0]); J = np.fromfile(OUT, '<f8', offset=8).reshape(n, n)`.
 use couplet_fluid::linear_acoustics::RestState;
 use couplet_protocol::Scene;
-use std::io::Write;
 use std::path::Path;
 
 fn fail(e: &dyn std::fmt::Display) -> ! {
@@ -47,42 +46,12 @@ fn main() {
         n / 4,
         rest.n_wall()
     );
-    let mut jac = vec![0.0; n * n];
     let started = std::time::Instant::now();
-    let mut e = vec![0.0; n];
-    for col in 0..n {
-        e[col] = if col % 4 == 0 {
-            rest.c.rho0 / rest.c.sound_speed
-        } else {
-            1.0
-        };
-        let jx = rest.apply(&e);
-        for (row, v) in jx.iter().enumerate() {
-            jac[row * n + col] = v / e[col];
-        }
-        e[col] = 0.0;
-        if col % 400 == 399 {
-            eprintln!(
-                "{} of {n} columns, {:.0} s",
-                col + 1,
-                started.elapsed().as_secs_f64()
-            );
-        }
-    }
-    let mut f = std::io::BufWriter::new(std::fs::File::create(out).unwrap());
-    f.write_all(&(n as u64).to_le_bytes()).unwrap();
-    for x in &jac {
-        f.write_all(&x.to_le_bytes()).unwrap();
-    }
-    let mut p = std::io::BufWriter::new(std::fs::File::create(format!("{out}.txt")).unwrap());
-    let w = rest.energy_weights();
-    for (k, x) in rest.positions().iter().enumerate() {
-        let wk = &w[4 * k..4 * k + 4];
-        writeln!(
-            p,
-            "{} {} {} {} {} {} {}",
-            x[0], x[1], x[2], wk[0], wk[1], wk[2], wk[3]
+    rest.write_jacobian(Path::new(out), |done, n| {
+        eprintln!(
+            "{done} of {n} columns, {:.0} s",
+            started.elapsed().as_secs_f64()
         )
-        .unwrap();
-    }
+    })
+    .unwrap_or_else(|e| fail(&e));
 }

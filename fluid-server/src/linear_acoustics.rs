@@ -16,13 +16,15 @@
 //! The CPU twins sum over all pairs (to the nearest image on a periodic axis, as the
 //! GPU), so the scene must be small: each evaluation costs (fluid + walls)² pair tests.
 
-use crate::adami2012_boundary_pressure::boundary_pressure_cpu;
+use crate::adami2012_boundary_pressure::boundary_pressure_with_fill_cpu;
 use crate::constants::SphConstants;
 use crate::error::FluidError;
 use crate::fluid_rates::fluid_rates_cpu;
 use crate::joubert2020_boundary_values::{BoundaryFrame, boundary_values_cpu, wall_frames};
 use crate::particles::{Kind, ParticleSet, initial_particles};
-use couplet_protocol::Scene;
+use crate::solver::with_marker_particles;
+use couplet_protocol::{CouplingPoint, Scene};
+use std::io::Write;
 
 /// The largest perturbation [`RestState::apply`] takes, as a velocity over the sound
 /// speed (a density part counts as c ρ'/ρ0): small enough that the equation of state's
@@ -34,14 +36,31 @@ const PROBE: f64 = 1e-6;
 pub struct RestState {
     pub c: SphConstants,
     set: ParticleSet,
+    /// Joubert's boundaries' frames, walls then markers (empty under Adami's model).
     frames: Vec<BoundaryFrame>,
+    /// Under Adami's model, the nearest surface's normal of each marker entry that is a
+    /// fill point (by `id − marker_base`), `None` for surface markers.
+    fill_normals: Vec<Option<[f64; 3]>>,
     fluid: Vec<usize>,
 }
 
 impl RestState {
     /// The scene's start lattice at ρ0 and rest. Refused: gravity on the fluid (rest
-    /// would not be steady), α > 0 (not linear), bodies or grains (not modelled here).
+    /// would not be steady), α > 0 (not linear), resolved bodies (give their markers to
+    /// [`Self::with_bodies`]), grains (not modelled here).
     pub fn new(scene: &Scene) -> Result<Self, FluidError> {
+        Self::with_bodies(scene, &[])
+    }
+
+    /// [`Self::new`] with the scene's resolved bodies held fixed where `points` (the
+    /// DEM's coupling points at their poses: surface markers, then under Adami's model
+    /// the fill points of area 0) put them: the fluid inside them carved out and a
+    /// marker particle for each point, as the solver's first `set_bodies` makes them
+    /// (`solver::with_marker_particles`). Their boundary values come each evaluation
+    /// from Joubert eq. (25) at the markers under Joubert's model, from Adami's
+    /// extrapolation (one-sided at fill points) under Adami's. Refused: a scene with
+    /// marker-coupled bodies and no points.
+    pub fn with_bodies(scene: &Scene, points: &[CouplingPoint]) -> Result<Self, FluidError> {
         let c = SphConstants::from_scene(scene)?;
         if c.gravity_fluid.iter().any(|g| *g != 0.0) {
             return Err(FluidError::LinearAcoustics(format!(
@@ -57,19 +76,44 @@ impl RestState {
                 c.alpha
             )));
         }
-        if !scene.bodies.is_empty() || !scene.grain_lattices.is_empty() {
+        if !scene.grain_lattices.is_empty() {
             return Err(FluidError::LinearAcoustics(
-                "the scene has bodies or grains; this linearisation takes the fluid and its \
-                 walls alone"
+                "the scene has grains; this linearisation takes the fluid, its walls and \
+                 resolved bodies alone"
                     .into(),
             ));
         }
-        let mut set = initial_particles(scene, &c)?;
-        let frames = if c.joubert_walls {
-            wall_frames(scene, &set)
+        if points.is_empty() && scene.bodies.iter().any(|b| scene.is_marker_coupled(b)) {
+            return Err(FluidError::LinearAcoustics(
+                "the scene has resolved bodies: give their coupling points (the DEM's \
+                 markers at the bodies' poses) to RestState::with_bodies"
+                    .into(),
+            ));
+        }
+        let walls = initial_particles(scene, &c)?;
+        let mut frames = if c.joubert_walls {
+            wall_frames(scene, &walls)
         } else {
             Vec::new()
         };
+        // Carved and appended in world coordinates (origin 0), the twins' frame.
+        let mut set = if points.is_empty() {
+            walls
+        } else {
+            with_marker_particles(&c, walls, points, [0.0; 3])
+        };
+        let normal = |p: &CouplingPoint| p.normal.map(f64::from);
+        let fill_normals = points
+            .iter()
+            .map(|p| (p.measure == 0.0 && !c.joubert_walls).then(|| normal(p)))
+            .collect();
+        if c.joubert_walls {
+            frames.extend(
+                points
+                    .iter()
+                    .map(|p| BoundaryFrame::marker(p.normal, [0.0; 3])),
+            );
+        }
         let fluid: Vec<usize> = (0..set.len())
             .filter(|&i| set.kinds.kind(set.id[i]) == Kind::Fluid)
             .collect();
@@ -81,6 +125,7 @@ impl RestState {
             c,
             set,
             frames,
+            fill_normals,
             fluid,
         })
     }
@@ -136,7 +181,15 @@ impl RestState {
                 }
             }
         } else {
-            for (i, v) in boundary_pressure_cpu(&self.c, &s).into_iter().enumerate() {
+            let marker_base = s.kinds.marker_base();
+            let fill_side = |i: usize| {
+                let id = s.id[i] as usize;
+                (id >= marker_base)
+                    .then(|| self.fill_normals[id - marker_base])
+                    .flatten()
+            };
+            let values = boundary_pressure_with_fill_cpu(&self.c, &s, fill_side);
+            for (i, v) in values.into_iter().enumerate() {
                 if let Some((p, rho)) = v {
                     (s.press[i], s.rho[i]) = (p, rho);
                 }
@@ -150,6 +203,66 @@ impl RestState {
                 [drho, du[0], du[1], du[2]]
             })
             .collect()
+    }
+
+    /// The whole J, row-major, [`Self::len`] squared: column k is J applied to entry k's
+    /// unit (ρ' in units of ρ0/c, so both halves probe alike) over that unit.
+    /// `progress(columns done, columns)` is called every 400 columns.
+    pub fn jacobian(&self, mut progress: impl FnMut(usize, usize)) -> Vec<f64> {
+        let n = self.len();
+        let mut jac = vec![0.0; n * n];
+        let mut e = vec![0.0; n];
+        for col in 0..n {
+            e[col] = if col % 4 == 0 {
+                self.c.rho0 / self.c.sound_speed
+            } else {
+                1.0
+            };
+            for (row, v) in self.apply(&e).iter().enumerate() {
+                jac[row * n + col] = v / e[col];
+            }
+            e[col] = 0.0;
+            if col % 400 == 399 {
+                progress(col + 1, n);
+            }
+        }
+        jac
+    }
+
+    /// Writes [`Self::jacobian`] to `out`: a little-endian u64 n, then J as n × n
+    /// little-endian f64, row-major; and to `out.txt` each fluid particle's position and
+    /// its four energy weights, in the state's order (what
+    /// `results/2026-12-07-cpu-wall-mode/modes.py` reads).
+    pub fn write_jacobian(
+        &self,
+        out: &std::path::Path,
+        progress: impl FnMut(usize, usize),
+    ) -> std::io::Result<()> {
+        let jac = self.jacobian(progress);
+        let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
+        f.write_all(&(self.len() as u64).to_le_bytes())?;
+        for x in &jac {
+            f.write_all(&x.to_le_bytes())?;
+        }
+        f.flush()?;
+        let mut side = out.as_os_str().to_owned();
+        side.push(".txt");
+        let mut p = std::io::BufWriter::new(std::fs::File::create(side)?);
+        let w = self.energy_weights();
+        for (k, x) in self.positions().iter().enumerate() {
+            let wk = &w[4 * k..4 * k + 4];
+            writeln!(
+                p,
+                "{} {} {} {} {} {} {}",
+                x[0], x[1], x[2], wk[0], wk[1], wk[2], wk[3]
+            )?;
+        }
+        p.flush()
+    }
+
+    /// The markers' count (0 without bodies).
+    pub fn n_markers(&self) -> usize {
+        self.set.kinds.n_markers
     }
 
     /// The fastest growth rate of small motions, 1/s: x' = J x integrated from `x0` by

@@ -1574,20 +1574,7 @@ impl FluidSolver {
         body_capacity: usize,
     ) -> Result<(), FluidError> {
         let read = self.data.read(gpu)?;
-        let mut set = carve_out_bodies(read, points, self.origin, self.consts.spacing);
-        let marker_base = set.kinds.marker_base() as u32;
-        for (k, p) in points.iter().enumerate() {
-            let m = GpuMarker::from_point(p, self.origin);
-            set.pos
-                .push(std::array::from_fn(|a| f64::from(m.pos_area[a])));
-            set.vel
-                .push(std::array::from_fn(|a| f64::from(m.vel_body[a])));
-            set.rho.push(self.consts.rho0);
-            set.press.push(0.0);
-            set.mass.push(marker_mass(&self.consts, p.measure));
-            set.id.push(marker_base + k as u32);
-        }
-        set.kinds.n_markers = points.len();
+        let set = with_marker_particles(&self.consts, read, points, self.origin);
         if self.pipelines.markers.is_none() {
             // A scene without resolved bodies that still receives markers (tests).
             let probe = NeighbourGrid::new(
@@ -2065,6 +2052,35 @@ impl FluidSolver {
         let total: u64 = c.iter().map(|x| u64::from(*x)).sum();
         Ok(total as f64 / d.kinds.n_fluid.max(1) as f64)
     }
+}
+
+/// `set` (positions relative to `origin`) with the fluid inside the bodies of `points`
+/// carved out ([`carve_out_bodies`]) and a marker particle appended for each point, in
+/// order: its position and velocity as the GPU holds them (f32, relative to `origin`),
+/// ρ0, p = 0 until the boundary pass, and the mass of the slab it stands for
+/// ([`marker_mass`]). What the first `set_bodies` uploads, and the linearisation's
+/// bodies ([`crate::linear_acoustics::RestState::with_bodies`]).
+pub(crate) fn with_marker_particles(
+    c: &SphConstants,
+    set: ParticleSet,
+    points: &[CouplingPoint],
+    origin: [f64; 3],
+) -> ParticleSet {
+    let mut set = carve_out_bodies(set, points, origin, c.spacing);
+    let marker_base = set.kinds.marker_base() as u32;
+    for (k, p) in points.iter().enumerate() {
+        let m = GpuMarker::from_point(p, origin);
+        set.pos
+            .push(std::array::from_fn(|a| f64::from(m.pos_area[a])));
+        set.vel
+            .push(std::array::from_fn(|a| f64::from(m.vel_body[a])));
+        set.rho.push(c.rho0);
+        set.press.push(0.0);
+        set.mass.push(marker_mass(c, p.measure));
+        set.id.push(marker_base + k as u32);
+    }
+    set.kinds.n_markers = points.len();
+    set
 }
 
 /// Removes the fluid particles that lie inside a resolved body, or less than half a

@@ -9,6 +9,8 @@
 //! |WJ + (WJ)ᵀ| / |WJ|), but Adami's walls are neutral (every eigenvalue imaginary)
 //! where Joubert's one layer grows.
 
+mod common;
+
 use couplet_fluid::FluidError;
 use couplet_fluid::linear_acoustics::RestState;
 use couplet_protocol::Scene;
@@ -20,6 +22,11 @@ use std::path::Path;
 /// cut to 6 × 10 × 6 fluid particles, without gravity, viscosity or α (α's default is
 /// 0; the rates are then linear at rest); `domain` and `effects` add lines to those tables.
 fn closed_box(domain: &str, effects: &str) -> Scene {
+    box_scene([0.12, 0.2, 0.12], domain, effects)
+}
+
+/// [`closed_box`] of `size` m, filled; `effects` may end with further tables.
+fn box_scene(size: [f64; 3], domain: &str, effects: &str) -> Scene {
     let text = format!(
         r#"
 [meta]
@@ -29,7 +36,7 @@ end = 1.0
 output_interval = 0.1
 [domain]
 min = [0.0, 0.0, 0.0]
-max = [0.12, 0.2, 0.12]
+max = {size:?}
 walls = "no-slip"
 closed_top = true
 {domain}
@@ -40,7 +47,7 @@ sound_speed = 17.5
 spacing = 0.02
 kernel = "wendland-c2"
 support = 2.0
-blocks = [{{ min = [0.0, 0.0, 0.0], max = [0.12, 0.2, 0.12] }}]
+blocks = [{{ min = [0.0, 0.0, 0.0], max = {size:?} }}]
 [gravity]
 vector = [0.0, 0.0, 0.0]
 [effects]
@@ -222,6 +229,36 @@ fn the_free_surface_switch_removes_the_surface_mode() {
         "fraction 0.95: growth rate {two_rows} 1/s"
     );
     assert!(one_row > 15.0, "fraction 0.75: growth rate {one_row} 1/s");
+}
+
+/// A resolved body's one layer of markers grows a mode beside it, under Adami's wall
+/// model too (`RestState::with_bodies`): a fixed sphere r = 2.5δ at the centre of a
+/// closed 0.2 m box (δ = 0.02 m, support 2δ, corrected; 864 fluid particles), its 82
+/// surface markers without fill (the DEM gives a sphere this small none at support 2δ:
+/// no lattice point lies δ to 1.5δ deep). With the DEM's markers the whole J
+/// (`examples/body_mode`, 2026-12-07) has 332 of its 3456 eigenvalues growing, the
+/// fastest real at +164 1/s with 87 % of its energy in the fluid 1–2δ off the surface;
+/// the same box without the sphere grows nothing. At support 3δ, with 13 fill points,
+/// +127 1/s. Here with 82 Fibonacci markers (`common::sphere_markers`): measured
+/// 126.9 1/s; asserted over 60, so that a change that stops it is seen.
+#[test]
+fn a_resolved_body_grows_a_mode_beside_its_markers() {
+    let centre = [0.1, 0.1, 0.1];
+    let s = box_scene(
+        [0.2; 3],
+        "",
+        &format!(
+            "gradient_correction = true\n[[bodies]]\nname = \"ball\"\n\
+             shape = {{ sphere = {{ radius = 0.05 }} }}\ndensity = 1250.0\n\
+             position = {centre:?}\nmotion = \"fixed\"\ncoupling = \"resolved\""
+        ),
+    );
+    let points = common::sphere_markers(centre, 0.05, 82);
+    let rest = RestState::with_bodies(&s, &points).unwrap();
+    assert_eq!(rest.n_markers(), 82);
+    let g = growth(&rest);
+    println!("a sphere r = 2.5δ in Adami's box: growth rate {g:.1} 1/s");
+    assert!(g > 60.0, "growth rate {g} 1/s");
 }
 
 /// Rest is steady only without gravity on the fluid, and α makes the rates non-linear
