@@ -5,8 +5,8 @@
 //! The state is x = (ρ'_a, u_a) of every fluid particle a about rest on the scene's start
 //! lattice (ρ = ρ0, u = 0; the scene must have no gravity, so that rest is a steady
 //! state). Its rates are one step's, in the solver's order: the equation of state at the
-//! fluid, the walls' values (Joubert eq. 25 with `domain.wall_model = "joubert"`, else
-//! Adami's extrapolation), then (dρ/dt, du/dt)
+//! fluid, the walls' and the fixed bodies' markers' values (Joubert eq. 25 with
+//! `domain.wall_model = "joubert"`, else Adami's extrapolation), then (dρ/dt, du/dt)
 //! ([`crate::fluid_rates::fluid_rates_cpu`]). At rest they are linear in x, but for
 //! Monaghan's α, which acts only on approaching pairs, so α > 0 is refused. The energy of small
 //! motions, E = Σ_a m_a (c² ρ'_a²/ρ0² + |u_a|²)/2, is conserved by the linear rates J

@@ -12,8 +12,9 @@
 //! fluid, and α = 0 (the module's doc).
 use couplet_dem::MarkerSet;
 use couplet_fluid::linear_acoustics::RestState;
+use couplet_orchestrator::run::resolve_scene;
+use couplet_protocol::BodyState;
 use couplet_protocol::vec3::quat_from_scaled_axis;
-use couplet_protocol::{BodyState, Scene};
 use std::path::Path;
 
 fn fail(e: &dyn std::fmt::Display) -> ! {
@@ -27,15 +28,13 @@ fn main() {
         eprintln!("usage: body_mode SCENE OUT [PATH=VALUE…]");
         std::process::exit(2);
     };
-    let mut text = std::fs::read_to_string(path).unwrap_or_else(|e| fail(&e));
-    for kv in &args[3..] {
-        let Some((k, v)) = kv.split_once('=') else {
-            fail(&format!("{kv}: an override is PATH=VALUE"))
-        };
-        text =
-            couplet_protocol::scene::override_field(&text, path, k, v).unwrap_or_else(|e| fail(&e));
-    }
-    let scene = Scene::parse(&text, path).unwrap_or_else(|e| fail(&e));
+    let overrides: Vec<(String, String)> = (args[3..].iter())
+        .map(|kv| match kv.split_once('=') {
+            Some((k, v)) => (k.to_owned(), v.to_owned()),
+            None => fail(&format!("{kv}: an override is PATH=VALUE")),
+        })
+        .collect();
+    let (scene, _) = resolve_scene(path, &overrides).unwrap_or_else(|e| fail(&e));
     let markers = MarkerSet::from_scene(&scene).unwrap_or_else(|e| fail(&e));
     let states: Vec<BodyState> = (scene.bodies.iter().enumerate())
         .map(|(k, b)| BodyState {
