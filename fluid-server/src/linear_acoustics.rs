@@ -90,17 +90,17 @@ impl RestState {
                     .into(),
             ));
         }
-        let walls = initial_particles(scene, &c)?;
+        let lattice = initial_particles(scene, &c)?;
         let mut frames = if c.joubert_walls {
-            wall_frames(scene, &walls)
+            wall_frames(scene, &lattice)
         } else {
             Vec::new()
         };
         // Carved and appended in world coordinates (origin 0), the twins' frame.
         let mut set = if points.is_empty() {
-            walls
+            lattice
         } else {
-            with_marker_particles(&c, walls, points, [0.0; 3])
+            with_marker_particles(&c, lattice, points, [0.0; 3])
         };
         let normal = |p: &CouplingPoint| p.normal.map(f64::from);
         let fill_normals = points
